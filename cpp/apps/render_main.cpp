@@ -1,0 +1,87 @@
+// sssphere-render: the C++ command-line renderer. Same scene loader and renderer as the
+// Python package; Ctrl-C stops early and writes the image rendered so far.
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+#include <iostream>
+#include <string>
+
+#include "core/check.h"
+#include "render/image_io.h"
+#include "render/renderer.h"
+#include "render/scene.h"
+
+namespace {
+
+volatile std::sig_atomic_t g_interrupted = 0;
+void on_sigint(int) { g_interrupted = 1; }
+
+void usage() {
+    std::cerr << "usage: sssphere-render SCENE.json -o OUT.(exr|png) [--spp N] [--seed N] "
+                 "[--threads N] [--integrator pt] [--quiet]\n";
+}
+
+long parse_int(const char* flag, const char* text) {
+    char* end = nullptr;
+    long v = std::strtol(text, &end, 10);
+    if (!text[0] || *end) sss::fail(flag, ": expected an integer, got '", text, "'");
+    return v;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    std::string scene_path, out_path, integrator;
+    long spp = -1, seed = -1, threads = 0;
+    bool quiet = false;
+    try {
+        for (int i = 1; i < argc; ++i) {
+            std::string a = argv[i];
+            auto value = [&]() -> const char* {
+                if (i + 1 >= argc) sss::fail(a, ": missing value");
+                return argv[++i];
+            };
+            if (a == "-o" || a == "--output") out_path = value();
+            else if (a == "--spp") spp = parse_int("--spp", value());
+            else if (a == "--seed") seed = parse_int("--seed", value());
+            else if (a == "--threads") threads = parse_int("--threads", value());
+            else if (a == "--integrator") integrator = value();
+            else if (a == "--quiet") quiet = true;
+            else if (a == "-h" || a == "--help") { usage(); return 0; }
+            else if (!a.empty() && a[0] == '-') sss::fail("unknown option '", a, "'");
+            else if (scene_path.empty()) scene_path = a;
+            else sss::fail("more than one scene given ('", scene_path, "', '", a, "')");
+        }
+        if (scene_path.empty() || out_path.empty()) { usage(); return 2; }
+        if (spp == 0 || spp < -1) sss::fail("--spp must be >= 1, got ", spp);
+        if (threads < 0) sss::fail("--threads must be >= 0, got ", threads);
+
+        sss::SceneDesc desc = sss::load_scene_file(scene_path);
+        if (!integrator.empty()) desc.render.integrator = integrator;
+        sss::RenderOptions opt;
+        opt.spp = spp > 0 ? int(spp) : desc.render.spp;
+        opt.seed = seed >= 0 ? uint64_t(seed) : desc.render.seed;
+        opt.threads = int(threads);
+        opt.max_bounces = desc.render.max_bounces;
+        sss::Scene scene(std::move(desc), opt.threads);
+
+        std::signal(SIGINT, on_sigint);
+        sss::RenderResult r = sss::render(scene, opt, [&](double f) {
+            if (!quiet) {
+                int filled = int(f * 40);
+                std::fprintf(stderr, "\r[%-40s] %5.1f%%", std::string(filled, '#').c_str(), 100 * f);
+            }
+            return !g_interrupted;
+        });
+        if (!quiet) std::fprintf(stderr, "\n");
+        sss::write_image(out_path, r.image, r.width, r.height);
+        double paths = double(r.total_paths);
+        std::fprintf(stderr, "%s %s: %.2f s, %.1f scattering events per path%s\n",
+                     r.cancelled ? "interrupted; wrote the partial image" : "wrote", out_path.c_str(),
+                     r.seconds, paths > 0 ? r.total_events / paths : 0.0, "");
+        return r.cancelled ? 130 : 0;
+    } catch (const std::exception& e) {
+        std::cerr << "sssphere-render: error: " << e.what() << "\n";
+        return 1;
+    }
+}

@@ -1,0 +1,221 @@
+// Everything that includes CGAL: reading polygon soups, checking and orienting closed
+// meshes, and exact distances for the distance grid. Kept to one translation unit because
+// CGAL is slow to compile. Geometry is handed to CGAL in double precision.
+#include <CGAL/AABB_traits.h>
+#include <CGAL/AABB_tree.h>
+#include <CGAL/AABB_triangle_primitive.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/IO/polygon_soup_io.h>
+#include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
+#include <CGAL/Polygon_mesh_processing/orientation.h>
+#include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
+#include <CGAL/Polygon_mesh_processing/repair_polygon_soup.h>
+#include <CGAL/Side_of_triangle_mesh.h>
+#include <CGAL/Surface_mesh.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "core/check.h"
+#include "geometry/distance_grid.h"
+#include "geometry/mesh.h"
+
+namespace sss {
+
+namespace {
+
+using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Point = K::Point_3;
+using Triangle = K::Triangle_3;
+using SurfaceMesh = CGAL::Surface_mesh<Point>;
+using TriIter = std::vector<Triangle>::const_iterator;
+using Primitive = CGAL::AABB_triangle_primitive<K, TriIter>;
+using Tree = CGAL::AABB_tree<CGAL::AABB_traits<K, Primitive>>;
+namespace PMP = CGAL::Polygon_mesh_processing;
+
+std::vector<Triangle> cgal_triangles(const TriangleMesh& mesh) {
+    std::vector<Triangle> tris;
+    tris.reserve(mesh.triangles.size());
+    auto P = [&](uint32_t i) {
+        const Vec3& v = mesh.positions[i];
+        return Point(v.x, v.y, v.z);
+    };
+    for (const auto& t : mesh.triangles) tris.emplace_back(P(t[0]), P(t[1]), P(t[2]));
+    return tris;
+}
+
+SurfaceMesh to_surface_mesh(const TriangleMesh& mesh) {
+    SurfaceMesh sm;
+    std::vector<SurfaceMesh::Vertex_index> v;
+    v.reserve(mesh.positions.size());
+    for (const Vec3& p : mesh.positions) v.push_back(sm.add_vertex(Point(p.x, p.y, p.z)));
+    for (const auto& t : mesh.triangles) sm.add_face(v[t[0]], v[t[1]], v[t[2]]);
+    return sm;
+}
+
+// Rounds a non-negative double down to a float (keeps the grid conservative).
+float round_down(double d) {
+    float f = float(d);
+    if (double(f) > d) f = std::nextafter(f, 0.f);
+    return std::max(f, 0.f);
+}
+
+}  // namespace
+
+TriangleMesh load_mesh(const std::string& path) {
+    namespace fs = std::filesystem;
+    std::string ext = fs::path(path).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+    if (ext != ".obj" && ext != ".ply" && ext != ".off" && ext != ".stl")
+        fail(path, ": unsupported mesh format '", ext, "' (allowed: .obj, .ply, .off, .stl)");
+    if (!fs::exists(path)) fail(path, ": mesh file does not exist");
+    if (!std::ifstream(path).good()) fail(path, ": mesh file cannot be read");
+
+    std::vector<Point> points;
+    std::vector<std::vector<std::size_t>> polygons;
+    bool ok = false;
+    try {
+        ok = CGAL::IO::read_polygon_soup(path, points, polygons, CGAL::parameters::verbose(false));
+    } catch (const std::exception& e) {
+        fail(path, ": cannot parse mesh: ", e.what());
+    }
+    if (!ok) fail(path, ": cannot parse mesh (malformed ", ext, " file)");
+    if (points.empty() || polygons.empty()) fail(path, ": mesh has no faces");
+
+    std::vector<Vec3> pos;
+    pos.reserve(points.size());
+    for (const Point& p : points) {
+        Vec3 v(float(p.x()), float(p.y()), float(p.z()));
+        if (!is_finite(v)) fail(path, ": vertex ", pos.size(), " is not finite");
+        pos.push_back(v);
+    }
+    std::vector<std::vector<uint32_t>> polys;
+    polys.reserve(polygons.size());
+    for (const auto& poly : polygons) {
+        std::vector<uint32_t> q;
+        for (std::size_t i : poly) {
+            if (i >= points.size()) fail(path, ": face ", polys.size(), " uses vertex ", i,
+                                         " but there are only ", points.size());
+            q.push_back(uint32_t(i));
+        }
+        polys.push_back(std::move(q));
+    }
+    return make_closed_mesh(std::move(pos), std::move(polys), path);
+}
+
+TriangleMesh make_closed_mesh(std::vector<Vec3> positions,
+                              std::vector<std::vector<uint32_t>> polygons,
+                              const std::string& what) {
+    // Fan-triangulate polygons (OBJ/PLY/OFF may hold quads or n-gons).
+    std::vector<std::vector<std::size_t>> tris;
+    for (size_t f = 0; f < polygons.size(); ++f) {
+        const auto& poly = polygons[f];
+        if (poly.size() < 3) fail(what, ": face ", f, " has ", poly.size(), " vertices (at least 3 needed)");
+        for (size_t i = 1; i + 1 < poly.size(); ++i) tris.push_back({poly[0], poly[i], poly[i + 1]});
+    }
+    std::vector<Point> points;
+    points.reserve(positions.size());
+    for (const Vec3& p : positions) points.emplace_back(p.x, p.y, p.z);
+
+    // Merge coincident vertices (STL stores every triangle's corners separately).
+    PMP::merge_duplicate_points_in_polygon_soup(points, tris);
+    for (size_t f = 0; f < tris.size(); ++f) {
+        const auto& t = tris[f];
+        if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2] ||
+            CGAL::collinear(points[t[0]], points[t[1]], points[t[2]]))
+            fail(what, ": triangle ", f, " is degenerate (zero area); allowed: triangles of non-zero area");
+    }
+    PMP::merge_duplicate_polygons_in_polygon_soup(points, tris);
+
+    if (!PMP::orient_polygon_soup(points, tris))
+        fail(what, ": mesh is not manifold (some edges are shared by more than two triangles, or "
+                   "vertices join separate sheets); a closed, manifold triangle mesh is required");
+    SurfaceMesh sm;
+    PMP::polygon_soup_to_polygon_mesh(points, tris, sm);
+    if (!CGAL::is_closed(sm)) {
+        size_t border = 0;
+        for (auto h : sm.halfedges())
+            if (sm.is_border(h)) ++border;
+        fail(what, ": mesh is not closed (", border,
+             " boundary edges); a closed (watertight) triangle mesh is required");
+    }
+    PMP::orient_to_bound_a_volume(sm);
+
+    TriangleMesh mesh;
+    std::vector<uint32_t> remap(sm.num_vertices());
+    for (auto v : sm.vertices()) {
+        remap[v.idx()] = uint32_t(mesh.positions.size());
+        const Point& p = sm.point(v);
+        mesh.positions.emplace_back(float(p.x()), float(p.y()), float(p.z()));
+    }
+    for (auto f : sm.faces()) {
+        std::array<uint32_t, 3> t{};
+        int i = 0;
+        for (auto v : CGAL::vertices_around_face(sm.halfedge(f), sm)) t[i++] = remap[v.idx()];
+        mesh.triangles.push_back(t);
+    }
+    double vol = mesh.volume();
+    Vec3 ext = mesh.bounds().extent();
+    double scale = double(max_component(ext));
+    if (!(vol > 1e-9 * scale * scale * scale))
+        fail(what, ": mesh encloses no volume (flat or degenerate, volume ", vol, ")");
+    return mesh;
+}
+
+DistanceGrid DistanceGrid::build(const TriangleMesh& mesh, int resolution, int threads) {
+    if (resolution < 2 || resolution > 1024)
+        fail("distance grid resolution must be in [2, 1024], got ", resolution);
+    Bounds3 b = mesh.bounds();
+    DistanceGrid grid;
+    grid.cell_ = max_component(b.extent()) / float(resolution);
+    SSS_CHECK(grid.cell_ > 0.f);
+    grid.origin_ = b.lo - Vec3(grid.cell_);
+    for (int a = 0; a < 3; ++a)
+        grid.n_[a] = int(std::ceil(b.extent()[a] / grid.cell_)) + 3;
+    size_t count = size_t(grid.n_[0]) * grid.n_[1] * grid.n_[2];
+    grid.dist_.resize(count);
+    grid.inside_.resize(count);
+
+    std::vector<Triangle> tris = cgal_triangles(mesh);
+    Tree tree(tris.begin(), tris.end());
+    tree.accelerate_distance_queries();
+    SurfaceMesh sm = to_surface_mesh(mesh);
+    CGAL::Side_of_triangle_mesh<SurfaceMesh, K> side(sm);
+    side(Point(0, 0, 0));  // builds its internal tree before the threads share it
+
+    if (threads <= 0) threads = int(std::max(1u, std::thread::hardware_concurrency()));
+    std::atomic<int> next_slab{0};
+    auto work = [&]() {
+        for (int k; (k = next_slab.fetch_add(1)) < grid.n_[2];) {
+            for (int j = 0; j < grid.n_[1]; ++j)
+                for (int i = 0; i < grid.n_[0]; ++i) {
+                    Vec3 p = grid.node_position(i, j, k);
+                    Point q(p.x, p.y, p.z);
+                    size_t idx = grid.index(i, j, k);
+                    grid.dist_[idx] = round_down(std::sqrt(tree.squared_distance(q)));
+                    grid.inside_[idx] = side(q) == CGAL::ON_BOUNDED_SIDE;
+                }
+        }
+    };
+    std::vector<std::thread> pool;
+    for (int t = 1; t < threads; ++t) pool.emplace_back(work);
+    work();
+    for (auto& t : pool) t.join();
+    return grid;
+}
+
+std::vector<double> exact_distances(const TriangleMesh& mesh, const std::vector<Vec3>& points) {
+    std::vector<Triangle> tris = cgal_triangles(mesh);
+    Tree tree(tris.begin(), tris.end());
+    tree.accelerate_distance_queries();
+    std::vector<double> d;
+    d.reserve(points.size());
+    for (const Vec3& p : points) d.push_back(std::sqrt(tree.squared_distance(Point(p.x, p.y, p.z))));
+    return d;
+}
+
+}  // namespace sss

@@ -1,0 +1,54 @@
+// A conservative distance field to a closed mesh (DESIGN §4.8): exact point-to-triangle
+// distances (CGAL AABB tree) at the nodes of a regular grid over the mesh bounds, and at
+// query time the 1-Lipschitz bound  r(p) = max_corners( d(node) - |p - node| ),  which is
+// never larger than the true distance from p to the surface.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/vec.h"
+#include "geometry/mesh.h"
+
+namespace sss {
+
+class DistanceGrid {
+public:
+    DistanceGrid() = default;
+
+    // `resolution`: cells along the largest side of the mesh bounds (>= 2). The grid is
+    // padded by one cell on every side. Built with `threads` workers (0 = all cores).
+    static DistanceGrid build(const TriangleMesh& mesh, int resolution, int threads = 0);
+
+    // Lower bound on the distance from p to the mesh surface; 0 outside the grid.
+    float query(Vec3 p) const;
+    // Whether p is inside the closed mesh, by the sign stored at the nearest node: exact
+    // when query(p) > 0, a guess within one cell of the surface.
+    bool inside(Vec3 p) const;
+
+    // Exact unsigned distance at node (i, j, k) and whether that node lies inside.
+    float node_distance(int i, int j, int k) const { return dist_[index(i, j, k)]; }
+    bool node_inside(int i, int j, int k) const { return inside_[index(i, j, k)] != 0; }
+    Vec3 node_position(int i, int j, int k) const {
+        return origin_ + Vec3(float(i), float(j), float(k)) * cell_;
+    }
+    int nx() const { return n_[0]; }
+    int ny() const { return n_[1]; }
+    int nz() const { return n_[2]; }
+    float cell_size() const { return cell_; }
+    bool empty() const { return dist_.empty(); }
+
+private:
+    size_t index(int i, int j, int k) const { return (size_t(k) * n_[1] + j) * n_[0] + i; }
+
+    Vec3 origin_;
+    float cell_ = 0.f;
+    int n_[3] = {0, 0, 0};  // nodes per axis
+    std::vector<float> dist_;
+    std::vector<uint8_t> inside_;
+};
+
+// Exact distance from p to the mesh (for tests and tools; builds an AABB tree per call).
+std::vector<double> exact_distances(const TriangleMesh& mesh, const std::vector<Vec3>& points);
+
+}  // namespace sss

@@ -1,0 +1,108 @@
+// Mesh utilities that need no CGAL (the CGAL code lives in cgal.cpp alone: it is slow to
+// compile).
+#include "geometry/mesh.h"
+
+#include <cmath>
+#include <map>
+
+#include "core/check.h"
+
+namespace sss {
+
+Bounds3 TriangleMesh::bounds() const {
+    Bounds3 b;
+    for (const Vec3& p : positions) b.extend(p);
+    return b;
+}
+
+Vec3 TriangleMesh::normal(size_t i) const {
+    const auto& t = triangles[i];
+    Vec3 n = cross(positions[t[1]] - positions[t[0]], positions[t[2]] - positions[t[0]]);
+    return normalize(n);
+}
+
+double TriangleMesh::area() const {
+    double a = 0;
+    for (size_t i = 0; i < triangles.size(); ++i) {
+        const auto& t = triangles[i];
+        a += 0.5 * length(cross(positions[t[1]] - positions[t[0]], positions[t[2]] - positions[t[0]]));
+    }
+    return a;
+}
+
+double TriangleMesh::volume() const {
+    // Divergence theorem: sum of signed tetrahedra with the origin, in double.
+    double v = 0;
+    for (const auto& t : triangles) {
+        Vec3 a = positions[t[0]], b = positions[t[1]], c = positions[t[2]];
+        double ax = a.x, ay = a.y, az = a.z, bx = b.x, by = b.y, bz = b.z, cx = c.x, cy = c.y,
+               cz = c.z;
+        v += ax * (by * cz - bz * cy) - ay * (bx * cz - bz * cx) + az * (bx * cy - by * cx);
+    }
+    return v / 6.0;
+}
+
+TriangleMesh make_icosphere(Vec3 center, float radius, int subdivisions) {
+    if (!(radius > 0.f) || !std::isfinite(radius)) fail("sphere radius must be > 0, got ", radius);
+    const float t = (1.f + std::sqrt(5.f)) / 2.f;
+    std::vector<Vec3> p = {{-1, t, 0}, {1, t, 0},  {-1, -t, 0}, {1, -t, 0},
+                           {0, -1, t}, {0, 1, t},  {0, -1, -t}, {0, 1, -t},
+                           {t, 0, -1}, {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
+    for (Vec3& v : p) v = normalize(v);
+    std::vector<std::array<uint32_t, 3>> f = {
+        {0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+        {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
+        {3, 8, 9},  {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
+    for (int level = 0; level < subdivisions; ++level) {
+        std::map<std::pair<uint32_t, uint32_t>, uint32_t> midpoint;
+        auto mid = [&](uint32_t a, uint32_t b) {
+            auto key = std::minmax(a, b);
+            auto it = midpoint.find(key);
+            if (it != midpoint.end()) return it->second;
+            p.push_back(normalize(p[a] + p[b]));
+            return midpoint[key] = uint32_t(p.size() - 1);
+        };
+        std::vector<std::array<uint32_t, 3>> next;
+        next.reserve(f.size() * 4);
+        for (const auto& tri : f) {
+            uint32_t a = mid(tri[0], tri[1]), b = mid(tri[1], tri[2]), c = mid(tri[2], tri[0]);
+            next.push_back({tri[0], a, c});
+            next.push_back({tri[1], b, a});
+            next.push_back({tri[2], c, b});
+            next.push_back({a, b, c});
+        }
+        f.swap(next);
+    }
+    TriangleMesh mesh;
+    mesh.positions.reserve(p.size());
+    for (const Vec3& v : p) mesh.positions.push_back(center + v * radius);
+    mesh.triangles = std::move(f);
+    return mesh;
+}
+
+void transform_mesh(TriangleMesh& mesh, Vec3 scale, Vec3 rotate_deg, Vec3 translate) {
+    auto rot = [](Vec3 v, int axis, float deg) {
+        float a = deg * 0.017453292519943295f, c = std::cos(a), s = std::sin(a);
+        if (axis == 0) return Vec3(v.x, c * v.y - s * v.z, s * v.y + c * v.z);
+        if (axis == 1) return Vec3(c * v.x + s * v.z, v.y, -s * v.x + c * v.z);
+        return Vec3(c * v.x - s * v.y, s * v.x + c * v.y, v.z);
+    };
+    for (Vec3& p : mesh.positions) {
+        Vec3 q = p * scale;
+        for (int axis = 0; axis < 3; ++axis)
+            if (rotate_deg[axis] != 0.f) q = rot(q, axis, rotate_deg[axis]);
+        p = q + translate;
+    }
+    if (scale.x * scale.y * scale.z < 0.f)
+        for (auto& t : mesh.triangles) std::swap(t[1], t[2]);
+}
+
+void normalize_mesh(TriangleMesh& mesh) {
+    Bounds3 b = mesh.bounds();
+    float side = max_component(b.extent());
+    SSS_CHECK(side > 0.f);
+    Vec3 c = b.center();
+    for (Vec3& p : mesh.positions) p = (p - c) / side;
+}
+
+}  // namespace sss

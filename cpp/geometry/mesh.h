@@ -1,0 +1,47 @@
+// Closed triangle meshes: loading (OBJ, PLY, OFF, STL), validation and orientation.
+// Every mesh that reaches the renderer is closed, free of degenerate triangles, and
+// oriented so that counter-clockwise winding gives the outward normal.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/vec.h"
+
+namespace sss {
+
+struct TriangleMesh {
+    std::vector<Vec3> positions;
+    std::vector<std::array<uint32_t, 3>> triangles;
+
+    Bounds3 bounds() const;
+    // Outward unit normal of triangle i (counter-clockwise winding).
+    Vec3 normal(size_t i) const;
+    double area() const;
+    double volume() const;  // signed; > 0 for an outward-oriented closed mesh
+};
+
+// Reads a polygon mesh from `path` (by extension: .obj .ply .off .stl), triangulates it and
+// hands it to make_closed_mesh. Throws sss::Error naming the file and the problem.
+TriangleMesh load_mesh(const std::string& path);
+
+// Validates and orients a polygon soup (`what` names it in errors): duplicate vertices are
+// merged; degenerate (zero-area) triangles, open boundaries, non-manifold edges and zero
+// volume are refused; faces are re-oriented consistently and outward.
+TriangleMesh make_closed_mesh(std::vector<Vec3> positions,
+                              std::vector<std::vector<uint32_t>> polygons,
+                              const std::string& what);
+
+// Icosphere: the icosahedron subdivided `subdivisions` times, vertices on the sphere.
+TriangleMesh make_icosphere(Vec3 center, float radius, int subdivisions);
+
+// Applies p -> p * scale (per axis), then rotations about x, y, z (degrees, in that
+// order), then + translate. A negative determinant flips triangle winding back outward.
+void transform_mesh(TriangleMesh& mesh, Vec3 scale, Vec3 rotate_deg, Vec3 translate);
+
+// Uniform scale so that the largest bounding-box side is 1, centred at the origin.
+void normalize_mesh(TriangleMesh& mesh);
+
+}  // namespace sss

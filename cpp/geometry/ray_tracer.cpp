@@ -1,0 +1,111 @@
+#include "geometry/ray_tracer.h"
+
+#include <embree3/rtcore.h>
+
+#include <cmath>
+#include <limits>
+
+#include "core/check.h"
+
+namespace sss {
+
+namespace {
+void embree_error(void*, RTCError code, const char* message) {
+    // Registered once on the device; Embree calls it from whichever thread failed.
+    fail("Embree error ", int(code), ": ", message ? message : "(no message)");
+}
+}  // namespace
+
+struct RayTracer::Impl {
+    RTCDevice device = nullptr;
+    RTCScene scene = nullptr;
+    std::vector<std::vector<Vec3>> normals;  // per mesh, per triangle
+    bool committed = false;
+};
+
+RayTracer::RayTracer() : impl_(std::make_unique<Impl>()) {
+    impl_->device = rtcNewDevice(nullptr);
+    if (!impl_->device) fail("cannot create an Embree device (error ", int(rtcGetDeviceError(nullptr)), ")");
+    rtcSetDeviceErrorFunction(impl_->device, embree_error, nullptr);
+    impl_->scene = rtcNewScene(impl_->device);
+    // Robust traversal: watertight hits on shared edges, so no ray leaks through a closed mesh.
+    rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
+}
+
+RayTracer::~RayTracer() {
+    if (impl_->scene) rtcReleaseScene(impl_->scene);
+    if (impl_->device) rtcReleaseDevice(impl_->device);
+}
+
+unsigned RayTracer::add_mesh(const TriangleMesh& mesh) {
+    SSS_CHECK(!impl_->committed);
+    RTCGeometry geom = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0,
+                                                          RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                                          mesh.positions.size()));
+    for (size_t i = 0; i < mesh.positions.size(); ++i) {
+        v[3 * i] = mesh.positions[i].x;
+        v[3 * i + 1] = mesh.positions[i].y;
+        v[3 * i + 2] = mesh.positions[i].z;
+    }
+    auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0,
+                                                               RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
+                                                               mesh.triangles.size()));
+    for (size_t i = 0; i < mesh.triangles.size(); ++i)
+        for (int c = 0; c < 3; ++c) idx[3 * i + c] = mesh.triangles[i][c];
+    rtcCommitGeometry(geom);
+    unsigned id = rtcAttachGeometry(impl_->scene, geom);
+    rtcReleaseGeometry(geom);  // the scene holds the reference now
+    SSS_CHECK(id == impl_->normals.size());
+    std::vector<Vec3> n(mesh.triangles.size());
+    for (size_t i = 0; i < n.size(); ++i) n[i] = mesh.normal(i);
+    impl_->normals.push_back(std::move(n));
+    return id;
+}
+
+void RayTracer::commit() {
+    rtcCommitScene(impl_->scene);
+    impl_->committed = true;
+}
+
+bool RayTracer::intersect(Vec3 o, Vec3 d, float tnear, float tfar, Hit* hit) const {
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRayHit rh;
+    rh.ray.org_x = o.x; rh.ray.org_y = o.y; rh.ray.org_z = o.z;
+    rh.ray.dir_x = d.x; rh.ray.dir_y = d.y; rh.ray.dir_z = d.z;
+    rh.ray.tnear = tnear;
+    rh.ray.tfar = tfar;
+    rh.ray.time = 0.f;
+    rh.ray.mask = 0xffffffffu;
+    rh.ray.id = 0;
+    rh.ray.flags = 0;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(impl_->scene, &ctx, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
+    hit->t = rh.ray.tfar;
+    hit->mesh = rh.hit.geomID;
+    hit->prim = rh.hit.primID;
+    hit->normal = impl_->normals[hit->mesh][hit->prim];
+    return true;
+}
+
+bool RayTracer::occluded(Vec3 o, Vec3 d, float tnear, float tfar) const {
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRay ray;
+    ray.org_x = o.x; ray.org_y = o.y; ray.org_z = o.z;
+    ray.dir_x = d.x; ray.dir_y = d.y; ray.dir_z = d.z;
+    ray.tnear = tnear;
+    ray.tfar = tfar;
+    ray.time = 0.f;
+    ray.mask = 0xffffffffu;
+    ray.id = 0;
+    ray.flags = 0;
+    rtcOccluded1(impl_->scene, &ctx, &ray);
+    return ray.tfar == -std::numeric_limits<float>::infinity();
+}
+
+}  // namespace sss

@@ -1,0 +1,42 @@
+// Boundary ray queries with Embree 3: closest hit and occlusion against the triangle meshes
+// of a scene. The device and scene are owned here and released in the destructor; geometry
+// is added before commit() and the scene is read-only (and thread-safe) afterwards.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "core/vec.h"
+#include "geometry/mesh.h"
+
+namespace sss {
+
+struct Hit {
+    float t = 0.f;
+    Vec3 normal;        // outward unit normal of the hit triangle (counter-clockwise winding)
+    unsigned mesh = 0;  // index in the order meshes were added
+    unsigned prim = 0;  // triangle index within that mesh
+};
+
+class RayTracer {
+public:
+    RayTracer();
+    ~RayTracer();
+    RayTracer(const RayTracer&) = delete;
+    RayTracer& operator=(const RayTracer&) = delete;
+
+    // Copies the mesh into Embree buffers; returns its index. Only before commit().
+    unsigned add_mesh(const TriangleMesh& mesh);
+    void commit();
+
+    // Closest hit with t in (tnear, tfar); false if none.
+    bool intersect(Vec3 o, Vec3 d, float tnear, float tfar, Hit* hit) const;
+    // Whether anything lies on the segment t in (tnear, tfar).
+    bool occluded(Vec3 o, Vec3 d, float tnear, float tfar) const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace sss

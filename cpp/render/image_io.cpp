@@ -1,0 +1,49 @@
+#include "render/image_io.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+#include "core/check.h"
+
+namespace sss {
+
+float linear_to_srgb(float v) {
+    v = std::clamp(std::isfinite(v) ? v : 0.f, 0.f, 1.f);
+    return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.f / 2.4f) - 0.055f;
+}
+
+void write_image(const std::string& path, const std::vector<float>& pixels, int width, int height,
+                 int channels) {
+    namespace fs = std::filesystem;
+    std::string ext = fs::path(path).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+    if (ext != ".exr" && ext != ".png")
+        fail(path, ": unsupported image format '", ext, "' (allowed: .exr, .png)");
+    SSS_CHECK(pixels.size() == size_t(width) * height * channels);
+    fs::path parent = fs::path(path).parent_path();
+    if (!parent.empty() && !fs::is_directory(parent))
+        fail(path, ": output directory '", parent.string(), "' does not exist");
+
+    auto out = OIIO::ImageOutput::create(path);
+    if (!out) fail(path, ": cannot create an image writer: ", OIIO::geterror());
+    bool ok;
+    if (ext == ".exr") {
+        OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::FLOAT);
+        spec.attribute("compression", "zip");
+        ok = out->open(path, spec) && out->write_image(OIIO::TypeDesc::FLOAT, pixels.data());
+    } else {
+        std::vector<unsigned char> bytes(pixels.size());
+        for (size_t i = 0; i < pixels.size(); ++i)
+            bytes[i] = (unsigned char)std::lround(255.f * linear_to_srgb(pixels[i]));
+        OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::UINT8);
+        spec.attribute("oiio:ColorSpace", "sRGB");
+        ok = out->open(path, spec) && out->write_image(OIIO::TypeDesc::UINT8, bytes.data());
+    }
+    if (!ok) fail(path, ": cannot write image: ", out->geterror());
+    if (!out->close()) fail(path, ": cannot finish writing image: ", out->geterror());
+}
+
+}  // namespace sss

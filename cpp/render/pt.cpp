@@ -1,0 +1,256 @@
+#include "render/pt.h"
+
+#include <cmath>
+#include <limits>
+
+#include "core/check.h"
+#include "shared/fresnel.h"
+#include "shared/hg.h"
+#include "shared/sampling.h"
+
+namespace sss {
+
+namespace {
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+// Russian roulette starts once the throughput fell below this fraction of its start value.
+constexpr float kRouletteThreshold = 0.1f;
+// Shadow rays whose transmittance is bounded (by the distance grid) below this value are
+// traced with probability bound / kShadowRoulette and reweighted: unbiased, and it skips
+// almost every shadow ray deep inside a dense medium.
+constexpr float kShadowRoulette = 1e-3f;
+// Shadow rays cross at most this many boundaries (then the light counts as blocked).
+constexpr int kMaxShadowCrossings = 64;
+
+float extinction(const Medium& m, int channel) { return channel < 0 ? m.sigma_t.x : m.sigma_t[channel]; }
+
+// Transmittance exp(-sigma_t d) per channel; a zero extinction gives 1 even for d = inf.
+Vec3 beer(Vec3 sigma_t, float d) {
+    Vec3 tr;
+    for (int c = 0; c < 3; ++c) tr[c] = sigma_t[c] > 0.f ? std::exp(-sigma_t[c] * d) : 1.f;
+    return tr;
+}
+
+// Moves p off the surface with normal n to the side that direction w points into.
+Vec3 offset(Vec3 p, Vec3 n, Vec3 w, float eps) { return p + n * (dot(w, n) > 0.f ? eps : -eps); }
+
+}  // namespace
+
+PathTracer::PathTracer(const Scene& scene, int max_bounces) : scene_(scene), max_bounces_(max_bounces) {}
+
+float PathTracer::area_light_pdf(int light, Vec3 p, Vec3 w, float t, Vec3 n) const {
+    const Light& l = scene_.desc().lights[light];
+    float area = length(cross(l.edge1, l.edge2));
+    float cos_l = std::abs(dot(w, n));
+    return cos_l > 0.f ? t * t / (cos_l * area) : 0.f;
+}
+
+Vec3 PathTracer::transmittance(Vec3 p, Vec3 w, float dist, int shape) const {
+    const auto& shapes = scene_.desc().shapes;
+    Vec3 tr(1.f);
+    Vec3 o = p;
+    float remaining = dist;
+    for (int crossing = 0; crossing < kMaxShadowCrossings; ++crossing) {
+        Hit hit;
+        if (!scene_.tracer().intersect(o, w, 0.f, remaining, &hit)) {
+            if (shape >= 0) tr *= beer(shapes[shape].medium.sigma_t, remaining);
+            return tr;
+        }
+        if (int(hit.mesh) >= scene_.num_shapes()) return Vec3(0.f);  // an emitter's quad
+        const Shape& s = shapes[hit.mesh];
+        if (s.boundary.type == BoundaryType::Dielectric) return Vec3(0.f);
+        if (shape >= 0) tr *= beer(shapes[shape].medium.sigma_t, hit.t);
+        if (is_black(tr)) return tr;
+        shape = dot(w, hit.normal) < 0.f ? int(hit.mesh) : -1;
+        o = offset(o + w * hit.t, hit.normal, w, scene_.ray_epsilon());
+        remaining -= hit.t;
+    }
+    return Vec3(0.f);
+}
+
+Vec3 PathTracer::direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng) const {
+    const Shape& s = scene_.desc().shapes[shape];
+    // A straight shadow ray never leaves a smooth dielectric boundary (DESIGN §2).
+    if (s.boundary.type == BoundaryType::Dielectric) return Vec3(0.f);
+    // Every shadow ray first travels at least r through this medium.
+    float sigma_min = channel < 0 ? min_component(s.medium.sigma_t) : s.medium.sigma_t[channel];
+    float bound = std::exp(-sigma_min * scene_.grid(shape).query(p));
+    float shadow_weight = 1.f;
+    if (bound < kShadowRoulette) {
+        float q = bound / kShadowRoulette;
+        if (rng.uniform() >= q) return Vec3(0.f);
+        shadow_weight = 1.f / q;
+    }
+
+    Vec3 sum(0.f);
+    const float g = s.medium.g;
+    for (size_t i = 0; i < scene_.desc().lights.size(); ++i) {
+        const Light& l = scene_.desc().lights[i];
+        switch (l.type) {
+            case Light::Type::Point: {
+                Vec3 to = l.position - p;
+                float dist = length(to);
+                if (!(dist > 0.f)) break;
+                Vec3 w = to / dist;
+                Vec3 tr = transmittance(p, w, dist, shape);
+                sum += l.intensity * tr * (hg_eval(dot(d, w), g) / (dist * dist));
+                break;
+            }
+            case Light::Type::Directional: {
+                Vec3 w = -l.direction;
+                Vec3 tr = transmittance(p, w, kInf, shape);
+                sum += l.irradiance * tr * hg_eval(dot(d, w), g);
+                break;
+            }
+            case Light::Type::Area: {
+                Vec3 q = l.corner + l.edge1 * rng.uniform() + l.edge2 * rng.uniform();
+                Vec3 n = normalize(cross(l.edge1, l.edge2));
+                Vec3 to = q - p;
+                float dist = length(to);
+                if (!(dist > 0.f)) break;
+                Vec3 w = to / dist;
+                if (dot(w, n) >= 0.f) break;  // behind the one-sided emitter
+                float pdf = area_light_pdf(int(i), p, w, dist, n);
+                float phase = hg_eval(dot(d, w), g);
+                Vec3 tr = transmittance(p, w, dist * (1.f - 1e-4f), shape);
+                sum += l.radiance * tr * (phase * power_heuristic(pdf, phase) / pdf);
+                break;
+            }
+            case Light::Type::Environment: {
+                Vec3 w = sample_uniform_sphere(rng.uniform(), rng.uniform());
+                float pdf = uniform_sphere_pdf();
+                float phase = hg_eval(dot(d, w), g);
+                Vec3 tr = transmittance(p, w, kInf, shape);
+                sum += l.radiance * tr * (phase * power_heuristic(pdf, phase) / pdf);
+                break;
+            }
+        }
+    }
+    return sum * shadow_weight;
+}
+
+PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
+    const SceneDesc& desc = scene_.desc();
+    const float eps = scene_.ray_epsilon();
+    PathSample out;
+    Vec3 L(0.f), beta(1.f);
+    // RGB media with differing channels: each path transports one channel, chosen uniformly,
+    // with weight 3 (unbiased; DESIGN §2). Grey media: all three channels at once.
+    int channel = -1;
+    if (!scene_.grey_media()) {
+        channel = std::min(2, int(rng.uniform() * 3.f));
+        beta = Vec3(0.f);
+        beta[channel] = 3.f;
+    }
+    const float beta_start = max_component(beta);
+    int shape = -1;          // the shape whose medium holds the photon; -1 = vacuum
+    bool specular = true;    // last vertex was the camera or a specular interface
+    float phase_pdf = 0.f;   // pdf of the direction sampled at the last scattering event
+
+    for (;;) {
+        if (shape < 0) {
+            // Vacuum: fly to the next surface.
+            Hit hit;
+            if (!scene_.tracer().intersect(o, d, 0.f, kInf, &hit)) {
+                if (const Light* env = scene_.environment()) {
+                    float w = specular ? 1.f : power_heuristic(phase_pdf, uniform_sphere_pdf());
+                    L += beta * env->radiance * w;
+                }
+                break;
+            }
+            Vec3 p = o + d * hit.t;
+            int light = scene_.area_light_of_mesh(hit.mesh);
+            if (light >= 0) {
+                if (dot(d, hit.normal) < 0.f) {
+                    float w = specular ? 1.f
+                                       : power_heuristic(phase_pdf, area_light_pdf(light, o, d, hit.t, hit.normal));
+                    L += beta * desc.lights[light].radiance * w;
+                }
+                break;  // emitters absorb
+            }
+            const Shape& s = desc.shapes[hit.mesh];
+            if (dot(d, hit.normal) >= 0.f) {
+                // Leaving a shape we never entered (grazing numerics): just continue.
+                o = offset(p, hit.normal, d, eps);
+                continue;
+            }
+            if (s.boundary.type == BoundaryType::Dielectric) {
+                float cos_i = -dot(d, hit.normal), cos_t;
+                float F = fresnel_dielectric(cos_i, s.boundary.ior, &cos_t);
+                specular = true;
+                if (rng.uniform() < F) {
+                    d = d + hit.normal * (2.f * cos_i);
+                    o = offset(p, hit.normal, d, eps);
+                    continue;
+                }
+                float eta = 1.f / s.boundary.ior;
+                d = normalize(d * eta + hit.normal * (eta * cos_i - cos_t));
+            }
+            shape = int(hit.mesh);
+            o = offset(p, hit.normal, d, eps);
+            continue;
+        }
+
+        // Inside a medium: sample a free flight; the distance grid tells when the boundary
+        // cannot be reached, which saves the boundary ray.
+        const Shape& s = desc.shapes[shape];
+        float t = sample_exponential(rng.uniform(), extinction(s.medium, channel));
+        Hit hit;
+        bool at_boundary = false;
+        if (!(t < scene_.grid(shape).query(o))) at_boundary = scene_.tracer().intersect(o, d, 0.f, t, &hit);
+        if (!at_boundary && !(t < kInf)) {
+            // No boundary ahead of an unbounded flight: numerical leak out of the mesh.
+            shape = -1;
+            continue;
+        }
+
+        if (!at_boundary) {
+            // Real collision: scatter.
+            o = o + d * t;
+            ++out.scatter_events;
+            if (max_bounces_ >= 0 && int(out.scatter_events) > max_bounces_) break;
+            beta *= s.medium.albedo;
+            if (is_black(beta)) break;
+            if (!desc.lights.empty()) L += beta * direct_light(o, d, shape, channel, rng);
+            Vec3 wi = hg_sample(d, s.medium.g, rng.uniform(), rng.uniform());
+            phase_pdf = hg_eval(dot(d, wi), s.medium.g);
+            d = wi;
+            specular = false;
+            float q = max_component(beta) / beta_start;
+            if (q < kRouletteThreshold) {
+                if (rng.uniform() >= q) break;
+                beta /= q;
+            }
+            continue;
+        }
+
+        // Reached the boundary from inside.
+        Vec3 p = o + d * hit.t;
+        if (int(hit.mesh) != shape || dot(d, hit.normal) <= 0.f) {
+            // Another shape or a back-facing hit inside our own: overlapping or touching
+            // geometry, which scenes must not have. Treat it as leaving to vacuum.
+            shape = -1;
+            o = offset(p, hit.normal, d, eps);
+            continue;
+        }
+        if (s.boundary.type == BoundaryType::Dielectric) {
+            float cos_i = dot(d, hit.normal), cos_t;
+            float F = fresnel_dielectric(cos_i, 1.f / s.boundary.ior, &cos_t);
+            specular = true;
+            if (rng.uniform() < F) {
+                d = d - hit.normal * (2.f * cos_i);
+                o = offset(p, hit.normal, d, eps);
+                continue;
+            }
+            float eta = s.boundary.ior;
+            // Facing normal on the incident side is -n.
+            d = normalize(d * eta - hit.normal * (eta * cos_i - cos_t));
+        }
+        shape = -1;
+        o = offset(p, hit.normal, d, eps);
+    }
+    out.radiance = L;
+    return out;
+}
+
+}  // namespace sss

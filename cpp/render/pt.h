@@ -1,0 +1,41 @@
+// The ground-truth volumetric path tracer (integrator "pt"): delta tracking in homogeneous
+// media with Henyey-Greenstein scattering, index-matched and smooth dielectric boundaries,
+// next-event estimation at every scattering event (MIS with phase sampling for area and
+// environment lights). See docs/notation.md for the conventions.
+#pragma once
+
+#include <cstdint>
+
+#include "core/rng.h"
+#include "core/vec.h"
+#include "render/scene.h"
+
+namespace sss {
+
+struct PathSample {
+    Vec3 radiance;
+    uint32_t scatter_events = 0;  // real collisions in media along the path
+};
+
+class PathTracer {
+public:
+    PathTracer(const Scene& scene, int max_bounces);
+    // Radiance arriving at `o` from direction -d (a camera ray o + t d).
+    PathSample trace(Vec3 o, Vec3 d, Rng& rng) const;
+
+private:
+    // Sum over lights of phase x transmittance x emitted radiance / pdf at medium point p of
+    // shape `shape`, for a photon travelling along d before scattering.
+    Vec3 direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng) const;
+    // Transmittance from p (inside shape `shape`, or -1 for vacuum) along unit w over
+    // `dist`; 0 when a dielectric boundary or an emitter is in the way.
+    Vec3 transmittance(Vec3 p, Vec3 w, float dist, int shape) const;
+    // Light-sampling pdf (solid angle) of direction w from a medium point, for MIS.
+    float area_light_pdf(int light, Vec3 p, Vec3 w, float t, Vec3 n) const;
+
+    const Scene& scene_;
+    int max_bounces_;
+    float total_area_weight_ = 0.f;
+};
+
+}  // namespace sss

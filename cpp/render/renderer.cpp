@@ -1,0 +1,181 @@
+#include "render/renderer.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <mutex>
+#include <thread>
+
+#include "core/check.h"
+#include "core/rng.h"
+#include "render/camera.h"
+#include "render/pt.h"
+
+namespace sss {
+
+namespace {
+
+constexpr int kTile = 16;
+
+struct TileState {
+    std::mutex mutex;
+    std::condition_variable merged;
+    int passes_merged = 0;
+};
+
+}  // namespace
+
+RenderResult render(const Scene& scene, const RenderOptions& opt, const ProgressFn& progress) {
+    const Camera& cam = scene.desc().camera;
+    const int W = cam.width, H = cam.height;
+    if (opt.spp <= 0) fail("spp must be >= 1, got ", opt.spp);
+    if (opt.threads < 0) fail("threads must be >= 0 (0 = all cores), got ", opt.threads);
+    const std::string& integrator = scene.desc().render.integrator;
+    if (integrator != "pt")
+        fail("integrator '", integrator, "' is not available yet (allowed: \"pt\")");
+
+    const int tiles_x = (W + kTile - 1) / kTile, tiles_y = (H + kTile - 1) / kTile;
+    const int num_tiles = tiles_x * tiles_y;
+    // Passes: a handful of equal sample ranges, so a cancelled image is uniform.
+    const int num_passes = std::min(opt.spp, 16);
+    auto pass_begin = [&](int p) { return int(int64_t(opt.spp) * p / num_passes); };
+    const int64_t num_tasks = int64_t(num_tiles) * num_passes;
+
+    std::vector<double> sum(size_t(W) * H * 3, 0.0), sum_sq(size_t(W) * H * 3, 0.0);
+    std::vector<uint64_t> events(size_t(W) * H, 0);
+    std::vector<uint32_t> count(size_t(W) * H, 0);
+    std::vector<TileState> tiles(num_tiles);
+
+    PinholeCamera camera(cam);
+    PathTracer tracer(scene, opt.max_bounces);
+    std::atomic<int64_t> next_task{0}, done_samples{0};
+    std::atomic<bool> cancel{false};
+    std::mutex error_mutex;
+    std::string error;
+    const double total_samples = double(W) * H * opt.spp;
+
+    auto worker = [&]() {
+        std::vector<double> s, s2;
+        std::vector<uint64_t> ev;
+        for (int64_t task; !cancel && (task = next_task.fetch_add(1)) < num_tasks;) {
+            const int pass = int(task / num_tiles), tile = int(task % num_tiles);
+            const int x0 = (tile % tiles_x) * kTile, y0 = (tile / tiles_x) * kTile;
+            const int x1 = std::min(W, x0 + kTile), y1 = std::min(H, y0 + kTile);
+            const int s0 = pass_begin(pass), s1 = pass_begin(pass + 1);
+            const int n = (x1 - x0) * (y1 - y0);
+            s.assign(size_t(n) * 3, 0.0);
+            s2.assign(size_t(n) * 3, 0.0);
+            ev.assign(size_t(n), 0);
+            bool complete = true;
+            try {
+                for (int y = y0, i = 0; y < y1 && complete; ++y)
+                    for (int x = x0; x < x1; ++x, ++i) {
+                        if (cancel) { complete = false; break; }
+                        uint64_t pixel = uint64_t(y) * W + x;
+                        for (int k = s0; k < s1; ++k) {
+                            Rng rng(opt.seed, pixel, uint64_t(k));
+                            float jx = rng.uniform(), jy = rng.uniform();
+                            PathSample ps = tracer.trace(camera.origin(), camera.direction(x + jx, y + jy), rng);
+                            for (int c = 0; c < 3; ++c) {
+                                double v = ps.radiance[c];
+                                s[3 * i + c] += v;
+                                s2[3 * i + c] += v * v;
+                            }
+                            ev[i] += ps.scatter_events;
+                        }
+                        done_samples += s1 - s0;
+                    }
+            } catch (const std::exception& e) {
+                std::lock_guard<std::mutex> lock(error_mutex);
+                if (error.empty()) error = e.what();
+                cancel = true;
+                complete = false;
+            }
+            // Merge in pass order so the floating-point sums do not depend on scheduling.
+            TileState& ts = tiles[tile];
+            std::unique_lock<std::mutex> lock(ts.mutex);
+            ts.merged.wait(lock, [&] { return ts.passes_merged == pass || cancel; });
+            if (!complete || ts.passes_merged != pass) {
+                ts.merged.notify_all();
+                continue;
+            }
+            for (int y = y0, i = 0; y < y1; ++y)
+                for (int x = x0; x < x1; ++x, ++i) {
+                    size_t p = size_t(y) * W + x;
+                    for (int c = 0; c < 3; ++c) {
+                        sum[3 * p + c] += s[3 * i + c];
+                        sum_sq[3 * p + c] += s2[3 * i + c];
+                    }
+                    events[p] += ev[i];
+                    count[p] += uint32_t(s1 - s0);
+                }
+            ts.passes_merged = pass + 1;
+            ts.merged.notify_all();
+        }
+    };
+
+    auto start = std::chrono::steady_clock::now();
+    int threads = opt.threads > 0 ? opt.threads : int(std::max(1u, std::thread::hardware_concurrency()));
+    std::vector<std::thread> pool;
+    std::atomic<int> running{threads};
+    std::mutex done_mutex;
+    std::condition_variable done_cv;
+    for (int t = 0; t < threads; ++t)
+        pool.emplace_back([&] {
+            worker();
+            std::lock_guard<std::mutex> lock(done_mutex);
+            --running;
+            done_cv.notify_all();
+        });
+    // The calling thread reports progress and relays cancellation.
+    bool user_cancelled = false;
+    {
+        std::unique_lock<std::mutex> lock(done_mutex);
+        while (running > 0) {
+            done_cv.wait_for(lock, std::chrono::milliseconds(100));
+            if (progress && !user_cancelled) {
+                lock.unlock();
+                bool go_on = progress(std::min(1.0, done_samples / total_samples));
+                lock.lock();
+                if (!go_on) {
+                    user_cancelled = true;
+                    cancel = true;
+                    for (TileState& ts : tiles) {
+                        std::lock_guard<std::mutex> tl(ts.mutex);
+                        ts.merged.notify_all();
+                    }
+                }
+            }
+        }
+    }
+    for (auto& t : pool) t.join();
+    if (!error.empty()) fail(error);
+    if (progress && !user_cancelled) progress(1.0);
+
+    RenderResult r;
+    r.width = W;
+    r.height = H;
+    r.cancelled = user_cancelled;
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    r.image.assign(size_t(W) * H * 3, 0.f);
+    r.variance.assign(size_t(W) * H * 3, 0.f);
+    r.events.assign(size_t(W) * H, 0.f);
+    r.samples = count;
+    for (size_t p = 0; p < size_t(W) * H; ++p) {
+        double n = count[p];
+        r.total_paths += count[p];
+        r.total_events += events[p];
+        if (n == 0) continue;
+        r.events[p] = float(double(events[p]) / n);
+        for (int c = 0; c < 3; ++c) {
+            double mean = sum[3 * p + c] / n;
+            r.image[3 * p + c] = float(mean);
+            double var = n > 1 ? std::max(0.0, (sum_sq[3 * p + c] - n * mean * mean) / (n - 1)) : 0.0;
+            r.variance[3 * p + c] = float(var / n);
+        }
+    }
+    return r;
+}
+
+}  // namespace sss

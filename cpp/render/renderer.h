@@ -1,0 +1,40 @@
+// Film and multithreaded rendering. The image is rendered in passes over 16x16 tiles; each
+// (pixel, sample) has its own random stream, and tiles merge their passes in order, so the
+// result is bit-identical for any thread count. Cancelling (progress callback returning
+// false) keeps every finished (tile, pass): each pixel is the mean of its own samples.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "render/scene.h"
+
+namespace sss {
+
+struct RenderOptions {
+    int spp = 16;
+    uint64_t seed = 0;
+    int threads = 0;        // 0 = all cores
+    int max_bounces = -1;
+};
+
+struct RenderResult {
+    int width = 0, height = 0;
+    std::vector<float> image;     // (height, width, 3) mean radiance
+    std::vector<float> variance;  // (height, width, 3) variance of that mean
+    std::vector<float> events;    // (height, width) mean scattering events per path
+    std::vector<uint32_t> samples;  // (height, width) samples taken
+    double seconds = 0.0;
+    bool cancelled = false;
+    uint64_t total_events = 0;
+    uint64_t total_paths = 0;
+};
+
+// Called from the calling thread about ten times a second with the fraction done; return
+// false to stop early.
+using ProgressFn = std::function<bool(double)>;
+
+RenderResult render(const Scene& scene, const RenderOptions& options, const ProgressFn& progress = {});
+
+}  // namespace sss

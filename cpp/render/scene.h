@@ -1,0 +1,102 @@
+// Scene description (what a scene file says) and the built scene (what the integrators
+// read: meshes in Embree, a distance grid per shape). The JSON format is documented in
+// docs/scene-format.md; parameter names here are the ones in the file.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/vec.h"
+#include "geometry/distance_grid.h"
+#include "geometry/mesh.h"
+#include "geometry/ray_tracer.h"
+
+namespace sss {
+
+// Homogeneous medium; sigma_t per scene unit, per RGB channel.
+struct Medium {
+    Vec3 sigma_t;
+    Vec3 albedo;
+    float g = 0.f;
+};
+
+enum class BoundaryType { IndexMatched, Dielectric };
+
+struct Boundary {
+    BoundaryType type = BoundaryType::IndexMatched;
+    float ior = 1.5f;  // inside / outside, dielectric only
+};
+
+struct Shape {
+    std::string name;
+    TriangleMesh mesh;  // closed, outward-oriented, in world space
+    Medium medium;
+    Boundary boundary;
+};
+
+struct Camera {
+    Vec3 origin, target, up{0, 1, 0};
+    float fov = 40.f;  // vertical, degrees
+    int width = 256, height = 256;
+};
+
+struct Light {
+    enum class Type { Point, Directional, Area, Environment };
+    Type type = Type::Point;
+    Vec3 position, intensity;      // point: W/sr per channel
+    Vec3 direction, irradiance;    // directional: unit travel direction, irradiance
+    Vec3 corner, edge1, edge2;     // area: quad corner + s*edge1 + t*edge2, emits along
+    Vec3 radiance;                 //   normalize(edge1 x edge2); environment: constant radiance
+};
+
+struct RenderSettings {
+    std::string integrator = "pt";
+    int spp = 16;
+    uint64_t seed = 0;
+    int max_bounces = -1;        // scattering events per path; -1 = no limit
+    int grid_resolution = 64;    // distance-grid cells along a shape's largest side
+};
+
+struct SceneDesc {
+    std::string source;  // file name (or "<dict>") used in error messages
+    Camera camera;
+    std::vector<Shape> shapes;
+    std::vector<Light> lights;
+    RenderSettings render;
+};
+
+// Parses and validates a scene; mesh paths are relative to `base_dir`. Every error names
+// `source`, the field (e.g. shapes[0].medium.albedo), the value and what is allowed.
+SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
+                      const std::string& source);
+SceneDesc load_scene_file(const std::string& path);
+
+// The built scene. Immutable after construction and safe to share between threads.
+class Scene {
+public:
+    explicit Scene(SceneDesc desc, int threads = 0);
+
+    const SceneDesc& desc() const { return desc_; }
+    const RayTracer& tracer() const { return *tracer_; }
+    const DistanceGrid& grid(int shape) const { return grids_[shape]; }
+    int num_shapes() const { return int(desc_.shapes.size()); }
+    // Embree mesh index of area light i's quad is num_shapes() + i_th area light.
+    int area_light_of_mesh(unsigned mesh) const;
+    const Light* environment() const { return environment_; }
+    // True when every medium has the same sigma_t in all channels (paths then carry RGB).
+    bool grey_media() const { return grey_; }
+    float ray_epsilon() const { return ray_epsilon_; }
+
+private:
+    SceneDesc desc_;
+    std::unique_ptr<RayTracer> tracer_;
+    std::vector<DistanceGrid> grids_;
+    std::vector<int> area_lights_;  // light index per extra Embree mesh
+    const Light* environment_ = nullptr;
+    bool grey_ = true;
+    float ray_epsilon_ = 1e-6f;
+};
+
+}  // namespace sss

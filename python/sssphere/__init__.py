@@ -1,0 +1,24 @@
+"""sssphere: fast rendering of dense translucent media.
+
+The public API::
+
+    scene = sssphere.load_scene("scenes/bunny.json")      # or a dict
+    image = sssphere.render(scene, spp=64)                 # (height, width, 3) float32
+    sssphere.write_image("bunny.exr", image)
+"""
+
+from sssphere._core import SceneError
+from sssphere.render import RenderResult, render, render_full, write_image
+from sssphere.scene import Scene, load_mesh, load_scene
+
+__all__ = [
+    "RenderResult",
+    "Scene",
+    "SceneError",
+    "load_mesh",
+    "load_scene",
+    "render",
+    "render_full",
+    "write_image",
+]
+__version__ = "0.1.0"

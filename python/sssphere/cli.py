@@ -1,0 +1,131 @@
+"""The `sssphere` command line: `sssphere render SCENE.json -o out.exr`."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from sssphere.render import INTEGRATORS, render_full, write_image
+from sssphere.scene import SceneError, load_scene
+
+IMAGE_SUFFIXES = (".exr", ".png")
+
+
+class ProgressBar:
+    """A one-line text progress bar on stderr (silent when stderr is not a terminal,
+    except for the final line)."""
+
+    def __init__(self, label: str, enabled: bool = True):
+        self.label = label
+        self.enabled = enabled
+        self.start = time.monotonic()
+        self.tty = sys.stderr.isatty()
+        self.last = -1.0
+
+    def __call__(self, fraction: float) -> bool:
+        if self.enabled and self.tty and fraction - self.last >= 0.002:
+            self.last = fraction
+            width = 30
+            filled = int(round(fraction * width))
+            elapsed = time.monotonic() - self.start
+            eta = elapsed * (1 - fraction) / fraction if fraction > 0 else float("nan")
+            sys.stderr.write(
+                f"\r{self.label} [{'#' * filled}{'.' * (width - filled)}] "
+                f"{100 * fraction:5.1f}%  {elapsed:6.1f}s elapsed, {eta:6.1f}s left "
+            )
+            sys.stderr.flush()
+        return True
+
+    def close(self) -> None:
+        if self.enabled and self.tty:
+            sys.stderr.write("\n")
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+    return value
+
+
+def _non_negative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    return value
+
+
+def _cmd_render(args: argparse.Namespace) -> int:
+    out = Path(args.output)
+    if out.suffix.lower() not in IMAGE_SUFFIXES:
+        raise SceneError(f"{out}: unsupported image format {out.suffix!r} (allowed: .exr, .png)")
+    if out.parent != Path("") and not out.parent.is_dir():
+        raise SceneError(f"{out}: output directory {str(out.parent)!r} does not exist")
+    t0 = time.monotonic()
+    scene = load_scene(args.scene, threads=args.threads)
+    load_s = time.monotonic() - t0
+    bar = ProgressBar(f"rendering {Path(args.scene).name}", enabled=not args.quiet)
+    try:
+        result = render_full(
+            scene, integrator=args.integrator, spp=args.spp, seed=args.seed,
+            threads=args.threads, progress=bar,
+        )
+    finally:
+        bar.close()
+    write_image(out, result.image)
+    if args.aovs:
+        stem = out.with_suffix("")
+        write_image(f"{stem}_variance.exr", result.variance)
+        write_image(f"{stem}_events.exr", result.events[:, :, None])
+    spp_done = int(result.samples.min()) if result.samples.size else 0
+    what = "interrupted: wrote the partial image" if result.interrupted else "wrote"
+    print(
+        f"{what} {out} ({scene.width}x{scene.height}, {spp_done}"
+        f"{'' if not result.interrupted else '+'} spp; scene built in {load_s:.2f}s, "
+        f"rendered in {result.seconds:.2f}s; {result.mean_events_per_path:.1f} scattering "
+        f"events per path)",
+        file=sys.stderr,
+    )
+    if not np.all(np.isfinite(result.image)):
+        print("warning: the image has non-finite pixels", file=sys.stderr)
+    return 130 if result.interrupted else 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="sssphere", description=__doc__)
+    sub = parser.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("render", help="render a scene file to an image")
+    r.add_argument("scene", help="scene file (JSON, docs/scene-format.md)")
+    r.add_argument("-o", "--output", required=True, help="output image (.exr linear, .png sRGB)")
+    r.add_argument("--spp", type=_positive_int, help="samples per pixel (default: the scene's)")
+    r.add_argument("--seed", type=_non_negative_int, help="random seed (default: the scene's)")
+    r.add_argument("--threads", type=_non_negative_int, default=0, help="worker threads (0 = all cores)")
+    r.add_argument("--integrator", choices=INTEGRATORS, help="integrator (default: the scene's)")
+    r.add_argument("--aovs", action="store_true",
+                   help="also write OUT_variance.exr and OUT_events.exr (scattering events per path)")
+    r.add_argument("--quiet", action="store_true", help="no progress bar")
+    r.set_defaults(func=_cmd_render)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except SceneError as e:
+        print(f"sssphere: error: {e}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,77 @@
+"""Scene loading: one parser (the C++ one) for files, dicts and the command line."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any, Union
+
+import numpy as np
+
+from sssphere import _core
+from sssphere._core import SceneError
+
+Scene = _core.Scene
+
+
+def _find_non_finite(value: Any, path: str) -> str | None:
+    """Path of the first NaN or infinite number in a nested dict/list, or None."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return path
+    if isinstance(value, dict):
+        for k, v in value.items():
+            found = _find_non_finite(v, f"{path}.{k}" if path else str(k))
+            if found:
+                return found
+    if isinstance(value, (list, tuple)):
+        for i, v in enumerate(value):
+            found = _find_non_finite(v, f"{path}[{i}]")
+            if found:
+                return found
+    return None
+
+
+def load_scene(
+    scene: Union[str, os.PathLike, dict], base_dir: Union[str, os.PathLike, None] = None,
+    threads: int | None = None,
+) -> Scene:
+    """Load and validate a scene, build its acceleration structures.
+
+    Parameters
+    ----------
+    scene : path to a JSON scene file, or a dict with the same structure
+        (docs/scene-format.md).
+    base_dir : directory that relative mesh paths in a dict are resolved against
+        (default: the current directory). Ignored for files (their own directory is used).
+    threads : worker threads for building distance grids (default: all cores).
+
+    Raises
+    ------
+    SceneError (a ValueError) naming the file, the field, the value and what is allowed.
+    """
+    threads = 0 if threads is None else int(threads)
+    if isinstance(scene, dict):
+        bad = _find_non_finite(scene, "")
+        if bad:
+            raise SceneError(f"<dict>: {bad}: value is not a finite number")
+        text = json.dumps(scene)
+        base = str(base_dir) if base_dir is not None else os.getcwd()
+        return _core.Scene(text, base, "<dict>", threads)
+    path = Path(scene)
+    if not path.exists():
+        raise SceneError(f"{path}: scene file does not exist")
+    if path.is_dir():
+        raise SceneError(f"{path}: is a directory, not a scene file")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        raise SceneError(f"{path}: scene file cannot be read: {e}") from None
+    return _core.Scene(text, str(path.parent), str(path), threads)
+
+
+def load_mesh(path: Union[str, os.PathLike]) -> tuple[np.ndarray, np.ndarray]:
+    """Load, check and orient a closed mesh. Returns (vertices (n, 3) float32,
+    triangles (m, 3) uint32), counter-clockwise = outward."""
+    return _core.load_mesh(str(path))
