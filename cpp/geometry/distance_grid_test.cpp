@@ -1,1 +1,81 @@
+#include "geometry/distance_grid.h"
+
 #include <gtest/gtest.h>
+
+#include "core/rng.h"
+
+using namespace sss;
+
+namespace {
+
+// A closed mesh with concavities and thin parts: a flattened, twisted icosphere.
+TriangleMesh lumpy_mesh() {
+    TriangleMesh m = make_icosphere({0, 0, 0}, 1.f, 3);
+    for (Vec3& p : m.positions) {
+        float bump = 1.f + 0.35f * std::sin(5.f * p.x) * std::cos(4.f * p.y);
+        p = Vec3(p.x * bump, 0.3f * p.y * bump, p.z * bump);
+    }
+    return m;
+}
+
+struct Stats {
+    double worst_excess = 0;  // max over points of r(p) - d(p); must be <= 0
+    double worst_loss = 0;    // max over points inside the grid of d(p) - r(p)
+};
+
+Stats check_conservative(const TriangleMesh& mesh, int resolution, int n, uint64_t seed,
+                         float* cell = nullptr) {
+    DistanceGrid grid = DistanceGrid::build(mesh, resolution, 2);
+    Bounds3 b = mesh.bounds();
+    Rng rng(seed);
+    std::vector<Vec3> pts(n);
+    for (Vec3& p : pts) {
+        Vec3 u(rng.uniform(), rng.uniform(), rng.uniform());
+        p = b.lo - b.extent() * 0.1f + u * b.extent() * 1.2f;
+    }
+    // Also points on grid nodes and on cell planes, where the published grid failed.
+    for (int i = 0; i < 200; ++i) {
+        Vec3 q = grid.node_position(int(rng.uniform() * grid.nx()), int(rng.uniform() * grid.ny()),
+                                    int(rng.uniform() * grid.nz()));
+        pts.push_back(q);
+        pts.push_back(q + Vec3(grid.cell_size() * rng.uniform(), 0.f, 0.f));
+    }
+    std::vector<double> exact = exact_distances(mesh, pts);
+    if (cell) *cell = grid.cell_size();
+    Stats s;
+    for (size_t i = 0; i < pts.size(); ++i) {
+        double r = grid.query(pts[i]);
+        s.worst_excess = std::max(s.worst_excess, r - exact[i]);
+        if (b.contains(pts[i])) s.worst_loss = std::max(s.worst_loss, exact[i] - r);
+    }
+    return s;
+}
+
+}  // namespace
+
+TEST(DistanceGrid, NeverExceedsExactDistanceOnSphere) {
+    TriangleMesh m = make_icosphere({0.1f, -0.2f, 0.3f}, 0.7f, 4);
+    float h = 0;
+    Stats s = check_conservative(m, 32, 20000, 1, &h);
+    EXPECT_LE(s.worst_excess, 0.0);
+    // As tight as the resolution allows: the nearest corner is at most sqrt(3) h / 2 away
+    // and both it and the Lipschitz step lose that much, so d - r <= sqrt(3) h.
+    EXPECT_LE(s.worst_loss, std::sqrt(3.0) * h * 1.001) << "cell " << h;
+}
+
+TEST(DistanceGrid, NeverExceedsExactDistanceOnLumpyMesh) {
+    for (int res : {8, 24, 64}) {
+        Stats s = check_conservative(lumpy_mesh(), res, 20000, uint64_t(res));
+        EXPECT_LE(s.worst_excess, 0.0) << "resolution " << res;
+    }
+}
+
+TEST(DistanceGrid, InsideOutsideAndOutOfGrid) {
+    TriangleMesh m = make_icosphere({0, 0, 0}, 1.f, 3);
+    DistanceGrid g = DistanceGrid::build(m, 16, 1);
+    EXPECT_TRUE(g.inside({0, 0, 0}));
+    EXPECT_FALSE(g.inside({1.2f, 0, 0}));
+    EXPECT_EQ(g.query({10, 0, 0}), 0.f);  // outside the grid: no information, 0
+    EXPECT_GT(g.query({0, 0, 0}), 0.8f);  // true distance ~0.99
+    EXPECT_LE(g.query({0, 0, 0}), 1.f);
+}

@@ -1,1 +1,121 @@
+#include "geometry/mesh.h"
+
 #include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/check.h"
+#include "testing/temp_file.h"
+
+using namespace sss;
+using sss::test::TempFile;
+
+namespace {
+// A unit cube as OFF text; `flip` reverses the winding of the listed faces.
+std::string cube_off(bool flip_some, bool drop_face = false, bool degenerate = false) {
+    std::string s = "OFF\n8 " + std::to_string(drop_face ? 11 : 12) + " 0\n";
+    s += "0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 1\n";
+    const int f[12][3] = {{0, 2, 1}, {0, 3, 2}, {4, 5, 6}, {4, 6, 7}, {0, 1, 5}, {0, 5, 4},
+                          {2, 3, 7}, {2, 7, 6}, {1, 2, 6}, {1, 6, 5}, {0, 4, 7}, {0, 7, 3}};
+    for (int i = 0; i < 12; ++i) {
+        if (drop_face && i == 11) continue;
+        bool flip = flip_some && (i % 3 == 0);
+        if (degenerate && i == 2) { s += "3 4 5 4\n"; continue; }
+        s += flip ? "3 " + std::to_string(f[i][0]) + " " + std::to_string(f[i][2]) + " " + std::to_string(f[i][1]) + "\n"
+                  : "3 " + std::to_string(f[i][0]) + " " + std::to_string(f[i][1]) + " " + std::to_string(f[i][2]) + "\n";
+    }
+    return s;
+}
+
+std::string error_of(const std::string& path) {
+    try {
+        load_mesh(path);
+    } catch (const Error& e) {
+        return e.what();
+    }
+    return "";
+}
+}  // namespace
+
+TEST(Mesh, IcosphereIsClosedOutwardAndNearTheSphere) {
+    TriangleMesh m = make_icosphere({1, 2, 3}, 2.f, 4);
+    EXPECT_EQ(m.triangles.size(), 20u * 256u);
+    double v = m.volume(), exact = 4.0 / 3.0 * M_PI * 8.0;
+    EXPECT_GT(v, 0.99 * exact);
+    EXPECT_LT(v, exact);  // an inscribed polyhedron
+    std::vector<std::vector<uint32_t>> polys;
+    for (const auto& t : m.triangles) polys.push_back({t[2], t[1], t[0]});  // inside out
+    TriangleMesh checked = make_closed_mesh(m.positions, polys, "icosphere");
+    EXPECT_NEAR(checked.volume(), v, 1e-3 * v);
+}
+
+TEST(Mesh, LoadsAndFixesInconsistentOrientation) {
+    TempFile f("cube.off", cube_off(/*flip_some=*/true));
+    TriangleMesh m = load_mesh(f.path());
+    EXPECT_EQ(m.triangles.size(), 12u);
+    EXPECT_NEAR(m.volume(), 1.0, 1e-6);  // positive: every face turned outward
+}
+
+TEST(Mesh, InsideOutMeshIsTurnedOutward) {
+    // Every face reversed: consistent but inside out.
+    std::string s = cube_off(false);
+    for (size_t pos = 0; (pos = s.find("\n3 ", pos)) != std::string::npos; ++pos) {
+        size_t end = s.find('\n', pos + 1);
+        int a, b, c;
+        std::sscanf(s.c_str() + pos + 3, "%d %d %d", &a, &b, &c);
+        s.replace(pos + 1, end - pos - 1, "3 " + std::to_string(c) + " " + std::to_string(b) + " " + std::to_string(a));
+    }
+    TriangleMesh m = load_mesh(TempFile("cube.off", s).path());
+    EXPECT_NEAR(m.volume(), 1.0, 1e-6);
+}
+
+TEST(Mesh, RefusesOpenMesh) {
+    TempFile f("open.off", cube_off(false, /*drop_face=*/true));
+    EXPECT_NE(error_of(f.path()).find("not closed"), std::string::npos) << error_of(f.path());
+}
+
+TEST(Mesh, RefusesDegenerateTriangle) {
+    TempFile f("degenerate.off", cube_off(false, false, /*degenerate=*/true));
+    EXPECT_NE(error_of(f.path()).find("degenerate"), std::string::npos) << error_of(f.path());
+}
+
+TEST(Mesh, RefusesMissingMalformedAndUnknownFiles) {
+    EXPECT_NE(error_of("/nonexistent/bunny.obj").find("does not exist"), std::string::npos);
+    TempFile bad("bad.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n");
+    EXPECT_NE(error_of(bad.path()).find(bad.path()), std::string::npos);
+    TempFile unknown("mesh.xyz", "1 2 3\n");
+    EXPECT_NE(error_of(unknown.path()).find("unsupported mesh format"), std::string::npos);
+}
+
+TEST(Mesh, ObjQuadsAreTriangulatedAndStlVerticesMerged) {
+    std::string obj = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+                      "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 3 4 8 7\nf 2 3 7 6\nf 1 5 8 4\n";
+    TriangleMesh m = load_mesh(TempFile("cube.obj", obj).path());
+    EXPECT_EQ(m.triangles.size(), 12u);
+    EXPECT_NEAR(m.volume(), 1.0, 1e-6);
+
+    std::string stl = "solid c\n";
+    for (const auto& t : m.triangles) {
+        stl += "facet normal 0 0 0\nouter loop\n";
+        for (uint32_t i : t) {
+            Vec3 p = m.positions[i];
+            stl += "vertex " + std::to_string(p.x) + " " + std::to_string(p.y) + " " + std::to_string(p.z) + "\n";
+        }
+        stl += "endloop\nendfacet\n";
+    }
+    stl += "endsolid c\n";
+    TriangleMesh s = load_mesh(TempFile("cube.stl", stl).path());
+    EXPECT_EQ(s.positions.size(), 8u);
+    EXPECT_NEAR(s.volume(), 1.0, 1e-6);
+}
+
+TEST(Mesh, TransformAndNormalize) {
+    TriangleMesh m = make_icosphere({0, 0, 0}, 1.f, 2);
+    transform_mesh(m, Vec3(-2.f, 1.f, 1.f), Vec3(0.f, 90.f, 0.f), Vec3(5.f, 0.f, 0.f));
+    EXPECT_GT(m.volume(), 0.0);  // a mirroring scale keeps the mesh outward
+    EXPECT_NEAR(m.bounds().center().x, 5.f, 1e-4f);
+    EXPECT_NEAR(m.bounds().extent().z, 4.f, 1e-3f);  // x scaled by 2 then rotated onto z
+    normalize_mesh(m);
+    EXPECT_NEAR(max_component(m.bounds().extent()), 1.f, 1e-6f);
+    EXPECT_NEAR(length(m.bounds().center()), 0.f, 1e-6f);
+}

@@ -1,1 +1,134 @@
+#include "render/pt.h"
+
 #include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "render/renderer.h"
+#include "testing/stats.h"
+
+using namespace sss;
+
+namespace {
+
+SceneDesc furnace_scene(Vec3 sigma_t, float g, BoundaryType boundary) {
+    SceneDesc d;
+    d.source = "furnace";
+    d.camera.origin = {0, 0, 3.5f};
+    d.camera.target = {0, 0, 0};
+    d.camera.fov = 40.f;
+    d.camera.width = d.camera.height = 16;
+    Shape s;
+    s.name = "sphere";
+    s.mesh = make_icosphere({0, 0, 0}, 1.f, 3);
+    s.medium = {sigma_t, Vec3(1.f), g};
+    s.boundary.type = boundary;
+    d.shapes.push_back(s);
+    Light env;
+    env.type = Light::Type::Environment;
+    env.radiance = Vec3(1.f);
+    d.lights.push_back(env);
+    d.render.grid_resolution = 16;
+    return d;
+}
+
+// White furnace: no absorption inside a uniform environment of radiance 1, so every pixel
+// has expectation 1. Each pixel's mean is compared with 1 using its own estimated variance:
+// the sum of z^2 over pixels and channels must pass a chi-square test at p = 1e-4.
+void expect_furnace(const SceneDesc& d, int spp) {
+    Scene scene(d, 2);
+    RenderOptions opt;
+    opt.spp = spp;
+    opt.seed = 3;
+    RenderResult r = render(scene, opt);
+    double chi2 = 0, mean = 0, var_mean = 0;
+    int n = 0, exact = 0;
+    for (size_t i = 0; i < r.image.size(); ++i) {
+        ASSERT_TRUE(std::isfinite(r.image[i]));
+        mean += r.image[i];
+        var_mean += r.variance[i];
+        if (r.variance[i] == 0.f) {  // background pixels see the environment directly
+            EXPECT_FLOAT_EQ(r.image[i], 1.f);
+            ++exact;
+            continue;
+        }
+        chi2 += (r.image[i] - 1.0) * (r.image[i] - 1.0) / r.variance[i];
+        ++n;
+    }
+    mean /= r.image.size();
+    double se = std::sqrt(var_mean) / r.image.size();
+    EXPECT_NEAR(mean, 1.0, 4.0 * se) << "image mean " << mean << " +- " << se;
+    ASSERT_GT(n, 100);
+    EXPECT_LT(chi2, sss::test::chi2_critical(n)) << "chi2 " << chi2 << " over " << n << " pixel channels";
+}
+
+}  // namespace
+
+TEST(PathTracer, FurnaceGreyIndexMatched) {
+    expect_furnace(furnace_scene(Vec3(4.f), 0.5f, BoundaryType::IndexMatched), 64);
+}
+
+TEST(PathTracer, FurnaceChromaticIndexMatched) {
+    // Different extinction per channel: paths carry one channel each (weight 3).
+    expect_furnace(furnace_scene(Vec3(1.f, 4.f, 10.f), -0.3f, BoundaryType::IndexMatched), 128);
+}
+
+TEST(PathTracer, FurnaceDielectricIsExactPerPath) {
+    // Behind a dielectric there is no NEE and every escaping path carries weight exactly 1:
+    // every pixel must be 1 up to float rounding, whatever the noise elsewhere.
+    Scene scene(furnace_scene(Vec3(3.f), 0.7f, BoundaryType::Dielectric), 2);
+    RenderOptions opt;
+    opt.spp = 16;
+    RenderResult r = render(scene, opt);
+    for (float v : r.image) ASSERT_NEAR(v, 1.f, 1e-5f);
+    double events = 0;
+    for (float e : r.events) events += e;
+    EXPECT_GT(events, 0.0);  // paths did enter the medium
+}
+
+TEST(PathTracer, AbsorbingSphereTransmitsBeerLambert) {
+    // Albedo 0: a camera ray through the sphere's centre survives with e^{-sigma_t 2r}.
+    SceneDesc d = furnace_scene(Vec3(0.5f), 0.f, BoundaryType::IndexMatched);
+    d.shapes[0].medium.albedo = Vec3(0.f);
+    d.shapes[0].mesh = make_icosphere({0, 0, 0}, 1.f, 6);
+    d.camera.width = d.camera.height = 1;
+    d.camera.fov = 1e-3f;  // one pixel, essentially one ray
+    Scene scene(d, 1);
+    RenderOptions opt;
+    opt.spp = 20000;
+    RenderResult r = render(scene, opt);
+    double expected = std::exp(-0.5 * 2.0);
+    double sd = std::sqrt(expected * (1 - expected) / opt.spp);
+    EXPECT_NEAR(r.image[0], expected, 4 * sd);
+}
+
+TEST(Renderer, IdenticalForAnyThreadCount) {
+    Scene scene(furnace_scene(Vec3(2.f, 3.f, 4.f), 0.2f, BoundaryType::Dielectric), 1);
+    RenderOptions opt;
+    opt.spp = 5;
+    opt.threads = 1;
+    RenderResult a = render(scene, opt);
+    opt.threads = 3;
+    RenderResult b = render(scene, opt);
+    EXPECT_EQ(a.image, b.image);
+    EXPECT_EQ(a.variance, b.variance);
+    opt.seed = 1;
+    RenderResult c = render(scene, opt);
+    EXPECT_NE(a.image, c.image);
+}
+
+TEST(Renderer, CancelKeepsFinishedPassesAndCountsThem) {
+    Scene scene(furnace_scene(Vec3(20.f), 0.2f, BoundaryType::IndexMatched), 1);
+    RenderOptions opt;
+    opt.spp = 4096;
+    opt.threads = 2;
+    int calls = 0;
+    RenderResult r = render(scene, opt, [&](double) { return ++calls < 3; });
+    EXPECT_TRUE(r.cancelled);
+    uint64_t total = 0;
+    for (size_t p = 0; p < r.samples.size(); ++p) {
+        total += r.samples[p];
+        if (r.samples[p] > 0) EXPECT_TRUE(std::isfinite(r.image[3 * p]));
+    }
+    EXPECT_LT(total, uint64_t(opt.spp) * r.samples.size());
+}

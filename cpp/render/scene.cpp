@@ -272,7 +272,7 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
     json root;
     try {
         root = json::parse(json_text);
-    } catch (const json::parse_error& e) {
+    } catch (const json::exception& e) {
         fail(source, ": malformed JSON: ", e.what());
     }
     SceneDesc d;

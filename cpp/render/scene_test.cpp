@@ -1,1 +1,89 @@
+#include "render/scene.h"
+
 #include <gtest/gtest.h>
+
+#include "core/check.h"
+
+using namespace sss;
+
+namespace {
+
+const char* kGood = R"({
+  "camera": {"origin": [0, 0, 4], "target": [0, 0, 0], "fov": 30, "width": 8, "height": 6},
+  "shapes": [{"sphere": {"center": [0, 0, 0], "radius": 1},
+              "medium": {"sigma_t": [1, 2, 3], "albedo": 0.9, "g": 0.3}}],
+  "lights": [{"type": "point", "position": [2, 2, 2], "intensity": 5}],
+  "render": {"spp": 4, "seed": 9}
+})";
+
+// Parses kGood with `from` replaced by `to`; returns the error message ("" if none).
+std::string error_with(const std::string& from, const std::string& to) {
+    std::string text = kGood;
+    size_t pos = text.find(from);
+    EXPECT_NE(pos, std::string::npos) << from;
+    text.replace(pos, from.size(), to);
+    try {
+        parse_scene(text, ".", "test.json");
+    } catch (const Error& e) {
+        return e.what();
+    }
+    return "";
+}
+
+}  // namespace
+
+TEST(SceneParse, GoodSceneAndDefaults) {
+    SceneDesc d = parse_scene(kGood, ".", "test.json");
+    EXPECT_EQ(d.camera.width, 8);
+    EXPECT_EQ(d.shapes.size(), 1u);
+    EXPECT_EQ(d.shapes[0].medium.albedo, Vec3(0.9f));
+    EXPECT_EQ(d.shapes[0].boundary.type, BoundaryType::IndexMatched);
+    EXPECT_EQ(d.render.spp, 4);
+    EXPECT_EQ(d.render.max_bounces, -1);
+    EXPECT_EQ(d.render.integrator, "pt");
+}
+
+struct BadCase {
+    std::string from, to, expect1, expect2;
+    friend void PrintTo(const BadCase& c, std::ostream* os) { *os << c.to; }
+};
+
+class SceneParseErrors : public ::testing::TestWithParam<BadCase> {};
+
+TEST_P(SceneParseErrors, NameFieldAndProblem) {
+    const BadCase& c = GetParam();
+    std::string e = error_with(c.from, c.to);
+    EXPECT_NE(e.find("test.json"), std::string::npos) << e;
+    EXPECT_NE(e.find(c.expect1), std::string::npos) << e;
+    EXPECT_NE(e.find(c.expect2), std::string::npos) << e;
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Cases, SceneParseErrors,
+    ::testing::Values(
+        BadCase{"\"fov\": 30", "\"fov\": 30, \"zoom\": 2", "camera.zoom", "unknown key"},
+        BadCase{"\"albedo\": 0.9", "\"albedo\": [0.5, 1.2, 0.5]", "shapes[0].medium.albedo", "[0, 1]"},
+        BadCase{"\"sigma_t\": [1, 2, 3]", "\"sigma_t\": [1, -2, 3]", "shapes[0].medium.sigma_t", "[1,-2,3]"},
+        BadCase{"\"g\": 0.3", "\"g\": 1.0", "shapes[0].medium.g", "-1 < g < 1"},
+        BadCase{"\"spp\": 4", "\"spp\": 0", "render.spp", "1 to"},
+        BadCase{"\"width\": 8", "\"width\": 100000", "camera.width", "1 to 16384"},
+        BadCase{"\"width\": 8", "\"width\": 8.5", "camera.width", "integer"},
+        BadCase{"\"radius\": 1", "\"radius\": \"big\"", "sphere.radius", "expected a number"},
+        BadCase{"\"radius\": 1", "\"radius\": 1e999", "malformed JSON", "1e999"},
+        BadCase{"\"type\": \"point\"", "\"type\": \"spot\"", "lights[0].type", "\"point\""},
+        BadCase{"\"seed\": 9", "\"seed\": 9,", "malformed JSON", "parse"},
+        BadCase{"\"target\": [0, 0, 0]", "\"target\": [0, 0, 4]", "camera.target", "equals origin"},
+        BadCase{"\"sphere\": {\"center\": [0, 0, 0], \"radius\": 1}", "\"mesh\": \"no_such.obj\"",
+                "shapes[0].mesh", "does not exist"}));
+
+TEST(SceneBuild, RefusesCameraInsideShape) {
+    std::string text = kGood;
+    text.replace(text.find("[0, 0, 4]"), 9, "[0, 0, 0.2]");
+    text.replace(text.find("\"target\": [0, 0, 0]"), 19, "\"target\": [0, 0, 1]");
+    try {
+        Scene s(parse_scene(text, ".", "test.json"), 1);
+        FAIL() << "camera inside a shape was accepted";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("inside shape"), std::string::npos) << e.what();
+    }
+}

@@ -1,0 +1,316 @@
+"""Helpers to render an sssphere scene dict with Mitsuba 3 and compare images statistically.
+
+Mitsuba 3 (`volpath`, variant `scalar_rgb`) is an independent peer for our path tracer. The
+conversion keeps everything that matters for an unbiased comparison identical:
+
+* geometry: Mitsuba gets *our* triangle mesh (``Scene.shape_mesh(i)``, world space,
+  counter-clockwise = outward) as a PLY file with ``face_normals`` (no smooth shading
+  normals, which would change refraction at a dielectric boundary);
+* boundary: ``null`` BSDF for index-matched shapes, ``dielectric`` (int_ior, ext_ior = 1)
+  otherwise; the medium is the shape's ``interior`` (homogeneous, ``sigma_t`` as an unbounded
+  sRGB spectrum since it exceeds 1, ``albedo`` rgb, ``hg`` phase);
+* camera: ``perspective`` with ``look_at(origin, target, up)``, ``fov_axis = 'y'`` (our fov is
+  vertical), ``hdrfilm`` with a ``box`` filter (each sample lands in one pixel, uniform jitter);
+  Mitsuba's images are not mirrored against ours (checked in the tests with an asymmetric scene);
+* lights: ``point`` (intensity), ``directional`` (irradiance, direction = direction of travel),
+  ``constant`` environment (radiance), and an area light as a ``rectangle`` whose ``to_world``
+  maps [-1, 1]^2 onto corner + [0, 1] edge1 + [0, 1] edge2 with local +z onto
+  normalize(cross(edge1, edge2)) -- Mitsuba's area emitter emits towards its normal, one-sided,
+  as ours does; its BSDF is black (ours absorbs everything that hits the quad);
+* integrator: ``volpath`` with ``max_depth = -1`` and a huge ``rr_depth`` (Mitsuba's default
+  Russian roulette from depth 5 is unbiased but has enormous variance in dense media).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from typing import Iterable, Sequence
+
+import numpy as np
+
+VARIANT = "scalar_rgb"
+RR_DEPTH = 100000
+
+
+def import_mitsuba(variant: str = VARIANT):
+    """Import Mitsuba with `variant` selected (the variant is process-wide)."""
+    import mitsuba as mi
+
+    if mi.variant() != variant:
+        mi.set_variant(variant)
+    mi.set_log_level(mi.LogLevel.Warn)
+    return mi
+
+
+def write_ply(path: str | os.PathLike, vertices: np.ndarray, triangles: np.ndarray) -> None:
+    """Binary little-endian PLY with float32 positions and uint32 triangle indices."""
+    v = np.ascontiguousarray(vertices, dtype="<f4").reshape(-1, 3)
+    t = np.ascontiguousarray(triangles, dtype="<u4").reshape(-1, 3)
+    header = (
+        "ply\nformat binary_little_endian 1.0\n"
+        f"element vertex {len(v)}\nproperty float x\nproperty float y\nproperty float z\n"
+        f"element face {len(t)}\nproperty list uchar uint vertex_indices\nend_header\n"
+    ).encode("ascii")
+    faces = np.empty(len(t), dtype=[("n", "u1"), ("i", "<u4", (3,))])
+    faces["n"] = 3
+    faces["i"] = t
+    with open(path, "wb") as f:
+        f.write(header)
+        f.write(v.tobytes())
+        f.write(faces.tobytes())
+
+
+def _unbounded(mi, rgb: Sequence[float]) -> dict:
+    return {"type": "srgb", "color": mi.ScalarColor3f(*map(float, rgb)), "unbounded": True}
+
+
+def _rgb(mi, rgb: Sequence[float]) -> dict:
+    return {"type": "rgb", "value": mi.ScalarColor3f(*map(float, rgb))}
+
+
+def _area_light_to_world(mi, corner, edge1, edge2):
+    c = np.asarray(corner, dtype=np.float64)
+    e1 = np.asarray(edge1, dtype=np.float64)
+    e2 = np.asarray(edge2, dtype=np.float64)
+    n = np.cross(e1, e2)
+    n /= np.linalg.norm(n)
+    m = np.eye(4)
+    m[:3, 0] = 0.5 * e1
+    m[:3, 1] = 0.5 * e2
+    m[:3, 2] = n
+    m[:3, 3] = c + 0.5 * (e1 + e2)
+    return mi.ScalarTransform4f(m.tolist())
+
+
+def mitsuba_scene_dict(
+    scene_dict: dict,
+    our_scene,
+    mesh_dir: str | os.PathLike,
+    spp: int,
+    seed: int = 0,
+    rr_depth: int = RR_DEPTH,
+    max_depth: int = -1,
+    variant: str = VARIANT,
+) -> dict:
+    """Translate an sssphere scene dict (plus its loaded Scene, for the meshes) to a Mitsuba
+    `load_dict` dict. Meshes are written as PLY files into `mesh_dir`."""
+    mi = import_mitsuba(variant)
+    cam = scene_dict["camera"]
+    out: dict = {
+        "type": "scene",
+        "integrator": {"type": "volpath", "max_depth": int(max_depth), "rr_depth": int(rr_depth)},
+        "sensor": {
+            "type": "perspective",
+            "fov": float(cam["fov"]),
+            "fov_axis": "y",
+            "to_world": mi.ScalarTransform4f().look_at(
+                origin=[float(x) for x in cam["origin"]],
+                target=[float(x) for x in cam["target"]],
+                up=[float(x) for x in cam.get("up", [0, 1, 0])],
+            ),
+            "sampler": {"type": "independent", "sample_count": int(spp), "seed": int(seed)},
+            "film": {
+                "type": "hdrfilm",
+                "width": int(cam["width"]),
+                "height": int(cam["height"]),
+                "rfilter": {"type": "box"},
+                "pixel_format": "rgb",
+                "component_format": "float32",
+            },
+        },
+    }
+    for i, shape in enumerate(scene_dict["shapes"]):
+        verts, tris = our_scene.shape_mesh(i)
+        ply = os.path.join(os.fspath(mesh_dir), f"shape{i}.ply")
+        write_ply(ply, verts, tris)
+        med = shape["medium"]
+        boundary = shape.get("boundary", {"type": "index_matched"})
+        if boundary["type"] == "dielectric":
+            bsdf = {"type": "dielectric", "int_ior": float(boundary.get("ior", 1.5)), "ext_ior": 1.0}
+        else:
+            bsdf = {"type": "null"}
+        out[f"shape{i}"] = {
+            "type": "ply",
+            "filename": ply,
+            "face_normals": True,
+            "bsdf": bsdf,
+            "interior": {
+                "type": "homogeneous",
+                "sigma_t": _unbounded(mi, med["sigma_t"]),
+                "albedo": _rgb(mi, med["albedo"]),
+                "phase": {"type": "hg", "g": float(med.get("g", 0.0))},
+            },
+        }
+    for j, light in enumerate(scene_dict.get("lights", [])):
+        kind = light["type"]
+        if kind == "point":
+            out[f"light{j}"] = {
+                "type": "point",
+                "position": [float(x) for x in light["position"]],
+                "intensity": _unbounded(mi, light["intensity"]),
+            }
+        elif kind == "directional":
+            out[f"light{j}"] = {
+                "type": "directional",
+                "direction": [float(x) for x in light["direction"]],
+                "irradiance": _unbounded(mi, light["irradiance"]),
+            }
+        elif kind == "environment":
+            out[f"light{j}"] = {"type": "constant", "radiance": _unbounded(mi, light["radiance"])}
+        elif kind == "area":
+            out[f"light{j}"] = {
+                "type": "rectangle",
+                "to_world": _area_light_to_world(mi, light["corner"], light["edge1"], light["edge2"]),
+                "bsdf": {"type": "diffuse", "reflectance": _rgb(mi, [0, 0, 0])},
+                "emitter": {"type": "area", "radiance": _unbounded(mi, light["radiance"])},
+            }
+        else:
+            raise ValueError(f"light type {kind!r} has no Mitsuba translation")
+    return out
+
+
+def load_mitsuba_scene(scene_dict: dict, our_scene, mesh_dir, spp: int, **kw):
+    mi = import_mitsuba(kw.get("variant", VARIANT))
+    return mi.load_dict(mitsuba_scene_dict(scene_dict, our_scene, mesh_dir, spp, **kw))
+
+
+def render_mitsuba(mi_scene, spp: int, seed: int) -> np.ndarray:
+    """One Mitsuba render: (height, width, 3) float64 mean radiance."""
+    import mitsuba as mi
+
+    img = mi.render(mi_scene, spp=int(spp), seed=int(seed))
+    return np.array(img, dtype=np.float64)[:, :, :3]
+
+
+@dataclass
+class SeedStack:
+    """K independent Mitsuba renders: their mean and the variance of that mean per pixel."""
+
+    mean: np.ndarray        # (H, W, 3)
+    var_of_mean: np.ndarray  # (H, W, 3): per-pixel sample variance over the K renders / K
+    renders: np.ndarray     # (K, H, W, 3)
+    seconds: float
+
+
+def render_mitsuba_seeds(mi_scene, spp: int, seeds: Iterable[int]) -> SeedStack:
+    import time
+
+    t0 = time.perf_counter()
+    renders = np.stack([render_mitsuba(mi_scene, spp, s) for s in seeds])
+    seconds = time.perf_counter() - t0
+    k = renders.shape[0]
+    if k < 2:
+        raise ValueError("need at least two seeds for a variance estimate")
+    return SeedStack(
+        mean=renders.mean(axis=0),
+        var_of_mean=renders.var(axis=0, ddof=1) / k,
+        renders=renders,
+        seconds=seconds,
+    )
+
+
+def block_mean(img: np.ndarray, b: int) -> np.ndarray:
+    """Mean over b x b pixel blocks of an (H, W, C) image (H, W multiples of b)."""
+    h, w, c = img.shape
+    if h % b or w % b:
+        raise ValueError(f"image {h}x{w} is not a multiple of the block size {b}")
+    return img.reshape(h // b, b, w // b, b, c).mean(axis=(1, 3))
+
+
+def block_var_of_mean(var: np.ndarray, b: int) -> np.ndarray:
+    """Variance of a block mean from independent per-pixel variances of the pixel means."""
+    return block_mean(var, b) / (b * b)
+
+
+@dataclass
+class Comparison:
+    """Block-mean comparison of two images with independent noise.
+
+    The channels of one image are correlated (with grey sigma_t they share every path), so the
+    chi-square test runs per channel, each at alpha / channels; the |z| test is Bonferroni over
+    all blocks and channels (valid under any dependence). Both hold the family-wise false-alarm
+    rate at about alpha when the images agree and the variance estimates are right.
+    """
+
+    z: np.ndarray             # (by, bx, 3), NaN where both variances are zero
+    chi2: np.ndarray          # (3,) per channel, sum of z^2 over blocks with variance
+    dof: np.ndarray           # (3,) blocks with variance per channel
+    chi2_p: np.ndarray        # (3,) chi-square survival function per channel
+    max_abs_z: float
+    bonferroni_z: float       # |z| threshold for family-wise alpha over all blocks x channels
+    alpha: float
+    zero_var_max_abs_diff: float  # largest |difference| among blocks where both variances are 0
+    mean_ours: np.ndarray     # (3,) image means
+    mean_theirs: np.ndarray
+    rel_diff_mean: np.ndarray  # (3,) (ours - theirs) / theirs
+    rel_diff_mean_sigma: np.ndarray  # (3,) one standard deviation of rel_diff_mean
+
+    @property
+    def chi2_ok(self) -> bool:
+        return bool(np.all(self.chi2_p > self.alpha / len(self.chi2_p)))
+
+    @property
+    def z_ok(self) -> bool:
+        return self.max_abs_z < self.bonferroni_z
+
+    @property
+    def ok(self) -> bool:
+        return self.chi2_ok and self.z_ok
+
+    def summary(self) -> str:
+        def fmt(a, nd=3):
+            return "[" + ", ".join(f"{x:.{nd}g}" for x in np.asarray(a).ravel()) + "]"
+
+        return (
+            f"chi2 per channel {fmt(self.chi2, 4)} on {fmt(self.dof)} blocks, p = {fmt(self.chi2_p)} "
+            f"(limit alpha/3 = {self.alpha / len(self.chi2_p):.3g}); max |z| = {self.max_abs_z:.2f} "
+            f"(Bonferroni limit {self.bonferroni_z:.2f} for alpha = {self.alpha:g}); image means "
+            f"ours {fmt(self.mean_ours, 5)} mitsuba {fmt(self.mean_theirs, 5)}; relative difference "
+            f"{fmt(100 * self.rel_diff_mean, 2)} % (one sigma {fmt(100 * self.rel_diff_mean_sigma, 2)} %)"
+        )
+
+
+def compare(
+    ours: np.ndarray,
+    ours_var: np.ndarray,
+    theirs: np.ndarray,
+    theirs_var: np.ndarray,
+    block: int,
+    alpha: float = 1e-3,
+) -> Comparison:
+    """z-scores of b x b block means; per-channel chi-square and Bonferroni |z| tests."""
+    from scipy import stats
+
+    ours = np.asarray(ours, dtype=np.float64)
+    theirs = np.asarray(theirs, dtype=np.float64)
+    ours_var = np.asarray(ours_var, dtype=np.float64)
+    theirs_var = np.asarray(theirs_var, dtype=np.float64)
+    a, va = block_mean(ours, block), block_var_of_mean(ours_var, block)
+    b, vb = block_mean(theirs, block), block_var_of_mean(theirs_var, block)
+    var = va + vb
+    live = var > 0
+    z = np.full(a.shape, np.nan)
+    z[live] = (a[live] - b[live]) / np.sqrt(var[live])
+    nch = a.shape[2]
+    z2 = np.where(live, np.nan_to_num(z) ** 2, 0.0)
+    chi2 = z2.sum(axis=(0, 1))
+    dof = live.sum(axis=(0, 1))
+    p = np.array([stats.chi2.sf(chi2[c], dof[c]) if dof[c] else 1.0 for c in range(nch)])
+    n_tests = max(int(live.sum()), 1)
+    bonf = float(stats.norm.isf(alpha / (2 * n_tests)))
+    dead = ~live
+    zero_diff = float(np.max(np.abs(a[dead] - b[dead]))) if dead.any() else 0.0
+    n_pix = ours.shape[0] * ours.shape[1]
+    m_a, m_b = ours.mean(axis=(0, 1)), theirs.mean(axis=(0, 1))
+    v_mean = (ours_var.sum(axis=(0, 1)) + theirs_var.sum(axis=(0, 1))) / n_pix**2
+    safe_b = np.where(m_b != 0, m_b, 1.0)
+    rel = np.where(m_b != 0, (m_a - m_b) / safe_b, 0.0)
+    rel_sigma = np.where(m_b != 0, np.sqrt(v_mean) / np.abs(safe_b), 0.0)
+    return Comparison(
+        z=z, chi2=chi2, dof=dof, chi2_p=p,
+        max_abs_z=float(np.max(np.abs(z[live]))) if live.any() else 0.0,
+        bonferroni_z=bonf, alpha=alpha, zero_var_max_abs_diff=zero_diff,
+        mean_ours=m_a, mean_theirs=m_b, rel_diff_mean=rel, rel_diff_mean_sigma=rel_sigma,
+    )
