@@ -153,6 +153,14 @@ PYBIND11_MODULE(_core, m) {
           },
           py::arg("path"), py::arg("image"));
 
+    m.def("read_image",
+          [](const std::string& path) {
+              int w, h, c;
+              std::vector<float> px = read_image(path, &w, &h, &c);
+              return to_array(px, {py::ssize_t(h), py::ssize_t(w), py::ssize_t(c)});
+          },
+          py::arg("path"));
+
     m.def("load_mesh",
           [](const std::string& path) {
               TriangleMesh mesh = load_mesh(path);

@@ -46,4 +46,18 @@ void write_image(const std::string& path, const std::vector<float>& pixels, int 
     if (!out->close()) fail(path, ": cannot finish writing image: ", out->geterror());
 }
 
+std::vector<float> read_image(const std::string& path, int* width, int* height, int* channels) {
+    if (!std::filesystem::exists(path)) fail(path, ": image file does not exist");
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) fail(path, ": cannot read image: ", OIIO::geterror());
+    const OIIO::ImageSpec& spec = in->spec();
+    *width = spec.width;
+    *height = spec.height;
+    *channels = spec.nchannels;
+    std::vector<float> px(size_t(spec.width) * spec.height * spec.nchannels);
+    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, px.data()))
+        fail(path, ": cannot read image: ", in->geterror());
+    return px;
+}
+
 }  // namespace sss

@@ -11,6 +11,10 @@ namespace sss {
 void write_image(const std::string& path, const std::vector<float>& pixels, int width, int height,
                  int channels = 3);
 
+// Reads an image as float (height * width * channels, row 0 at the top); 8-bit files give
+// their stored values / 255 (no colour conversion).
+std::vector<float> read_image(const std::string& path, int* width, int* height, int* channels);
+
 // sRGB encoding of a linear value, clamped to [0, 1].
 float linear_to_srgb(float v);
 

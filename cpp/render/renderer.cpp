@@ -37,9 +37,14 @@ RenderResult render(const Scene& scene, const RenderOptions& opt, const Progress
 
     const int tiles_x = (W + kTile - 1) / kTile, tiles_y = (H + kTile - 1) / kTile;
     const int num_tiles = tiles_x * tiles_y;
-    // Passes: a handful of equal sample ranges, so a cancelled image is uniform.
-    const int num_passes = std::min(opt.spp, 16);
-    auto pass_begin = [&](int p) { return int(int64_t(opt.spp) * p / num_passes); };
+    // Passes of 1, 2, 4, ... samples per pixel up to spp/16, then spp/16 each: an
+    // interrupted render has a uniform, early image and loses at most 1/16 of the work.
+    std::vector<int> pass_starts{0};
+    const int chunk = std::max(1, (opt.spp + 15) / 16);
+    for (int size = 1; pass_starts.back() < opt.spp; size = std::min(2 * size, chunk))
+        pass_starts.push_back(std::min(opt.spp, pass_starts.back() + size));
+    const int num_passes = int(pass_starts.size()) - 1;
+    auto pass_begin = [&](int p) { return pass_starts[p]; };
     const int64_t num_tasks = int64_t(num_tiles) * num_passes;
 
     std::vector<double> sum(size_t(W) * H * 3, 0.0), sum_sq(size_t(W) * H * 3, 0.0);

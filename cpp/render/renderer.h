@@ -1,4 +1,5 @@
-// Film and multithreaded rendering. The image is rendered in passes over 16x16 tiles; each
+// Film and multithreaded rendering. The image is rendered in passes (1, 2, 4, ... samples per
+// pixel, then spp/16 each) over 16x16 tiles; each
 // (pixel, sample) has its own random stream, and tiles merge their passes in order, so the
 // result is bit-identical for any thread count. Cancelling (progress callback returning
 // false) keeps every finished (tile, pass): each pixel is the mean of its own samples.

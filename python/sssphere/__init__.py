@@ -8,7 +8,7 @@ The public API::
 """
 
 from sssphere._core import SceneError
-from sssphere.render import RenderResult, render, render_full, write_image
+from sssphere.render import RenderResult, read_image, render, render_full, write_image
 from sssphere.scene import Scene, load_mesh, load_scene
 
 __all__ = [
@@ -17,6 +17,7 @@ __all__ = [
     "SceneError",
     "load_mesh",
     "load_scene",
+    "read_image",
     "render",
     "render_full",
     "write_image",

@@ -103,6 +103,11 @@ def render(
     return result.image
 
 
+def read_image(path: Union[str, os.PathLike]) -> np.ndarray:
+    """Read an image as (height, width, channels) float32 (8-bit files: stored value / 255)."""
+    return _core.read_image(str(path))
+
+
 def write_image(path: Union[str, os.PathLike], image: np.ndarray) -> None:
     """Write (height, width, 3) linear radiance: .exr as float, .png as 8-bit sRGB."""
     image = np.asarray(image, dtype=np.float32)

@@ -1,0 +1,146 @@
+"""Bad input gets a clear error naming the file, the field, the value and what is allowed:
+never a crash, a hang or a NaN image."""
+
+import json
+import math
+
+import pytest
+
+import sssphere
+from sssphere import SceneError
+
+
+def error_of(scene, **kwargs):
+    with pytest.raises(SceneError) as info:
+        s = sssphere.load_scene(scene, **kwargs)
+        sssphere.render(s, spp=1)
+    return str(info.value)
+
+
+@pytest.mark.parametrize(
+    "edit, expected",
+    [
+        (lambda s: s["camera"].update(zoom=2), ["camera.zoom", "unknown key", "allowed here"]),
+        (lambda s: s.update(materials=[]), ["materials", "unknown key"]),
+        (lambda s: s["camera"].update(fov="wide"), ["camera.fov", "expected a number", "\"wide\""]),
+        (lambda s: s["shapes"][0]["medium"].update(sigma_t=[1, -1, 1]),
+         ["shapes[0].medium.sigma_t", "[1,-1,1]", "[0, 1e7]"]),
+        (lambda s: s["shapes"][0]["medium"].update(albedo=[0.5, 1.5, 0.5]),
+         ["shapes[0].medium.albedo", "[0, 1]"]),
+        (lambda s: s["shapes"][0]["medium"].update(albedo=-0.1), ["medium.albedo", "-0.1"]),
+        (lambda s: s["shapes"][0]["medium"].update(g=1.0), ["medium.g", "-1 < g < 1"]),
+        (lambda s: s["shapes"][0]["medium"].update(g=-1.5), ["medium.g", "-1.5"]),
+        (lambda s: s["render"].update(spp=0), ["render.spp", "1 to"]),
+        (lambda s: s["render"].update(spp=-3), ["render.spp", "-3"]),
+        (lambda s: s["camera"].update(width=100000), ["camera.width", "1 to 16384"]),
+        (lambda s: s["camera"].update(width=16384, height=16384), ["too large"]),
+        (lambda s: s["camera"].update(height=0), ["camera.height", "0"]),
+        (lambda s: s["shapes"][0]["sphere"].update(radius=0), ["sphere.radius", "> 0"]),
+        (lambda s: s["shapes"][0].update(boundary={"type": "glass"}),
+         ["boundary.type", "\"index_matched\", \"dielectric\""]),
+        (lambda s: s["lights"][0].update(intensity=[1, 1]), ["lights[0].intensity", "3 numbers"]),
+        (lambda s: s["lights"].append({"type": "area", "corner": [0, 0, 0], "edge1": [1, 0, 0],
+                                       "edge2": [2, 0, 0], "radiance": 1}),
+         ["lights[2]", "no area"]),
+        (lambda s: s["shapes"][0]["medium"].update(g=math.nan), ["shapes[0].medium.g", "finite"]),
+        (lambda s: s["camera"].update(origin=[0, 0, math.inf]), ["camera.origin[2]", "finite"]),
+        (lambda s: s.update(shapes=[]), ["shapes", "non-empty"]),
+        (lambda s: s["render"].update(integrator="st"), ["integrator 'st'", "allowed"]),
+    ],
+)
+def test_bad_scene_dict_names_field_and_value(small_scene, edit, expected):
+    edit(small_scene)
+    msg = error_of(small_scene)
+    for part in expected:
+        assert part in msg, msg
+
+
+def test_missing_unreadable_and_malformed_files(tmp_path):
+    assert "does not exist" in error_of(tmp_path / "nope.json")
+    assert "is a directory" in error_of(tmp_path)
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"camera": {"origin": [0, 0, 1],}')
+    msg = error_of(bad)
+    assert "bad.json" in msg and "malformed JSON" in msg
+    huge = tmp_path / "huge.json"
+    huge.write_text('{"camera": {"fov": 1e999}}')
+    msg = error_of(huge)
+    assert "huge.json" in msg and "1e999" in msg
+    binary = tmp_path / "binary.json"
+    binary.write_bytes(b"\xff\xfe\x00garbage")
+    assert "binary.json" in error_of(binary)
+
+
+def _write_off(path, verts, faces):
+    lines = ["OFF", f"{len(verts)} {len(faces)} 0"]
+    lines += [" ".join(map(str, v)) for v in verts]
+    lines += [f"{len(f)} " + " ".join(map(str, f)) for f in faces]
+    path.write_text("\n".join(lines) + "\n")
+
+
+CUBE_V = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)]
+CUBE_F = [(0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (2, 3, 7, 6), (1, 2, 6, 5), (0, 4, 7, 3)]
+
+
+@pytest.mark.parametrize(
+    "faces, expected",
+    [
+        (CUBE_F[:-1], "not closed"),
+        (CUBE_F[:-1] + [(0, 4, 4)], "degenerate"),
+        ([], "no faces"),
+    ],
+)
+def test_bad_meshes_are_refused_with_the_file_named(tmp_path, small_scene, faces, expected):
+    _write_off(tmp_path / "m.off", CUBE_V, faces)
+    del small_scene["shapes"][0]["sphere"]
+    small_scene["shapes"][0]["mesh"] = "m.off"
+    small_scene["camera"]["origin"] = [0.5, 0.5, 5]
+    (tmp_path / "scene.json").write_text(json.dumps(small_scene))
+    msg = error_of(tmp_path / "scene.json")
+    assert "shapes[0].mesh" in msg and "m.off" in msg and expected in msg, msg
+
+
+def test_flat_mesh_is_refused(tmp_path, small_scene):
+    # Two triangles back to back: closed and manifold, but no volume.
+    _write_off(tmp_path / "flat.off", [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [(0, 1, 2), (0, 2, 1)])
+    del small_scene["shapes"][0]["sphere"]
+    small_scene["shapes"][0]["mesh"] = str(tmp_path / "flat.off")
+    msg = error_of(small_scene)
+    assert "flat.off" in msg
+
+
+def test_consistently_fixable_orientation_is_fixed(tmp_path):
+    faces = [f if i % 2 else tuple(reversed(f)) for i, f in enumerate(CUBE_F)]
+    _write_off(tmp_path / "cube.off", CUBE_V, faces)
+    v, t = sssphere.load_mesh(tmp_path / "cube.off")
+    a, b, c = v[t[:, 0]], v[t[:, 1]], v[t[:, 2]]
+    volume = (a * (b[:, [1, 2, 0]] * c[:, [2, 0, 1]] - b[:, [2, 0, 1]] * c[:, [1, 2, 0]])).sum() / 6
+    assert volume == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize(
+    "kwargs, expected",
+    [
+        ({"spp": 0}, "spp must be an integer >= 1"),
+        ({"spp": 2.5}, "spp must be an integer"),
+        ({"seed": -1}, "seed must be an integer >= 0"),
+        ({"threads": -2}, "threads must be"),
+        ({"integrator": "mc"}, "integrator 'mc' is not available"),
+    ],
+)
+def test_bad_render_arguments(small_scene, kwargs, expected):
+    scene = sssphere.load_scene(small_scene)
+    with pytest.raises(SceneError, match=expected):
+        sssphere.render(scene, **kwargs)
+
+
+def test_bad_image_paths(tmp_path):
+    import numpy as np
+
+    img = np.zeros((2, 2, 3), np.float32)
+    with pytest.raises(SceneError, match=r"unsupported image format '\.jpg'"):
+        sssphere.write_image(tmp_path / "a.jpg", img)
+    with pytest.raises(SceneError, match="does not exist"):
+        sssphere.write_image(tmp_path / "no" / "a.exr", img)
+    with pytest.raises(SceneError, match="shape"):
+        sssphere.write_image(tmp_path / "a.exr", np.zeros((2, 2, 2), np.float32))

@@ -1,0 +1,91 @@
+"""The command-line renderers: `sssphere render` (Python) and `sssphere-render` (C++)."""
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+import sssphere
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def run_cli(*args, **kwargs):
+    return subprocess.run([sys.executable, "-m", "sssphere.cli", *map(str, args)],
+                          capture_output=True, text=True, timeout=300, **kwargs)
+
+
+def test_render_scene_file_to_exr_and_png(tmp_path, small_scene):
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    r = run_cli("render", tmp_path / "s.json", "-o", tmp_path / "out.exr", "--spp", 3, "--aovs")
+    assert r.returncode == 0, r.stderr
+    assert "wrote" in r.stderr and "3 spp" in r.stderr
+    img = sssphere.read_image(tmp_path / "out.exr")
+    expected = sssphere.render(sssphere.load_scene(small_scene), spp=3)
+    np.testing.assert_array_equal(img, expected)
+    assert (tmp_path / "out_variance.exr").exists() and (tmp_path / "out_events.exr").exists()
+    r = run_cli("render", tmp_path / "s.json", "-o", tmp_path / "out.png", "--quiet")
+    assert r.returncode == 0 and sssphere.read_image(tmp_path / "out.png").shape == (16, 24, 3)
+
+
+@pytest.mark.parametrize(
+    "args, expected",
+    [
+        (["render", "{scene}", "-o", "{tmp}/x.jpg"], "unsupported image format '.jpg'"),
+        (["render", "{tmp}/none.json", "-o", "{tmp}/x.exr"], "none.json: scene file does not exist"),
+        (["render", "{scene}", "-o", "{tmp}/x.exr", "--spp", "0"], "must be >= 1"),
+        (["render", "{scene}", "-o", "{tmp}/x.exr", "--integrator", "st"], "invalid choice"),
+    ],
+)
+def test_cli_errors_are_clear(tmp_path, small_scene, args, expected):
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    args = [a.format(scene=tmp_path / "s.json", tmp=tmp_path) for a in args]
+    r = run_cli(*args)
+    assert r.returncode != 0
+    assert expected in r.stderr, r.stderr
+    assert "Traceback" not in r.stderr
+
+
+def _interrupt_after_start(cmd, tmp_path):
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(2.5)  # scene build and the first passes
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    return proc.returncode, err
+
+
+@pytest.fixture
+def slow_scene(tmp_path, small_scene):
+    small_scene["shapes"][0]["medium"]["sigma_t"] = 100
+    small_scene["shapes"][0]["medium"]["albedo"] = 0.999
+    small_scene["render"]["spp"] = 1 << 16
+    path = tmp_path / "slow.json"
+    path.write_text(json.dumps(small_scene))
+    return path
+
+
+def test_ctrl_c_writes_partial_image_python_cli(tmp_path, slow_scene):
+    out = tmp_path / "partial.exr"
+    code, err = _interrupt_after_start(
+        [sys.executable, "-m", "sssphere.cli", "render", str(slow_scene), "-o", str(out)], tmp_path)
+    assert code == 130, err
+    assert "interrupted: wrote the partial image" in err
+    img = sssphere.read_image(out)
+    assert np.all(np.isfinite(img)) and img.max() > 0
+
+
+def test_ctrl_c_writes_partial_image_cpp_cli(tmp_path, slow_scene):
+    exe = shutil.which("sssphere-render") or os.path.join(REPO, "build", "dev", "cpp", "sssphere-render")
+    if not os.path.exists(exe):
+        pytest.fail("the C++ renderer sssphere-render was not built")
+    out = tmp_path / "partial.png"
+    code, err = _interrupt_after_start([exe, str(slow_scene), "-o", str(out)], tmp_path)
+    assert code == 130, err
+    assert "interrupted; wrote the partial image" in err
+    assert sssphere.read_image(out).shape == (16, 24, 3)

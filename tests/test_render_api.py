@@ -1,0 +1,78 @@
+"""The Python API: shapes, dtypes, determinism, partial renders, image files."""
+
+import json
+import numpy as np
+import pytest
+
+import sssphere
+
+
+def test_render_returns_linear_float_image(small_scene):
+    img = sssphere.render(sssphere.load_scene(small_scene), spp=4)
+    assert img.shape == (16, 24, 3)
+    assert img.dtype == np.float32
+    assert np.all(np.isfinite(img)) and np.all(img >= 0)
+    # A corner ray misses the sphere and sees the environment's radiance exactly.
+    np.testing.assert_array_equal(img[0, 0], np.float32(0.1))
+
+
+def test_same_seed_same_image_any_threads_and_scene_defaults(small_scene):
+    scene = sssphere.load_scene(small_scene)
+    a = sssphere.render(scene, threads=1)  # spp and seed from the scene's render block
+    b = sssphere.render(scene, threads=2)
+    c = sssphere.render(scene, seed=2)
+    np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(a, c)
+
+
+def test_render_full_gives_variance_and_complexity(small_scene):
+    r = sssphere.render_full(small_scene, spp=8)
+    assert r.variance.shape == (16, 24, 3) and np.all(r.variance >= 0)
+    assert r.events.shape == (16, 24)
+    assert np.all(r.samples == 8)
+    # Paths that hit the sphere scatter; background paths do not.
+    assert r.events[8, 12] > 1 and r.events[0, 0] == 0
+    assert r.mean_events_per_path > 0 and not r.interrupted
+
+
+def test_progress_callback_can_stop_early(small_scene):
+    small_scene["render"]["spp"] = 1 << 14
+    small_scene["shapes"][0]["medium"]["sigma_t"] = 200
+    seen = []
+
+    def progress(fraction):
+        seen.append(fraction)
+        return len(seen) < 2
+
+    r = sssphere.render_full(small_scene, progress=progress)
+    assert r.interrupted
+    assert r.samples.sum() < (1 << 14) * r.samples.size
+    assert np.all(np.isfinite(r.image))
+    assert all(0 <= f <= 1 for f in seen)
+
+
+def test_write_exr_keeps_linear_values_and_png_is_srgb(tmp_path, small_scene):
+    img = np.zeros((4, 5, 3), np.float32)
+    img[1, 2] = [2.5, 0.5, 0.0]
+    sssphere.write_image(tmp_path / "a.exr", img)
+    sssphere.write_image(tmp_path / "a.png", img)
+    np.testing.assert_array_equal(sssphere.read_image(tmp_path / "a.exr"), img)
+    png = sssphere.read_image(tmp_path / "a.png")  # as 8-bit sRGB values / 255
+    assert png.shape == (4, 5, 3)
+    srgb_half = 1.055 * 0.5 ** (1 / 2.4) - 0.055
+    np.testing.assert_allclose(png[1, 2], [1.0, round(255 * srgb_half) / 255, 0.0])
+
+
+def test_load_scene_from_file_resolves_mesh_relative_to_it(tmp_path, small_scene):
+    scene = sssphere.load_scene(small_scene)
+    v, f = scene.shape_mesh(0)
+    lines = ["OFF", f"{len(v)} {len(f)} 0"] + [" ".join(map(str, p)) for p in v] + [
+        "3 " + " ".join(map(str, t)) for t in f]
+    (tmp_path / "meshes").mkdir()
+    (tmp_path / "meshes" / "ball.off").write_text("\n".join(lines) + "\n")
+    del small_scene["shapes"][0]["sphere"]
+    small_scene["shapes"][0]["mesh"] = "meshes/ball.off"
+    (tmp_path / "scene.json").write_text(json.dumps(small_scene))
+    s2 = sssphere.load_scene(tmp_path / "scene.json")
+    assert "scene.json" in repr(s2)
+    np.testing.assert_allclose(sssphere.render(s2), sssphere.render(scene), rtol=1e-5, atol=1e-6)
