@@ -314,3 +314,41 @@ def compare(
         bonferroni_z=bonf, alpha=alpha, zero_var_max_abs_diff=zero_diff,
         mean_ours=m_a, mean_theirs=m_b, rel_diff_mean=rel, rel_diff_mean_sigma=rel_sigma,
     )
+
+
+@dataclass
+class AgreementRun:
+    comparison: Comparison
+    ours_seconds: float
+    mitsuba_seconds: float
+    ours_events_per_path: float
+
+
+def compare_with_mitsuba(
+    scene_dict: dict,
+    our_spp: int,
+    mitsuba_spp: int,
+    mitsuba_seeds: Sequence[int],
+    block: int,
+    our_seed: int = 0,
+    alpha: float = 1e-3,
+    mitsuba_scene_dict_override: dict | None = None,
+) -> AgreementRun:
+    """Render `scene_dict` with our PT (one render, its own variance estimate) and with
+    Mitsuba (one render per seed; the variance of their mean from the spread between seeds)
+    and compare block means. `mitsuba_scene_dict_override`, if given, is the sssphere-format
+    scene that Mitsuba renders instead (for negative checks: a deliberately different scene)."""
+    import tempfile
+
+    import sssphere
+
+    ours_scene = sssphere.load_scene(scene_dict)
+    r = sssphere.render_full(ours_scene, spp=our_spp, seed=our_seed, threads=0)
+    mi_src = scene_dict if mitsuba_scene_dict_override is None else mitsuba_scene_dict_override
+    mesh_scene = ours_scene if mi_src is scene_dict else sssphere.load_scene(mi_src)
+    with tempfile.TemporaryDirectory(prefix="sssphere-mitsuba-") as tmp:
+        mi_scene = load_mitsuba_scene(mi_src, mesh_scene, tmp, mitsuba_spp)
+        stack = render_mitsuba_seeds(mi_scene, mitsuba_spp, mitsuba_seeds)
+        del mi_scene
+    cmp = compare(r.image, r.variance, stack.mean, stack.var_of_mean, block, alpha=alpha)
+    return AgreementRun(cmp, r.seconds, stack.seconds, r.mean_events_per_path)
