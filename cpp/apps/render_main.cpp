@@ -59,6 +59,7 @@ int main(int argc, char** argv) {
         sss::SceneDesc desc = sss::load_scene_file(scene_path);
         if (!integrator.empty()) desc.render.integrator = integrator;
         sss::RenderOptions opt;
+        opt.integrator = desc.render.integrator;
         opt.spp = spp > 0 ? int(spp) : desc.render.spp;
         opt.seed = seed >= 0 ? uint64_t(seed) : desc.render.seed;
         opt.threads = int(threads);

@@ -208,6 +208,12 @@ DistanceGrid DistanceGrid::build(const TriangleMesh& mesh, int resolution, int t
     return grid;
 }
 
+bool point_inside_mesh(const TriangleMesh& mesh, Vec3 p) {
+    SurfaceMesh sm = to_surface_mesh(mesh);
+    CGAL::Side_of_triangle_mesh<SurfaceMesh, K> side(sm);
+    return side(Point(p.x, p.y, p.z)) != CGAL::ON_UNBOUNDED_SIDE;
+}
+
 std::vector<double> exact_distances(const TriangleMesh& mesh, const std::vector<Vec3>& points) {
     std::vector<Triangle> tris = cgal_triangles(mesh);
     Tree tree(tris.begin(), tris.end());

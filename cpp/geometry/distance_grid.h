@@ -48,6 +48,9 @@ private:
     std::vector<uint8_t> inside_;
 };
 
+// Whether p lies inside the closed mesh (exact predicate; builds an AABB tree per call).
+bool point_inside_mesh(const TriangleMesh& mesh, Vec3 p);
+
 // Exact distance from p to the mesh (for tests and tools; builds an AABB tree per call).
 std::vector<double> exact_distances(const TriangleMesh& mesh, const std::vector<Vec3>& points);
 

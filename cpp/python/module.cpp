@@ -39,13 +39,15 @@ const Shape& shape_at(const Scene& s, int i) {
     return s.desc().shapes[i];
 }
 
-py::dict render_py(const Scene& scene, int spp, uint64_t seed, int threads, int max_bounces,
-                   py::object progress) {
+py::dict render_py(const Scene& scene, const std::string& integrator, int spp, uint64_t seed, int threads, int max_bounces,
+                   bool nee, py::object progress) {
     RenderOptions opt;
+    opt.integrator = integrator;
     opt.spp = spp;
     opt.seed = seed;
     opt.threads = threads;
     opt.max_bounces = max_bounces;
+    opt.nee = nee;
     bool interrupted = false;
     std::optional<py::error_already_set> callback_error;
     auto cb = [&](double f) -> bool {
@@ -140,8 +142,8 @@ PYBIND11_MODULE(_core, m) {
             return os.str();
         });
 
-    m.def("render", &render_py, py::arg("scene"), py::arg("spp"), py::arg("seed"), py::arg("threads"),
-          py::arg("max_bounces"), py::arg("progress") = py::none());
+    m.def("render", &render_py, py::arg("scene"), py::arg("integrator"), py::arg("spp"), py::arg("seed"), py::arg("threads"),
+          py::arg("max_bounces"), py::arg("nee") = true, py::arg("progress") = py::none());
 
     m.def("write_image",
           [](const std::string& path, py::array_t<float, py::array::c_style | py::array::forcecast> img) {

@@ -36,7 +36,8 @@ Vec3 offset(Vec3 p, Vec3 n, Vec3 w, float eps) { return p + n * (dot(w, n) > 0.f
 
 }  // namespace
 
-PathTracer::PathTracer(const Scene& scene, int max_bounces) : scene_(scene), max_bounces_(max_bounces) {}
+PathTracer::PathTracer(const Scene& scene, int max_bounces, bool nee)
+    : scene_(scene), max_bounces_(max_bounces), nee_(nee) {}
 
 float PathTracer::area_light_pdf(int light, Vec3 p, Vec3 w, float t, Vec3 n) const {
     const Light& l = scene_.desc().lights[light];
@@ -146,6 +147,7 @@ PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
     int shape = -1;          // the shape whose medium holds the photon; -1 = vacuum
     bool specular = true;    // last vertex was the camera or a specular interface
     float phase_pdf = 0.f;   // pdf of the direction sampled at the last scattering event
+    Vec3 scatter_pos;        // where that event happened (light pdfs are measured from it)
 
     for (;;) {
         if (shape < 0) {
@@ -153,7 +155,7 @@ PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
             Hit hit;
             if (!scene_.tracer().intersect(o, d, 0.f, kInf, &hit)) {
                 if (const Light* env = scene_.environment()) {
-                    float w = specular ? 1.f : power_heuristic(phase_pdf, uniform_sphere_pdf());
+                    float w = specular || !nee_ ? 1.f : power_heuristic(phase_pdf, uniform_sphere_pdf());
                     L += beta * env->radiance * w;
                 }
                 break;
@@ -162,8 +164,12 @@ PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
             int light = scene_.area_light_of_mesh(hit.mesh);
             if (light >= 0) {
                 if (dot(d, hit.normal) < 0.f) {
-                    float w = specular ? 1.f
-                                       : power_heuristic(phase_pdf, area_light_pdf(light, o, d, hit.t, hit.normal));
+                    // The light-sampling pdf is that of NEE at the last scattering event,
+                    // so distances count from there, across any index-matched boundaries.
+                    float w = specular || !nee_ ? 1.f
+                                                : power_heuristic(phase_pdf, area_light_pdf(light, scatter_pos, d,
+                                                                                   length(p - scatter_pos),
+                                                                                   hit.normal));
                     L += beta * desc.lights[light].radiance * w;
                 }
                 break;  // emitters absorb
@@ -211,10 +217,11 @@ PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
             if (max_bounces_ >= 0 && int(out.scatter_events) > max_bounces_) break;
             beta *= s.medium.albedo;
             if (is_black(beta)) break;
-            if (!desc.lights.empty()) L += beta * direct_light(o, d, shape, channel, rng);
-            Vec3 wi = hg_sample(d, s.medium.g, rng.uniform(), rng.uniform());
-            phase_pdf = hg_eval(dot(d, wi), s.medium.g);
-            d = wi;
+            if (nee_ && !desc.lights.empty()) L += beta * direct_light(o, d, shape, channel, rng);
+            Vec3 d_new = hg_sample(d, s.medium.g, rng.uniform(), rng.uniform());
+            phase_pdf = hg_eval(dot(d, d_new), s.medium.g);
+            scatter_pos = o;
+            d = d_new;
             specular = false;
             float q = max_component(beta) / beta_start;
             if (q < kRouletteThreshold) {

@@ -19,7 +19,9 @@ struct PathSample {
 
 class PathTracer {
 public:
-    PathTracer(const Scene& scene, int max_bounces);
+    // nee = false: no light sampling, emitters count only when paths hit them (for tests
+    // of the MIS weights, and as the plain estimator).
+    PathTracer(const Scene& scene, int max_bounces, bool nee = true);
     // Radiance arriving at `o` from direction -d (a camera ray o + t d).
     PathSample trace(Vec3 o, Vec3 d, Rng& rng) const;
 
@@ -35,6 +37,7 @@ private:
 
     const Scene& scene_;
     int max_bounces_;
+    bool nee_;
     float total_area_weight_ = 0.f;
 };
 

@@ -31,9 +31,9 @@ RenderResult render(const Scene& scene, const RenderOptions& opt, const Progress
     const int W = cam.width, H = cam.height;
     if (opt.spp <= 0) fail("spp must be >= 1, got ", opt.spp);
     if (opt.threads < 0) fail("threads must be >= 0 (0 = all cores), got ", opt.threads);
-    const std::string& integrator = scene.desc().render.integrator;
-    if (integrator != "pt")
-        fail("integrator '", integrator, "' is not available yet (allowed: \"pt\")");
+    if (opt.integrator != "pt")
+        fail(scene.desc().source, ": integrator '", opt.integrator,
+             "' is not available yet (allowed: \"pt\"; \"st\" comes with the sphere tracer)");
 
     const int tiles_x = (W + kTile - 1) / kTile, tiles_y = (H + kTile - 1) / kTile;
     const int num_tiles = tiles_x * tiles_y;
@@ -53,7 +53,7 @@ RenderResult render(const Scene& scene, const RenderOptions& opt, const Progress
     std::vector<TileState> tiles(num_tiles);
 
     PinholeCamera camera(cam);
-    PathTracer tracer(scene, opt.max_bounces);
+    PathTracer tracer(scene, opt.max_bounces, opt.nee);
     std::atomic<int64_t> next_task{0}, done_samples{0};
     std::atomic<bool> cancel{false};
     std::mutex error_mutex;

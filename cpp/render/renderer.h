@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <string>
 #include <vector>
 
 #include "render/scene.h"
@@ -14,10 +15,12 @@
 namespace sss {
 
 struct RenderOptions {
+    std::string integrator = "pt";
     int spp = 16;
     uint64_t seed = 0;
     int threads = 0;        // 0 = all cores
     int max_bounces = -1;
+    bool nee = true;        // next-event estimation (light sampling with MIS)
 };
 
 struct RenderResult {

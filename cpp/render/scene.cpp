@@ -79,9 +79,9 @@ double number_in(const json& j, const Field& f, double lo, double hi, const char
 
 int64_t integer_in(const json& j, const Field& f, int64_t lo, int64_t hi, const char* allowed) {
     if (!j.is_number_integer()) f.error("expected an integer, got ", type_name(j), " ", show(j));
-    int64_t v = j.is_number_unsigned() && j.get<uint64_t>() > uint64_t(INT64_MAX)
-                    ? INT64_MAX
-                    : j.get<int64_t>();
+    if (j.is_number_unsigned() && j.get<uint64_t>() > uint64_t(INT64_MAX))
+        f.error("value ", show(j), " is not allowed (allowed: ", allowed, ")");
+    int64_t v = j.get<int64_t>();
     if (v < lo || v > hi) f.error("value ", show(j), " is not allowed (allowed: ", allowed, ")");
     return v;
 }
@@ -127,7 +127,7 @@ Camera parse_camera(const json& j, const Field& f) {
     c.origin = vec3(require(j, "origin", f), f.at("origin"));
     c.target = vec3(require(j, "target", f), f.at("target"));
     if (j.contains("up")) c.up = nonzero_vec3(j["up"], f.at("up"));
-    c.fov = float(number_in(require(j, "fov", f), f.at("fov"), 1e-3, 179.0, "degrees in (0, 180)"));
+    c.fov = float(number_in(require(j, "fov", f), f.at("fov"), 1e-3, 179.0, "degrees in [0.001, 179]"));
     c.width = int(integer_in(require(j, "width", f), f.at("width"), 1, 16384, "1 to 16384"));
     c.height = int(integer_in(require(j, "height", f), f.at("height"), 1, 16384, "1 to 16384"));
     if (int64_t(c.width) * c.height > (int64_t(1) << 26))
@@ -135,7 +135,8 @@ Camera parse_camera(const json& j, const Field& f) {
     Vec3 forward = c.target - c.origin;
     if (!(length(forward) > 0.f)) f.at("target").error("target equals origin");
     if (!(length(cross(normalize(forward), normalize(c.up))) > 1e-4f))
-        f.at("up").error("value ", show(j["up"]), " is parallel to the viewing direction");
+        f.at("up").error("value [", c.up.x, ", ", c.up.y, ", ", c.up.z,
+                         "] is parallel to the viewing direction", j.contains("up") ? "" : " (up defaults to [0, 1, 0])");
     return c;
 }
 
@@ -157,7 +158,7 @@ Boundary parse_boundary(const json& j, const Field& f) {
     b.type = type == "dielectric" ? BoundaryType::Dielectric : BoundaryType::IndexMatched;
     if (j.contains("ior")) {
         if (b.type != BoundaryType::Dielectric) f.at("ior").error("only a dielectric boundary has an ior");
-        b.ior = float(number_in(j["ior"], f.at("ior"), 1e-3, 10.0, "a number in (0, 10]"));
+        b.ior = float(number_in(j["ior"], f.at("ior"), 1e-3, 10.0, "a number in [0.001, 10]"));
     }
     return b;
 }
@@ -188,7 +189,7 @@ Shape parse_shape(const json& j, const Field& f, const std::string& base_dir) {
         Field fs = f.at("sphere");
         check_keys(sp, fs, {"center", "radius", "subdivisions"});
         Vec3 center = vec3(require(sp, "center", fs), fs.at("center"));
-        float radius = float(number_in(require(sp, "radius", fs), fs.at("radius"), 1e-30, 1e30, "a radius > 0"));
+        float radius = float(number_in(require(sp, "radius", fs), fs.at("radius"), 1e-30, 1e30, "a radius in [1e-30, 1e30]"));
         int sub = sp.contains("subdivisions")
                       ? int(integer_in(sp["subdivisions"], fs.at("subdivisions"), 0, 7, "0 to 7"))
                       : 5;
@@ -257,7 +258,7 @@ RenderSettings parse_render(const json& j, const Field& f) {
     if (j.contains("integrator")) r.integrator = string_in(j["integrator"], f.at("integrator"), {"pt", "st"});
     if (j.contains("spp")) r.spp = int(integer_in(j["spp"], f.at("spp"), 1, 1 << 24, "1 to 16,777,216"));
     if (j.contains("seed"))
-        r.seed = uint64_t(integer_in(j["seed"], f.at("seed"), 0, INT64_MAX, "an integer >= 0"));
+        r.seed = uint64_t(integer_in(j["seed"], f.at("seed"), 0, INT64_MAX, "an integer in [0, 2^63 - 1]"));
     if (j.contains("max_bounces"))
         r.max_bounces = int(integer_in(j["max_bounces"], f.at("max_bounces"), -1, INT32_MAX, "-1 (no limit) or >= 0"));
     if (j.contains("grid_resolution"))
@@ -335,8 +336,8 @@ Scene::Scene(SceneDesc desc, int threads) : desc_(std::move(desc)), tracer_(std:
     for (const Shape& s : desc_.shapes) grids_.push_back(DistanceGrid::build(s.mesh, desc_.render.grid_resolution, threads));
     for (size_t i = 0; i < desc_.shapes.size(); ++i) {
         Vec3 o = desc_.camera.origin;
-        if (grids_[i].query(o) > 0.f && grids_[i].inside(o))
-            fail(desc_.source, ": camera.origin ", o.x, ", ", o.y, ", ", o.z, " lies inside shape '",
+        if (point_inside_mesh(desc_.shapes[i].mesh, o))
+            fail(desc_.source, ": camera.origin: [", o.x, ", ", o.y, ", ", o.z, "] lies inside shape '",
                  desc_.shapes[i].name, "' (allowed: a camera outside every shape)");
     }
 }

@@ -42,7 +42,8 @@ def _resolve(scene, integrator, spp, seed, threads, max_bounces):
     integrator = scene.integrator if integrator is None else integrator
     if integrator not in INTEGRATORS:
         raise SceneError(
-            f"integrator {integrator!r} is not available (allowed: {', '.join(INTEGRATORS)})"
+            f"{scene.source}: integrator {integrator!r} is not available yet "
+            f"(allowed: {', '.join(repr(i) for i in INTEGRATORS)}; 'st' comes with the sphere tracer)"
         )
     spp = scene.spp if spp is None else spp
     if isinstance(spp, bool) or not isinstance(spp, (int, np.integer)) or spp < 1:
@@ -54,7 +55,7 @@ def _resolve(scene, integrator, spp, seed, threads, max_bounces):
     if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 0:
         raise SceneError(f"threads must be an integer >= 0 (0 = all cores), got {threads!r}")
     max_bounces = scene.max_bounces if max_bounces is None else max_bounces
-    return scene, int(spp), int(seed), int(threads), int(max_bounces)
+    return scene, integrator, int(spp), int(seed), int(threads), int(max_bounces)
 
 
 def render_full(
@@ -65,15 +66,18 @@ def render_full(
     threads: Optional[int] = None,
     max_bounces: Optional[int] = None,
     progress: Optional[Callable[[float], Optional[bool]]] = None,
+    nee: bool = True,
 ) -> RenderResult:
     """Render and return the image with its variance and complexity (see RenderResult).
 
     Settings left as None come from the scene's ``render`` block. ``progress(fraction)``
     is called about ten times a second; returning False stops early. Ctrl-C also stops
     early: the result then has ``interrupted=True`` and holds what was rendered.
+    ``nee=False`` turns off light sampling (emitters count only when paths hit them).
     """
-    scene, spp, seed, threads, max_bounces = _resolve(scene, integrator, spp, seed, threads, max_bounces)
-    r = _core.render(scene, spp, seed, threads, max_bounces, progress)
+    scene, integrator, spp, seed, threads, max_bounces = _resolve(
+        scene, integrator, spp, seed, threads, max_bounces)
+    r = _core.render(scene, integrator, spp, seed, threads, max_bounces, bool(nee), progress)
     paths = max(1, int(r["total_paths"]))
     return RenderResult(
         image=r["image"],
@@ -88,16 +92,17 @@ def render_full(
 
 def render(
     scene: Union[Scene, str, os.PathLike, dict],
-    integrator: Optional[str] = "pt",
+    integrator: Optional[str] = None,
     spp: Optional[int] = None,
     seed: Optional[int] = None,
     threads: Optional[int] = None,
+    nee: bool = True,
 ) -> np.ndarray:
     """Render a scene to a (height, width, 3) float32 array of linear radiance.
 
     Ctrl-C raises KeyboardInterrupt (use render_full to keep a partial image).
     """
-    result = render_full(scene, integrator=integrator, spp=spp, seed=seed, threads=threads)
+    result = render_full(scene, integrator=integrator, spp=spp, seed=seed, threads=threads, nee=nee)
     if result.interrupted:
         raise KeyboardInterrupt
     return result.image

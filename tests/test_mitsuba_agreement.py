@@ -1,0 +1,153 @@
+"""Our path tracer against Mitsuba 3 `volpath` (scalar_rgb), an independent implementation.
+
+Both renderers get the same triangle mesh, camera, lights and media (tests/mitsuba_util.py
+describes the translation). Mitsuba runs with max_depth = -1 and rr_depth = 100000, so neither
+renderer truncates paths: the expected images are identical and any difference must be noise.
+
+The test compares 4 x 4 pixel block means. Our variance of a block mean comes from our own
+per-pixel variance estimate (RenderResult.variance); Mitsuba's from the spread of K independent
+renders (different seeds). With z = (ours - mitsuba) / sqrt(var_ours + var_mitsuba) per block and
+channel, a scene passes when the chi-square of z^2 (per channel, alpha / 3 each) is not
+significant and no |z| exceeds the Bonferroni limit, both at family-wise alpha = 1e-3.
+Nothing is tuned: every tolerance comes from the variance estimates.
+
+Sensitivity (checked by hand): rendering our side with the albedo scaled by 0.95 fails every
+scene by a wide margin.
+
+Runtime: about a minute and a half on 2 cores. Deselect with ``-m 'not slow'``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("scipy")
+pytest.importorskip("mitsuba")
+
+import mitsuba_util as mu  # noqa: E402  (tests/ is on sys.path under pytest's default import mode)
+
+import sssphere  # noqa: E402
+
+BUNNY = "/usr/share/glmark2/models/bunny.obj"
+
+RES = 48            # square images
+BLOCK = 4           # block size for the statistics: 12 x 12 blocks
+OUR_SPP = 2048      # one render of ours
+MI_SPP = 128        # per Mitsuba render ...
+MI_SEEDS = tuple(range(1000, 1016))  # ... times 16 seeds: the same 2048 samples per pixel
+OUR_SEED = 20240601
+ALPHA = 1e-3
+
+
+def _camera(origin, res=RES, fov=30.0):
+    return {"origin": list(origin), "target": [0, 0, 0], "up": [0, 1, 0], "fov": fov,
+            "width": res, "height": res}
+
+
+def scene_thin_sphere_point() -> dict:
+    """(a) A low-density index-matched sphere lit by a point light up and to the right."""
+    return {
+        "camera": _camera([0, 0, 4]),
+        "shapes": [{
+            "sphere": {"center": [0, 0, 0], "radius": 1},
+            "medium": {"sigma_t": [2, 2, 2], "albedo": [0.9, 0.85, 0.8], "g": 0.3},
+            "boundary": {"type": "index_matched"},
+        }],
+        "lights": [{"type": "point", "position": [2.5, 2, 2.5], "intensity": [10, 10, 10]}],
+    }
+
+
+def scene_bunny_directional() -> dict:
+    """(b) The bunny (normalized: largest side 1), moderate density, directional light."""
+    return {
+        "camera": _camera([0, 0.1, 2.6]),
+        "shapes": [{
+            "mesh": BUNNY, "normalize": True,
+            "medium": {"sigma_t": [30, 30, 30], "albedo": [0.95, 0.92, 0.9], "g": 0.2},
+            "boundary": {"type": "index_matched"},
+        }],
+        "lights": [{"type": "directional", "direction": [-0.5, -1, -0.6], "irradiance": [3, 3, 3]}],
+    }
+
+
+def scene_dielectric_sphere_area_env() -> dict:
+    """(c) A dielectric (ior 1.5) sphere under a downward-facing area light, in a constant
+    environment. Shadow rays cannot cross the dielectric boundary (in either renderer), so all
+    light arrives through sampled refraction paths."""
+    return {
+        "camera": _camera([0, 0, 4]),
+        "shapes": [{
+            "sphere": {"center": [0, 0, 0], "radius": 1},
+            "medium": {"sigma_t": [5, 5, 5], "albedo": [0.95, 0.9, 0.85], "g": 0.0},
+            "boundary": {"type": "dielectric", "ior": 1.5},
+        }],
+        "lights": [
+            # normalize(cross(edge1, edge2)) = (0, -1, 0): emits down, towards the sphere.
+            {"type": "area", "corner": [-0.5, 1.6, -0.5], "edge1": [1, 0, 0], "edge2": [0, 0, 1],
+             "radiance": [10, 10, 10]},
+            {"type": "environment", "radiance": [0.2, 0.2, 0.2]},
+        ],
+    }
+
+
+def _halves(img: np.ndarray) -> tuple[float, float, float, float]:
+    g = img.mean(axis=2)
+    h, w = g.shape
+    return g[:, : w // 2].mean(), g[:, w // 2:].mean(), g[: h // 2].mean(), g[h // 2:].mean()
+
+
+@pytest.mark.slow
+def test_camera_orientation_matches(tmp_path):
+    """Before any statistics: the two renderers' images are not mirrored or flipped. A sphere
+    off to the right (+x), lit by a point light up and to the right: both renderers must put
+    the bright side in the top right of the image."""
+    sd = {
+        "camera": _camera([0, 0, 4], res=32),
+        "shapes": [{
+            "sphere": {"center": [0.3, 0, 0], "radius": 0.8, "subdivisions": 4},
+            "medium": {"sigma_t": [2, 2, 2], "albedo": [0.9, 0.9, 0.9], "g": 0.0},
+            "boundary": {"type": "index_matched"},
+        }],
+        "lights": [{"type": "point", "position": [3, 2, 3], "intensity": [10, 10, 10]}],
+    }
+    ours_scene = sssphere.load_scene(sd)
+    ours = sssphere.render_full(ours_scene, spp=64, seed=1).image
+    theirs = mu.render_mitsuba(mu.load_mitsuba_scene(sd, ours_scene, tmp_path, 64), 64, 1)
+    for name, img in (("ours", ours), ("mitsuba", theirs)):
+        left, right, top, bottom = _halves(img)
+        assert right > 2 * left, f"{name}: right half {right} not brighter than left {left}"
+        assert top > 1.2 * bottom, f"{name}: top half {top} not brighter than bottom {bottom}"
+    # Same picture, up to noise: the half-image means agree to a few per cent.
+    np.testing.assert_allclose(_halves(ours), _halves(theirs), rtol=0.05)
+
+
+def _check(scene_dict: dict) -> None:
+    run = mu.compare_with_mitsuba(
+        scene_dict, our_spp=OUR_SPP, mitsuba_spp=MI_SPP, mitsuba_seeds=MI_SEEDS, block=BLOCK,
+        our_seed=OUR_SEED, alpha=ALPHA,
+    )
+    c = run.comparison
+    print(f"\n{c.summary()}\nours {run.ours_seconds:.1f}s ({run.ours_events_per_path:.1f} "
+          f"events/path), mitsuba {run.mitsuba_seconds:.1f}s for {len(MI_SEEDS)} renders")
+    assert c.dof.min() >= 20, f"too few blocks with signal: {c.dof}"
+    # Blocks with no variance in either renderer (pure background) must agree exactly.
+    scale = max(float(np.max(np.abs(c.mean_theirs))), 1e-30)
+    assert c.zero_var_max_abs_diff <= 1e-5 * scale + 1e-7, c.summary()
+    assert c.chi2_ok, c.summary()
+    assert c.z_ok, c.summary()
+
+
+@pytest.mark.slow
+def test_thin_sphere_point_light_matches_mitsuba():
+    _check(scene_thin_sphere_point())
+
+
+@pytest.mark.slow
+def test_bunny_directional_light_matches_mitsuba():
+    _check(scene_bunny_directional())
+
+
+@pytest.mark.slow
+def test_dielectric_sphere_area_and_environment_matches_mitsuba():
+    _check(scene_dielectric_sphere_area_env())
