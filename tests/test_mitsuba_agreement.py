@@ -22,8 +22,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-pytest.importorskip("scipy")
-pytest.importorskip("mitsuba")
+# scipy and mitsuba are test dependencies (pyproject's [test] extra): missing them is an
+# error, never a skip.
+import mitsuba  # noqa: E402,F401
+import scipy  # noqa: E402,F401
 
 import mitsuba_util as mu  # noqa: E402  (tests/ is on sys.path under pytest's default import mode)
 
