@@ -32,7 +32,6 @@ difference). Our renderer's image is the same at all these scales. Compare at sc
 
 from __future__ import annotations
 
-import math
 import os
 from dataclasses import dataclass
 from typing import Iterable, Sequence
