@@ -10,6 +10,7 @@ The public API::
 from sssphere._core import SceneError
 from sssphere.render import RenderResult, read_image, render, render_full, write_image
 from sssphere.scene import Scene, load_mesh, load_scene
+from sssphere.walks import sphere_walks
 
 __all__ = [
     "RenderResult",
@@ -20,6 +21,7 @@ __all__ = [
     "read_image",
     "render",
     "render_full",
+    "sphere_walks",
     "write_image",
 ]
 __version__ = "0.1.0"

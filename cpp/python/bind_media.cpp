@@ -1,0 +1,53 @@
+// Bindings of media/: the canonical sphere walks (numpy in, numpy out).
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <algorithm>
+#include <vector>
+
+#include "media/sphere_walk.h"
+
+namespace py = pybind11;
+
+namespace {
+
+using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
+
+std::vector<float> to_vector(const FloatArray& a) {
+    return std::vector<float>(a.data(), a.data() + a.size());
+}
+
+template <typename T>
+py::array_t<T> to_array(std::vector<T>&& v, std::vector<py::ssize_t> shape) {
+    py::array_t<T> a(shape);
+    std::copy(v.begin(), v.end(), a.mutable_data());
+    return a;
+}
+
+}  // namespace
+
+void bind_media(py::module_& m) {
+    m.def(
+        "sphere_walks",
+        [](const FloatArray& sigma, const FloatArray& g, const FloatArray& albedo, int64_t n,
+           uint64_t seed, uint64_t first_index, int threads) {
+            std::vector<float> s = to_vector(sigma), gg = to_vector(g), a = to_vector(albedo);
+            sss::SphereWalkBatch b;
+            {
+                py::gil_scoped_release release;
+                b = sss::sphere_walks(s, gg, a, n, seed, first_index, threads);
+            }
+            py::dict d;
+            d["N"] = to_array(std::move(b.N), {n});
+            d["cos_theta"] = to_array(std::move(b.cos_theta), {n});
+            d["alpha"] = to_array(std::move(b.alpha), {n});
+            d["beta"] = to_array(std::move(b.beta), {n});
+            d["X"] = to_array(std::move(b.X), {n, 3});
+            d["W"] = to_array(std::move(b.W), {n, 3});
+            return d;
+        },
+        py::arg("sigma_t"), py::arg("g"), py::arg("albedo"), py::arg("n"), py::arg("seed") = 0,
+        py::arg("first_index") = 0, py::arg("threads") = 0,
+        "Canonical unit-sphere walks (see media/sphere_walk.h); parameters are float32 arrays "
+        "of length 1 or n.");
+}

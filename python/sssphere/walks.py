@@ -1,0 +1,78 @@
+"""Ground truth for the learned models: random walks in the canonical unit sphere.
+
+See DESIGN §3 and docs/notation.md ("Sphere walks"): a photon starts at the centre travelling
++z, scatters there (the first event counts) and alternates Henyey-Greenstein scattering with
+exponential flights of optical radius ``sigma_t`` until it leaves the sphere.
+"""
+
+from __future__ import annotations
+
+from typing import Optional, Union
+
+import numpy as np
+
+from sssphere import _core
+
+#: Largest optical radius accepted: the mean number of events grows as sigma_t² (1 − g) / 2.
+MAX_SIGMA_T = 1000.0
+
+ArrayLike = Union[float, np.ndarray, list]
+
+
+def _param(name: str, value: ArrayLike, n: int, lo: float, hi: float, closed_hi: bool) -> np.ndarray:
+    a = np.asarray(value, dtype=np.float64)
+    if a.ndim > 1 or (a.ndim == 1 and a.shape[0] != n):
+        raise ValueError(f"{name} must be a scalar or an array of length n = {n}, got shape {a.shape}")
+    a = a.reshape(-1)
+    bad = ~np.isfinite(a) | (a < lo) | ((a > hi) if closed_hi else (a >= hi))
+    if name == "g":
+        bad |= a <= -1.0
+    if bad.any():
+        i = int(np.argmax(bad))
+        allowed = f"{lo} <= {name} {'<=' if closed_hi else '<'} {hi}"
+        if name == "g":
+            allowed = "-1 < g < 1"
+        raise ValueError(f"{name}[{i}] = {a[i]!r} is out of range (allowed: {allowed})")
+    return a.astype(np.float32)
+
+
+def sphere_walks(
+    sigma_t: ArrayLike,
+    g: ArrayLike,
+    albedo: ArrayLike,
+    n: int,
+    seed: int = 0,
+    threads: Optional[int] = None,
+    first_index: int = 0,
+) -> dict:
+    """Simulate ``n`` walks in the unit sphere (C++, multithreaded).
+
+    Parameters
+    ----------
+    sigma_t, g, albedo : float or (n,) arrays
+        Optical radius σ = σt·r in [0, 1000], HG anisotropy in (−1, 1), albedo φ in [0, 1].
+    n : int >= 1
+    seed : int >= 0
+        Walk i uses the random stream (seed, first_index + i): results do not depend on
+        ``threads`` or on how a large set is split into calls.
+    threads : int, optional
+        Worker threads (None or 0: all cores).
+
+    Returns
+    -------
+    dict of numpy arrays, in the exit frame:
+        ``N`` (n,) int64 >= 1 scattering events (the centre counts),
+        ``cos_theta`` (n,) exit point's z, ``alpha``, ``beta`` (n,) exit direction along b and t,
+        ``X`` (n, 3) representative event position, ``W`` (n, 3) direction arriving at it.
+    """
+    for name, v, lo in (("n", n, 1), ("seed", seed, 0), ("first_index", first_index, 0)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+            raise ValueError(f"{name} must be an integer >= {lo}, got {v!r}")
+    threads = 0 if threads is None else threads
+    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 0:
+        raise ValueError(f"threads must be an integer >= 0 (0 = all cores), got {threads!r}")
+    n = int(n)
+    s = _param("sigma_t", sigma_t, n, 0.0, MAX_SIGMA_T, True)
+    gg = _param("g", g, n, -1.0, 1.0, False)
+    a = _param("albedo", albedo, n, 0.0, 1.0, True)
+    return _core.sphere_walks(s, gg, a, n, int(seed), int(first_index), int(threads))

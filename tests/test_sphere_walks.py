@@ -1,0 +1,119 @@
+"""The ground-truth sphere-walk generator (sssphere.sphere_walks) against facts that need no
+simulation, and against an independent NumPy implementation (tests/reference_walks.py)."""
+
+import numpy as np
+import pytest
+from scipy import stats
+
+import sssphere
+from reference_walks import reference_sphere_walks
+
+KEYS = ("N", "cos_theta", "alpha", "beta", "X", "W")
+
+
+def hg_cdf(c, g):
+    """CDF of cos θ under Henyey–Greenstein."""
+    if abs(g) < 1e-3:
+        return 0.5 * (1 + c)
+    return (1 - g * g) / (2 * g) * (1 / np.sqrt(1 + g * g - 2 * g * c) - 1 / (1 + g))
+
+
+@pytest.mark.parametrize("sigma", [0.5, 2.0, 6.0])
+def test_single_event_probability_is_exp_minus_sigma(sigma):
+    n = 100_000
+    N = sssphere.sphere_walks(sigma, 0.0, 1.0, n, seed=3)["N"]
+    p = np.exp(-sigma)
+    assert abs(np.mean(N == 1) - p) <= 4.5 * np.sqrt(p * (1 - p) / n)
+
+
+@pytest.mark.parametrize("g", [-0.7, 0.0, 0.9])
+def test_vanishing_sigma_exits_along_the_first_hg_direction(g):
+    d = sssphere.sphere_walks(1e-6, g, 0.5, 50_000, seed=1)
+    assert np.all(d["N"] == 1)
+    assert np.all(np.abs(d["alpha"]) < 1e-3) and np.all(np.abs(d["beta"]) < 1e-3)
+    assert np.all(d["X"] == 0) and np.all(d["W"] == [0, 0, 1])
+    assert stats.kstest(d["cos_theta"], lambda c: hg_cdf(c, g)).pvalue > 1e-4
+
+
+@pytest.mark.parametrize("g", [-0.5, 0.0, 0.5])
+def test_diffusion_limit_mean_events(g):
+    # Diffusion: E[N] = σ²(1 − g)/2 (1 + O(1/σ')) with σ' = σ(1 − g); the leading correction
+    # is the extrapolated boundary, 2 × 0.7104/σ' (measured here: 1.3–1.9/σ').
+    sigma, n = 100.0, 20_000
+    N = sssphere.sphere_walks(sigma, g, 1.0, n, seed=5, threads=2)["N"].astype(np.float64)
+    scale = sigma * sigma * (1 - g) / 2
+    ratio, se = N.mean() / scale, N.std() / np.sqrt(n) / scale
+    sigma_prime = sigma * (1 - g)
+    assert -4 * se <= ratio - 1 <= 2.5 / sigma_prime + 4 * se
+
+
+def test_outputs_are_well_formed():
+    n = 20_000
+    d = sssphere.sphere_walks(np.linspace(0, 30, n), np.linspace(-0.9, 0.9, n), 0.95, n, seed=2)
+    assert set(d) == set(KEYS)
+    assert d["N"].dtype == np.int64 and d["N"].shape == (n,)
+    assert d["X"].shape == (n, 3) and d["W"].shape == (n, 3)
+    assert np.all(d["N"] >= 1)
+    assert np.all(np.abs(d["cos_theta"]) <= 1)
+    assert np.all(d["alpha"] ** 2 + d["beta"] ** 2 <= 1)
+    assert np.all(np.linalg.norm(d["X"], axis=1) <= 1 + 1e-6)
+    np.testing.assert_allclose(np.linalg.norm(d["W"], axis=1), 1, atol=1e-5)
+
+
+def test_reproducible_for_any_thread_count_and_split():
+    args = (15.0, 0.3, 0.99, 4000)
+    a = sssphere.sphere_walks(*args, seed=9, threads=1)
+    b = sssphere.sphere_walks(*args, seed=9, threads=2)
+    tail = sssphere.sphere_walks(15.0, 0.3, 0.99, 1000, seed=9, first_index=3000)
+    c = sssphere.sphere_walks(*args, seed=10)
+    for k in KEYS:
+        np.testing.assert_array_equal(a[k], b[k])
+        np.testing.assert_array_equal(a[k][3000:], tail[k])
+    assert not np.array_equal(a["N"], c["N"])
+
+
+@pytest.mark.parametrize("sigma,g,albedo", [(4.0, 0.4, 0.9), (10.0, -0.7, 0.99), (1.5, 0.9, 1.0)])
+def test_agrees_with_the_numpy_reference(sigma, g, albedo):
+    n = 20_000
+    ours = sssphere.sphere_walks(sigma, g, albedo, n, seed=11)
+    ref = reference_sphere_walks(sigma, g, albedo, n, seed=12)
+    columns = {
+        "N": lambda d: d["N"],
+        "cos_theta": lambda d: d["cos_theta"],
+        "alpha": lambda d: d["alpha"],
+        "beta": lambda d: d["beta"],
+        "|X|": lambda d: np.linalg.norm(d["X"], axis=1),
+        "X_z": lambda d: d["X"][:, 2],
+        "W_z": lambda d: d["W"][:, 2],
+        "W_x": lambda d: d["W"][:, 0],
+    }
+    # Two-sample KS per column; 8 columns × 3 cases at family-wise level ~1e-3. Values are
+    # rounded to 1e-6 so that the atoms (α = β = 0 and X = 0 for N = 1) are not split by
+    # rounding noise of either implementation.
+    for name, f in columns.items():
+        p = stats.ks_2samp(np.round(f(ours), 6), np.round(f(ref), 6)).pvalue
+        assert p > 1e-3 / 24, f"{name}: KS p-value {p:.2e}"
+
+
+@pytest.mark.parametrize(
+    "kwargs,match",
+    [
+        (dict(sigma_t=-1.0), "sigma_t"),
+        (dict(sigma_t=float("nan")), "sigma_t"),
+        (dict(sigma_t=5000.0), "sigma_t"),
+        (dict(g=1.0), "g"),
+        (dict(g=-1.0), "g"),
+        (dict(albedo=1.5), "albedo"),
+        (dict(sigma_t=np.ones(3)), "length n"),
+        (dict(g=np.zeros((10, 1))), "length n"),
+        (dict(n=0), "n must be"),
+        (dict(n=2.5), "n must be"),
+        (dict(seed=-1), "seed"),
+        (dict(threads=-2), "threads"),
+    ],
+)
+def test_bad_input_is_named(kwargs, match):
+    args = dict(sigma_t=1.0, g=0.0, albedo=1.0, n=10)
+    args.update(kwargs)
+    with pytest.raises(ValueError, match=match):
+        sssphere.sphere_walks(**args)
