@@ -93,20 +93,23 @@ def _block_z(a, b, block=4):
     return diff[keep] / np.sqrt(var[keep]), int(keep.sum())
 
 
-@pytest.mark.parametrize("light", ["area", "environment"])
-def test_nee_with_mis_agrees_with_plain_path_tracing(small_scene, light):
+AREA_LIGHT = {"type": "area", "corner": [-2, 1.5, 2], "edge1": [0, 0, -4], "edge2": [4, 0, 0],
+              "radiance": [1, 1, 1]}
+ENVIRONMENT = {"type": "environment", "radiance": [1, 0.5, 0.25]}
+
+
+@pytest.mark.parametrize("lights", [[AREA_LIGHT], [ENVIRONMENT], [AREA_LIGHT, ENVIRONMENT]],
+                         ids=["area", "environment", "area+environment"])
+def test_nee_with_mis_agrees_with_plain_path_tracing(small_scene, lights):
     """Light sampling + MIS (the default) and pure phase sampling estimate the same image.
 
     An area light above an index-matched sphere catches MIS weights measured from the wrong
-    point; the test compares 4x4 block means by a chi-square test on their z-scores.
+    point; two lights catch a light-selection probability missing from (or counted twice in)
+    the weights. The test compares 4x4 block means by a chi-square test on their z-scores.
     """
     from scipy import stats
 
-    small_scene["lights"] = [
-        {"type": "area", "corner": [-2, 1.5, 2], "edge1": [0, 0, -4], "edge2": [4, 0, 0],
-         "radiance": [1, 1, 1]}
-        if light == "area" else {"type": "environment", "radiance": [1, 0.5, 0.25]}
-    ]
+    small_scene["lights"] = lights
     small_scene["shapes"][0]["medium"].update(sigma_t=[1, 1, 1], albedo=[0.9, 0.9, 0.9], g=0.0)
     scene = sssphere.load_scene(small_scene)
     with_nee = sssphere.render_full(scene, spp=256, seed=1)

@@ -83,10 +83,16 @@ Vec3 PathTracer::direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng) 
         shadow_weight = 1.f / q;
     }
 
-    Vec3 sum(0.f);
+    // One light per event, chosen uniformly: the estimate is weighted by n_lights, and the
+    // light-sampling pdfs in the MIS weights carry the selection probability 1 / n_lights
+    // (as on emission hits in trace()).
+    const auto& lights = scene_.desc().lights;
+    const float n_lights = float(lights.size());
+    const size_t i = std::min(lights.size() - 1, size_t(rng.uniform() * n_lights));
+    const Light& l = lights[i];
     const float g = s.medium.g;
-    for (size_t i = 0; i < scene_.desc().lights.size(); ++i) {
-        const Light& l = scene_.desc().lights[i];
+    Vec3 sum(0.f);
+    {
         switch (l.type) {
             case Light::Type::Point: {
                 Vec3 to = l.position - p;
@@ -114,7 +120,7 @@ Vec3 PathTracer::direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng) 
                 float pdf = area_light_pdf(int(i), p, w, dist, n);
                 float phase = hg_eval(dot(d, w), g);
                 Vec3 tr = transmittance(p, w, dist * (1.f - 1e-4f), shape);
-                sum += l.radiance * tr * (phase * power_heuristic(pdf, phase) / pdf);
+                sum += l.radiance * tr * (phase * power_heuristic(pdf / n_lights, phase) / pdf);
                 break;
             }
             case Light::Type::Environment: {
@@ -122,12 +128,12 @@ Vec3 PathTracer::direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng) 
                 float pdf = uniform_sphere_pdf();
                 float phase = hg_eval(dot(d, w), g);
                 Vec3 tr = transmittance(p, w, kInf, shape);
-                sum += l.radiance * tr * (phase * power_heuristic(pdf, phase) / pdf);
+                sum += l.radiance * tr * (phase * power_heuristic(pdf / n_lights, phase) / pdf);
                 break;
             }
         }
     }
-    return sum * shadow_weight;
+    return sum * (shadow_weight * n_lights);
 }
 
 PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
@@ -144,6 +150,8 @@ PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
         beta[channel] = 3.f;
     }
     const float beta_start = max_component(beta);
+    // NEE picks one light uniformly: the light-sampling pdfs in MIS weights carry 1/n.
+    const float light_select_pdf = desc.lights.empty() ? 0.f : 1.f / float(desc.lights.size());
     int shape = -1;          // the shape whose medium holds the photon; -1 = vacuum
     bool specular = true;    // last vertex was the camera or a specular interface
     float phase_pdf = 0.f;   // pdf of the direction sampled at the last scattering event
@@ -155,7 +163,8 @@ PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
             Hit hit;
             if (!scene_.tracer().intersect(o, d, 0.f, kInf, &hit)) {
                 if (const Light* env = scene_.environment()) {
-                    float w = specular || !nee_ ? 1.f : power_heuristic(phase_pdf, uniform_sphere_pdf());
+                    float w = specular || !nee_ ? 1.f
+                                                : power_heuristic(phase_pdf, uniform_sphere_pdf() * light_select_pdf);
                     L += beta * env->radiance * w;
                 }
                 break;
@@ -167,7 +176,8 @@ PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
                     // The light-sampling pdf is that of NEE at the last scattering event,
                     // so distances count from there, across any index-matched boundaries.
                     float w = specular || !nee_ ? 1.f
-                                                : power_heuristic(phase_pdf, area_light_pdf(light, scatter_pos, d,
+                                                : power_heuristic(phase_pdf, light_select_pdf *
+                                                                                 area_light_pdf(light, scatter_pos, d,
                                                                                    length(p - scatter_pos),
                                                                                    hit.normal));
                     L += beta * desc.lights[light].radiance * w;

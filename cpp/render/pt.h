@@ -1,6 +1,6 @@
 // The ground-truth volumetric path tracer (integrator "pt"): delta tracking in homogeneous
 // media with Henyey-Greenstein scattering, index-matched and smooth dielectric boundaries,
-// next-event estimation at every scattering event (MIS with phase sampling for area and
+// next-event estimation toward one light at every scattering event (MIS with phase sampling for area and
 // environment lights). See docs/notation.md for the conventions.
 #pragma once
 
@@ -26,8 +26,9 @@ public:
     PathSample trace(Vec3 o, Vec3 d, Rng& rng) const;
 
 private:
-    // Sum over lights of phase x transmittance x emitted radiance / pdf at medium point p of
-    // shape `shape`, for a photon travelling along d before scattering.
+    // Phase x transmittance x emitted radiance / pdf at medium point p of shape `shape`, for a
+    // photon travelling along d before scattering, from one light chosen uniformly (weighted
+    // by the number of lights).
     Vec3 direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng) const;
     // Transmittance from p (inside shape `shape`, or -1 for vacuum) along unit w over
     // `dist`; 0 when a dielectric boundary or an emitter is in the way.
@@ -38,7 +39,6 @@ private:
     const Scene& scene_;
     int max_bounces_;
     bool nee_;
-    float total_area_weight_ = 0.f;
 };
 
 }  // namespace sss
