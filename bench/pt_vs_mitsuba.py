@@ -8,9 +8,9 @@ same samples per pixel. Mitsuba runs with max_depth = -1 and rr_depth = 100000 s
 computes the same unbiased estimate as ours (its defaults, Russian roulette from depth 5, are
 4-5x faster in dense media and wrong or very noisy there).
 
-Equal spp is not equal quality: at every scattering event ours traces a shadow ray to *every*
-light (two here), Mitsuba to one sampled emitter; `--lights directional` or `--lights
-environment` compares with one light each. Mitsuba's image is dark in dense media by its
+Both trace one shadow ray per scattering event, to one light chosen uniformly (Mitsuba:
+one sampled emitter); `--lights directional` or `--lights environment` compares with a single
+light. Mitsuba's image is dark in dense media by its
 ray-spawn offset at the null interface (tests/mitsuba_util.py; about 1 % at sigma_t = 1000).
 
 Timed: our `render_full` (the scene is loaded and its distance grid built before the clock

@@ -1,4 +1,4 @@
-"""The `sssphere` command line: `sssphere render SCENE.json -o out.exr`."""
+"""The `sssphere` command line: `sssphere render SCENE.json -o out.exr`, `sssphere datagen`, ..."""
 
 from __future__ import annotations
 
@@ -101,6 +101,71 @@ def _cmd_render(args: argparse.Namespace) -> int:
     return 130 if result.interrupted else 0
 
 
+def _cmd_datagen(args: argparse.Namespace) -> int:
+    from sssphere.learn.datagen import datagen
+
+    bar = ProgressBar(f"simulating {args.samples} sphere walks", enabled=not args.quiet)
+    try:
+        data, interrupted, seconds = datagen(args.samples, args.output, seed=args.seed,
+                                             threads=args.threads, progress=bar)
+    except ValueError as e:
+        raise SceneError(str(e)) from None
+    finally:
+        bar.close()
+    n = len(data["N"])
+    what = "interrupted: wrote the walks finished so far to" if interrupted else "wrote"
+    print(f"{what} {args.output} ({n} walks in {seconds:.1f}s, {n / max(seconds, 1e-9):,.0f} "
+          f"walks/s; mean N {data['N'].mean() if n else 0:.1f}, "
+          f"P(N = 1) {np.mean(data['N'] == 1) if n else 0:.3f})", file=sys.stderr)
+    return 130 if interrupted else 0
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not value > 0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
+    return value
+
+
+def _learn_modules():
+    """The torch side of sssphere.learn, or a clear error if the `learn` extra is missing."""
+    try:
+        from sssphere.learn import export, train
+    except ImportError as e:
+        raise SystemExit(f"sssphere: error: this command needs the 'learn' extra "
+                         f"(pip install 'sssphere[learn]'): {e}") from None
+    return train, export
+
+
+def _cmd_train(args: argparse.Namespace) -> int:
+    from sssphere.learn.data import DataError
+
+    train, _ = _learn_modules()
+    try:
+        train.train(args.data, args.output, epochs=args.epochs, seed=args.seed,
+                    max_minutes=args.max_minutes, progress=not args.quiet)
+    except (DataError, ValueError, FloatingPointError) as e:  # DataError: a bad data file
+        print(f"sssphere: error: {e}", file=sys.stderr)
+        return 1
+    if args.quiet:
+        print(f"wrote the models to {args.output}", file=sys.stderr)
+    return 0
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    _, export = _learn_modules()
+    try:
+        files = export.export_checkpoint(args.checkpoint, args.output)
+    except export.CheckpointError as e:
+        print(f"sssphere: error: {e}", file=sys.stderr)
+        return 1
+    print(f"wrote {', '.join(str(f) for f in files)}", file=sys.stderr)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="sssphere", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -115,6 +180,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="also write OUT_variance.exr and OUT_events.exr (scattering events per path)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     r.set_defaults(func=_cmd_render)
+
+    d = sub.add_parser("datagen", help="simulate sphere walks as training data (.npz)")
+    d.add_argument("--samples", type=_positive_int, default=4_000_000, help="number of walks")
+    d.add_argument("-o", "--output", required=True, help="output file (.npz)")
+    d.add_argument("--seed", type=_non_negative_int, default=0, help="random seed")
+    d.add_argument("--threads", type=_non_negative_int, default=0, help="worker threads (0 = all cores)")
+    d.add_argument("--quiet", action="store_true", help="no progress bar")
+    d.set_defaults(func=_cmd_datagen)
     return parser
 
 
