@@ -17,6 +17,8 @@
 namespace py = pybind11;
 using namespace sss;
 
+void bind_nn(py::module_& m);  // bind_nn.cpp
+
 namespace {
 
 template <typename T>
@@ -92,6 +94,7 @@ py::dict render_py(const Scene& scene, const std::string& integrator, int spp, u
 PYBIND11_MODULE(_core, m) {
     m.doc() = "sssphere native core (private; use the sssphere package)";
     py::register_exception<Error>(m, "SceneError", PyExc_ValueError);
+    bind_nn(m);
 
     py::class_<Scene, std::shared_ptr<Scene>>(m, "Scene")
         .def(py::init([](const std::string& text, const std::string& base_dir, const std::string& source,
