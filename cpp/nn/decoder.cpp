@@ -14,14 +14,6 @@
 
 namespace sss {
 
-float Encoding::encode(float x) const {
-    return kind == Kind::Affine ? a * x + b : a * std::log(s * x + c) + b;
-}
-
-float Encoding::decode(float e) const {
-    return kind == Kind::Affine ? (e - b) / a : (std::exp((e - b) / a) - c) / s;
-}
-
 const Range* Decoder::training_range(const std::string& param) const {
     for (const auto& [name, range] : training_ranges)
         if (name == param) return &range;

@@ -4,6 +4,7 @@
 // (nn/simd_decoder.h) and the GLSL decoder are tested against `evaluate_reference`.
 #pragma once
 
+#include <cmath>
 #include <string>
 #include <utility>
 #include <vector>
@@ -24,8 +25,9 @@ struct Encoding {
     float a = 1.f, b = 0.f, s = 1.f, c = 0.f;  // s, c used by Log only
 
     bool in_domain(float x) const { return kind == Kind::Affine || s * x + c > 0.f; }
-    float encode(float x) const;  // undefined outside the domain: check in_domain first
-    float decode(float e) const;
+    // Undefined outside the domain: check in_domain first.
+    float encode(float x) const { return kind == Kind::Affine ? a * x + b : a * std::log(s * x + c) + b; }
+    float decode(float e) const { return kind == Kind::Affine ? (e - b) / a : (std::exp((e - b) / a) - c) / s; }
 };
 
 // A named variable (condition or output) and its encoding.

@@ -259,6 +259,41 @@ TEST(ScatteringModel, ScalarAndSimdSamplesAgree) {
     RecordProperty("n_differs", n_differs);
 }
 
+// A group of steps gives the same samples, bit for bit, as the steps one at a time, whatever
+// the group size and however many of its steps take the N = 1 shortcut.
+TEST(ScatteringModel, GroupEqualsSingleSteps) {
+    ScatteringModel m = random_model(5);
+    for (DecoderImpl impl : {DecoderImpl::Simd, DecoderImpl::Scalar}) {
+        for (int K : {1, 3, 8, 16}) {
+            for (bool event : {false, true}) {
+                float sigma[16], g[16], phi[16];
+                Rng param(3, K);
+                for (int k = 0; k < K; ++k) {
+                    sigma[k] = k % 3 == 0 ? 0.2f : 30.f * param.uniform();
+                    g[k] = 1.8f * param.uniform() - 0.9f;
+                    phi[k] = param.uniform();
+                }
+                std::vector<Rng> group, single;
+                for (int k = 0; k < K; ++k) {
+                    group.emplace_back(21, K, k);
+                    single.emplace_back(21, K, k);
+                }
+                SphereStep out[16];
+                m.sample_group(K, sigma, g, phi, group.data(), event, impl, out);
+                for (int k = 0; k < K; ++k) {
+                    EXPECT_TRUE(same(out[k], m.sample(sigma[k], g[k], phi[k], single[k], event, impl))) << K << " " << k;
+                    EXPECT_EQ(group[k].next_u32(), single[k].next_u32());
+                }
+            }
+        }
+    }
+    float s = 300.f, g = 0.f, phi = 0.5f;
+    Rng rng(1);
+    SphereStep out;
+    EXPECT_HAS(error_of([&] { m.sample_group(1, &s, &g, &phi, &rng, true, DecoderImpl::Simd, &out); }), "sigma[0] = 300");
+    EXPECT_HAS(error_of([&] { m.sample_group(17, &s, &g, &phi, &rng, true, DecoderImpl::Simd, &out); }), "count 17");
+}
+
 TEST(ScatteringModel, BatchIsIndependentOfThreadCount) {
     ScatteringModel m = random_model(4);
     const size_t n = 3001;

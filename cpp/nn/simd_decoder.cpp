@@ -22,8 +22,9 @@
 #define SSS_NN_SIMD_DECODER_CONSTANTS
 namespace sss::simd_detail {
 constexpr float kTwoPi = 6.28318530717958647692f;
-// Activation buffers up to this many floats live on the stack.
-constexpr int kStackFloats = 256;
+// Activation buffers of up to kMaxPaths paths of this many floats live on the stack.
+constexpr int kStackFloats = 64;
+constexpr int kMaxPaths = 16;
 // Slack after every padded array: the widest vector (16 floats) may run past a multiple of 4.
 constexpr int kSlack = 16;
 }  // namespace sss::simd_detail
@@ -99,63 +100,82 @@ HWY_INLINE void WithBlockTag(int n, F&& f) {
     else f(hn::CappedTag<float, 4>());
 }
 
-// Runs the network; returns the last layer's padded outputs [means | log-variances] in one
-// of the two buffers.
-HWY_INLINE const float* RunNet(const SimdDecoder& net, const float* HWY_RESTRICT x, float* HWY_RESTRICT buf0,
-                               float* HWY_RESTRICT buf1) {
+// Runs the network for K inputs (path k at x + k * input_width). Each layer writes path k's
+// padded outputs at out + k * out_pad, so one layer of all K paths is one contiguous array:
+// Softplus runs over it with the widest vectors, and the K independent dependency chains
+// overlap in the out-of-order core. Returns the last layer's outputs, path k's
+// [means | log-variances] at k * 2 * output_half().
+HWY_INLINE const float* RunNet(const SimdDecoder& net, int K, const float* HWY_RESTRICT x,
+                               float* HWY_RESTRICT buf0, float* HWY_RESTRICT buf1) {
     const float* data = net.data();
     const float* in = x;
+    int in_stride = net.input_width();
     float* out = buf0;
     for (const SimdDecoder::Layer& L : net.layers()) {
         const float* wt = data + L.weight;
         const float* bias = data + L.bias;
-        WithBlockTag(L.out_pad, [&](auto d) { MatVec(d, wt, bias, in, L.in, L.out_pad, out); });
-        if (L.softplus) WithBlockTag(L.out_pad, [&](auto d) { SoftplusInPlace(d, out, L.out_pad); });
+        WithBlockTag(L.out_pad, [&](auto d) {
+            for (int k = 0; k < K; ++k)
+                MatVec(d, wt, bias, in + k * in_stride, L.in, L.out_pad, out + k * L.out_pad);
+        });
+        if (L.softplus) WithBlockTag(K * L.out_pad, [&](auto d) { SoftplusInPlace(d, out, K * L.out_pad); });
         in = out;
+        in_stride = L.out_pad;
         out = out == buf0 ? buf1 : buf0;
     }
     return in;
 }
 
+// Calls f(buf0, buf1) with two activation buffers for K paths.
 template <class F>
-HWY_INLINE void WithScratch(const SimdDecoder& net, F&& f) {
-    if (net.scratch_floats() <= kStackFloats) {
-        HWY_ALIGN float buf[2][kStackFloats + kSlack];
+HWY_INLINE void WithScratch(const SimdDecoder& net, int K, F&& f) {
+    if (K <= kMaxPaths && net.scratch_floats() <= kStackFloats) {
+        HWY_ALIGN float buf[2][kMaxPaths * kStackFloats + kSlack];
         f(buf[0], buf[1]);
     } else {
-        std::vector<float> heap(2 * size_t(net.scratch_floats() + kSlack));
-        f(heap.data(), heap.data() + net.scratch_floats() + kSlack);
+        size_t n = size_t(K) * net.scratch_floats() + kSlack;
+        std::vector<float> heap(2 * n);
+        f(heap.data(), heap.data() + n);
     }
 }
 
-void EvaluateNet(const SimdDecoder* net, const float* x, float* mean, float* logvar) {
-    WithScratch(*net, [&](float* b0, float* b1) {
-        const float* y = RunNet(*net, x, b0, b1);
-        std::copy(y, y + net->num_outputs(), mean);
-        std::copy(y + net->output_half(), y + net->output_half() + net->num_outputs(), logvar);
+void EvaluateNet(const SimdDecoder* net, int K, const float* x, float* mean, float* logvar) {
+    WithScratch(*net, K, [&](float* b0, float* b1) {
+        const float* y = RunNet(*net, K, x, b0, b1);
+        const int half = net->output_half(), n = net->num_outputs();
+        for (int k = 0; k < K; ++k) {
+            const float* yk = y + 2 * k * half;
+            std::copy(yk, yk + n, mean + k * n);
+            std::copy(yk + half, yk + half + n, logvar + k * n);
+        }
     });
 }
 
-void SampleNet(const SimdDecoder* net, const float* x, const float* eps, float* u) {
-    WithScratch(*net, [&](float* b0, float* b1) {
-        const float* y = RunNet(*net, x, b0, b1);
+void SampleNet(const SimdDecoder* net, int K, const float* x, const float* eps, float* u) {
+    WithScratch(*net, K, [&](float* b0, float* b1) {
+        const float* y = RunNet(*net, K, x, b0, b1);
         const int half = net->output_half(), n = net->num_outputs();
-        HWY_ALIGN float e[kStackFloats / 2 + kSlack] = {};
-        HWY_ALIGN float r[kStackFloats / 2 + kSlack];
-        if (half > kStackFloats / 2) {  // very wide outputs: not vectorized
-            for (int i = 0; i < n; ++i) u[i] = y[i] + std::exp(0.5f * y[half + i]) * eps[i];
+        if (half > kStackFloats) {  // very wide outputs: not vectorized
+            for (int k = 0; k < K; ++k)
+                for (int i = 0; i < n; ++i)
+                    u[k * n + i] = y[2 * k * half + i] + std::exp(0.5f * y[2 * k * half + half + i]) * eps[k * n + i];
             return;
         }
-        std::copy(eps, eps + n, e);
+        HWY_ALIGN float e[kStackFloats + kSlack], r[kStackFloats + kSlack];
+        std::fill(e + n, e + half, 0.f);
         WithBlockTag(half, [&](auto d) {
             const int N = int(hn::Lanes(d));
             const auto h = hn::Set(d, 0.5f);
-            for (int i = 0; i < half; i += N) {
-                const auto sd = hn::Exp(d, hn::Mul(h, hn::LoadU(d, y + half + i)));
-                hn::StoreU(hn::MulAdd(sd, hn::LoadU(d, e + i), hn::LoadU(d, y + i)), d, r + i);
+            for (int k = 0; k < K; ++k) {
+                const float* yk = y + 2 * k * half;
+                std::copy(eps + k * n, eps + (k + 1) * n, e);
+                for (int i = 0; i < half; i += N) {
+                    const auto sd = hn::Exp(d, hn::Mul(h, hn::LoadU(d, yk + half + i)));
+                    hn::StoreU(hn::MulAdd(sd, hn::LoadU(d, e + i), hn::LoadU(d, yk + i)), d, r + i);
+                }
+                std::copy(r, r + n, u + k * n);
             }
         });
-        std::copy(r, r + n, u);
     });
 }
 
@@ -237,49 +257,53 @@ SimdDecoder::SimdDecoder(const Decoder& d) : input_width_(d.input_width), num_ou
     }
 }
 
-void SimdDecoder::evaluate(const float* x, float* mean, float* logvar) const {
-    HWY_DYNAMIC_DISPATCH(EvaluateNet)(this, x, mean, logvar);
+void SimdDecoder::evaluate(const float* x, float* mean, float* logvar, int count) const {
+    HWY_DYNAMIC_DISPATCH(EvaluateNet)(this, count, x, mean, logvar);
 }
 
-void SimdDecoder::sample_encoded(const float* x, const float* eps, float* u) const {
-    HWY_DYNAMIC_DISPATCH(SampleNet)(this, x, eps, u);
+void SimdDecoder::sample_encoded(const float* x, const float* eps, float* u, int count) const {
+    HWY_DYNAMIC_DISPATCH(SampleNet)(this, count, x, eps, u);
 }
 
-void sample_normals(Rng& rng, float* z, int n, DecoderImpl impl) {
-    // Blocks of at most 4 pairs; the uniforms of block b are consecutive (see the header).
-    constexpr int kMaxBlocks = 16;
-    const int pairs = (n + 1) / 2;
-    const int blocks = (pairs + 3) / 4;
-    if (blocks > kMaxBlocks) {  // long vectors: in chunks of whole blocks
-        int done = 0;
-        while (done < n) {
-            int m = std::min(n - done, 8 * kMaxBlocks);
-            sample_normals(rng, z + done, m, impl);
-            done += m;
-        }
-        return;
-    }
-    HWY_ALIGN float xr[4 * kMaxBlocks + kSlack] = {}, xa[4 * kMaxBlocks + kSlack] = {};
-    HWY_ALIGN float c[4 * kMaxBlocks + kSlack], s[4 * kMaxBlocks + kSlack];
+void draw_normal_uniforms(Rng& rng, int n, float* xr, float* xa) {
+    const int pairs = (n + 1) / 2, blocks = (pairs + 3) / 4;
     for (int b = 0; b < blocks; ++b) {
         int k = std::min(4, pairs - 4 * b);
-        for (int j = 0; j < k; ++j) xr[4 * b + j] = rng.uniform();
-        for (int j = 0; j < k; ++j) xa[4 * b + j] = rng.uniform();
+        for (int j = 0; j < 4; ++j) xr[4 * b + j] = j < k ? rng.uniform() : 0.f;
+        for (int j = 0; j < 4; ++j) xa[4 * b + j] = j < k ? rng.uniform() : 0.f;
     }
+}
+
+void box_muller(const float* xr, const float* xa, float* c, float* s, int lanes, DecoderImpl impl) {
     if (impl == DecoderImpl::Simd) {
-        HWY_DYNAMIC_DISPATCH(BoxMuller)(xr, xa, c, s, 4 * blocks);
-    } else {
-        for (int i = 0; i < 4 * blocks; ++i) {
-            float r = std::sqrt(-2.f * std::log(1.f - xr[i]));
-            float a = kTwoPi * xa[i];
-            c[i] = r * std::cos(a);
-            s[i] = r * std::sin(a);
-        }
+        HWY_DYNAMIC_DISPATCH(BoxMuller)(xr, xa, c, s, lanes);
+        return;
     }
+    for (int i = 0; i < lanes; ++i) {
+        float r = std::sqrt(-2.f * std::log(1.f - xr[i]));
+        float a = kTwoPi * xa[i];
+        c[i] = r * std::cos(a);
+        s[i] = r * std::sin(a);
+    }
+}
+
+void assemble_normals(const float* c, const float* s, int n, float* z) {
+    const int pairs = (n + 1) / 2, blocks = (pairs + 3) / 4;
     for (int b = 0, out = 0; b < blocks; ++b) {
         int k = std::min(4, pairs - 4 * b);
         for (int j = 0; j < k && out < n; ++j) z[out++] = c[4 * b + j];
         for (int j = 0; j < k && out < n; ++j) z[out++] = s[4 * b + j];
+    }
+}
+
+void sample_normals(Rng& rng, float* z, int n, DecoderImpl impl) {
+    constexpr int kChunk = 128;  // normals per call, a multiple of 8 (whole blocks)
+    HWY_ALIGN float xr[kChunk / 2 + kSlack], xa[kChunk / 2 + kSlack], c[kChunk / 2 + kSlack], s[kChunk / 2 + kSlack];
+    for (int done = 0; done < n; done += kChunk) {
+        int m = std::min(n - done, kChunk), lanes = normal_lanes(m);
+        draw_normal_uniforms(rng, m, xr, xa);
+        box_muller(xr, xa, c, s, lanes, impl);
+        assemble_normals(c, s, m, z + done);
     }
 }
 

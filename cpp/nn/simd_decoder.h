@@ -30,10 +30,13 @@ public:
     int input_width() const { return input_width_; }
     int num_outputs() const { return num_outputs_; }
 
-    // mean and logvar (num_outputs() each) for the input x (input_width() floats).
-    void evaluate(const float* x, float* mean, float* logvar) const;
-    // The encoded output sample u_i = mean_i + exp(logvar_i / 2) eps_i (num_outputs() each).
-    void sample_encoded(const float* x, const float* eps, float* u) const;
+    // mean and logvar (num_outputs() each) for the input x (input_width() floats); with
+    // count > 1, for `count` inputs one after the other (and outputs likewise). Several inputs
+    // per call run faster per input: their dependency chains overlap (bench/README.md).
+    void evaluate(const float* x, float* mean, float* logvar, int count = 1) const;
+    // The encoded output sample u_i = mean_i + exp(logvar_i / 2) eps_i (num_outputs() each),
+    // for `count` inputs as above.
+    void sample_encoded(const float* x, const float* eps, float* u, int count = 1) const;
 
     // The packed network, for the kernels (simd_decoder.cpp).
     struct Layer {
@@ -62,6 +65,15 @@ private:
 // uniforms and agree to float rounding (|z| <= sqrt(2 ln 2^24) = 5.77: xi has 24 bits).
 class Rng;
 void sample_normals(Rng& rng, float* z, int n, DecoderImpl impl);
+
+// sample_normals in three stages, so that the normals of several paths can share one vector
+// call: the lanes that n normals take (4 per block), drawing their uniforms (radius and angle
+// lanes; unused lanes get 0), Box-Muller on any number of lanes (a multiple of 4), and putting
+// the results of one path's lanes in order.
+inline int normal_lanes(int n) { return 4 * ((n + 7) / 8); }
+void draw_normal_uniforms(Rng& rng, int n, float* xr, float* xa);
+void box_muller(const float* xr, const float* xa, float* c, float* s, int lanes, DecoderImpl impl);
+void assemble_normals(const float* c, const float* s, int n, float* z);
 
 // PyTorch's Softplus on x[0 .. n) with the decoder's SIMD kernel (for tests and benchmarks).
 void softplus_simd(const float* x, float* y, size_t n);
