@@ -83,6 +83,35 @@ TEST(SimdDecoder, MatchesScalarReference) {
     });
 }
 
+// Several inputs per call give exactly the results of one input per call.
+TEST(SimdDecoder, ManyInputsPerCallEqualOneAtATime) {
+    for_each_target([] {
+        for (const char* name : {"LengthGen", "PathGen", "EventGen"}) {
+            Decoder d = test::random_decoder(name, 4, 2.f);
+            SimdDecoder s(d);
+            const int K = 16, w = d.input_width, no = d.num_outputs();
+            std::vector<float> x(K * w), mean(K * no), logvar(K * no), eps(K * no), u(K * no);
+            Rng rng(12);
+            for (float& v : x) v = 6.f * rng.uniform() - 3.f;
+            for (float& v : eps) v = 2.f * rng.uniform() - 1.f;
+            for (int count : {2, 5, 16}) {
+                s.evaluate(x.data(), mean.data(), logvar.data(), count);
+                s.sample_encoded(x.data(), eps.data(), u.data(), count);
+                for (int k = 0; k < count; ++k) {
+                    float m1[8], l1[8], u1[8];
+                    s.evaluate(&x[k * w], m1, l1);
+                    s.sample_encoded(&x[k * w], &eps[k * no], u1);
+                    for (int i = 0; i < no; ++i) {
+                        EXPECT_EQ(m1[i], mean[k * no + i]) << name << " " << count << " " << k;
+                        EXPECT_EQ(l1[i], logvar[k * no + i]);
+                        EXPECT_EQ(u1[i], u[k * no + i]);
+                    }
+                }
+            }
+        }
+    });
+}
+
 TEST(SimdDecoder, SampleEncodedIsMeanPlusScaledNoise) {
     Decoder d = test::random_decoder("EventGen", 2);
     SimdDecoder s(d);
