@@ -25,6 +25,9 @@ constexpr float kTwoPi = 6.28318530717958647692f;
 // Activation buffers of up to kMaxPaths paths of this many floats live on the stack.
 constexpr int kStackFloats = 64;
 constexpr int kMaxPaths = 16;
+// Highway's Exp is valid up to ~88.7 (std::exp returns inf beyond): arguments are clamped
+// here, which keeps exp(88) = 1.6e38 finite where the scalar code would overflow.
+constexpr float kMaxExpArg = 88.f;
 // Slack after every padded array: the widest vector (16 floats) may run past a multiple of 4.
 constexpr int kSlack = 16;
 }  // namespace sss::simd_detail
@@ -165,12 +168,13 @@ void SampleNet(const SimdDecoder* net, int K, const float* x, const float* eps, 
         std::fill(e + n, e + half, 0.f);
         WithBlockTag(half, [&](auto d) {
             const int N = int(hn::Lanes(d));
-            const auto h = hn::Set(d, 0.5f);
+            const auto h = hn::Set(d, 0.5f), big = hn::Set(d, kMaxExpArg);
             for (int k = 0; k < K; ++k) {
                 const float* yk = y + 2 * k * half;
                 std::copy(eps + k * n, eps + (k + 1) * n, e);
                 for (int i = 0; i < half; i += N) {
-                    const auto sd = hn::Exp(d, hn::Mul(h, hn::LoadU(d, yk + half + i)));
+                    // exp(logvar / 2), the argument clamped where Highway's Exp stops being valid
+                    const auto sd = hn::Exp(d, hn::Min(hn::Mul(h, hn::LoadU(d, yk + half + i)), big));
                     hn::StoreU(hn::MulAdd(sd, hn::LoadU(d, e + i), hn::LoadU(d, yk + i)), d, r + i);
                 }
                 std::copy(r, r + n, u + k * n);
