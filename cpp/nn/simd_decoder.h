@@ -1,7 +1,8 @@
 // The SIMD decoder: the same network as evaluate_reference (nn/decoder.h), evaluated on
-// 4-wide blocks with Highway (libhwy-dev). Built for the x86-64-v2 baseline (SSE4) and, chosen
-// at run time, AVX2+FMA and AVX-512 (Highway's dynamic dispatch); the results agree with the
-// scalar reference to ~1e-6 relative (FMA and a different summation order, nothing else).
+// 4-wide blocks with Highway (libhwy-dev). Compiled for the x86-64-v2 baseline (Highway's
+// SSSE3 target: its SSE4 target also wants AES and CLMUL) and for SSE4, AVX2+FMA and AVX-512,
+// chosen at run time (Highway's dynamic dispatch). The results agree with the scalar reference
+// to ~1e-6 relative (FMA and a different summation order, nothing else).
 //
 // Layout: each layer's weights are stored transposed, column j (the weights of input j for
 // every output) contiguous and padded with zeros to out_pad = a multiple of 4 outputs, so that

@@ -35,9 +35,14 @@ void for_each_target(F&& body) {
     simd_use_target("");
 }
 
+// The x86-64-v2 baseline compiles Highway's SSSE3 target (its SSE4 target also wants AES and
+// CLMUL, which v2 lacks); one of the two always runs, and the best target is chosen.
 TEST(SimdDecoder, TargetsIncludeTheBaseline) {
     std::vector<std::string> targets = simd_targets();
-    EXPECT_NE(std::find(targets.begin(), targets.end(), "SSE4"), targets.end());
+    ASSERT_FALSE(targets.empty());
+    bool baseline = std::find(targets.begin(), targets.end(), "SSSE3") != targets.end() ||
+                    std::find(targets.begin(), targets.end(), "SSE4") != targets.end();
+    EXPECT_TRUE(baseline);
     EXPECT_EQ(std::string(simd_target_name()), targets.front());
 }
 
