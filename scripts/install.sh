@@ -17,10 +17,11 @@ done
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 
-# C++ libraries (Embree, TBB, CGAL + GMP/MPFR/Boost, OpenImageIO, JSON, GoogleTest), the
-# compilers, and glmark2-data for the Stanford bunny used by scenes/bunny.json.
+# C++ libraries (Embree, TBB, CGAL + GMP/MPFR/Boost, OpenImageIO, JSON, Highway for the SIMD
+# decoders, GoogleTest), the compilers, and glmark2-data for the Stanford bunny used by
+# scenes/bunny.json.
 packages=(build-essential libembree-dev libtbb-dev libcgal-dev libgmp-dev libmpfr-dev
-          libboost-dev libopenimageio-dev nlohmann-json3-dev libgtest-dev glmark2-data
+          libboost-dev libopenimageio-dev nlohmann-json3-dev libhwy-dev libgtest-dev glmark2-data
           python3-dev python3-pip)
 missing=()
 for p in "${packages[@]}"; do

@@ -18,6 +18,7 @@ namespace py = pybind11;
 using namespace sss;
 
 void bind_media(py::module_& m);  // bind_media.cpp
+void bind_nn(py::module_& m);     // bind_nn.cpp
 
 namespace {
 
@@ -95,6 +96,7 @@ PYBIND11_MODULE(_core, m) {
     m.doc() = "sssphere native core (private; use the sssphere package)";
     py::register_exception<Error>(m, "SceneError", PyExc_ValueError);
     bind_media(m);
+    bind_nn(m);
 
     py::class_<Scene, std::shared_ptr<Scene>>(m, "Scene")
         .def(py::init([](const std::string& text, const std::string& base_dir, const std::string& source,

@@ -1,0 +1,200 @@
+#include "nn/simd_decoder.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+#include <vector>
+
+#include "core/rng.h"
+#include "shared/softplus.h"
+#include "testing/random_models.h"
+
+namespace sss {
+namespace {
+
+// Symmetric relative error of a against b; below `floor` in magnitude it is absolute/floor.
+double rel_err(double a, double b, double floor = 1e-30) {
+    return std::abs(a - b) / std::max({std::abs(a), std::abs(b), floor});
+}
+
+// Runs body once for every SIMD target compiled in and supported here (SSE4 at least, the
+// build's baseline), then returns to the best one.
+template <class F>
+void for_each_target(F&& body) {
+    std::vector<std::string> targets = simd_targets();
+    ASSERT_FALSE(targets.empty());
+    for (const std::string& t : targets) {
+        simd_use_target(t);
+        SCOPED_TRACE("SIMD target " + t);
+        EXPECT_EQ(std::string(simd_target_name()), t);
+        body();
+    }
+    simd_use_target("");
+}
+
+// The x86-64-v2 baseline compiles Highway's SSSE3 target (its SSE4 target also wants AES and
+// CLMUL, which v2 lacks); one of the two always runs, and the best target is chosen.
+TEST(SimdDecoder, TargetsIncludeTheBaseline) {
+    std::vector<std::string> targets = simd_targets();
+    ASSERT_FALSE(targets.empty());
+    bool baseline = std::find(targets.begin(), targets.end(), "SSSE3") != targets.end() ||
+                    std::find(targets.begin(), targets.end(), "SSE4") != targets.end();
+    EXPECT_TRUE(baseline);
+    EXPECT_EQ(std::string(simd_target_name()), targets.front());
+}
+
+// Scalar reference and SIMD decoder on random inputs for random-weight models of each Table-1
+// shape. Weight scales up to 6 push pre-activations well past Softplus' threshold of 20 and
+// deep into its exponential tail. The error of each output is measured relative to the larger
+// of its two values and the root-mean-square of that output over the batch: an output that
+// cancels to near zero is judged on the scale of its typical values (summation order and FMA
+// move it by a few float ulps of the terms, not of the sum).
+TEST(SimdDecoder, MatchesScalarReference) {
+    for_each_target([] {
+        for (const char* name : {"LengthGen", "PathGen", "EventGen"}) {
+            for (float scale : {0.5f, 1.f, 3.f, 6.f}) {
+                Decoder d = test::random_decoder(name, 11, scale);
+                SimdDecoder s(d);
+                const int n = 2000, no = d.num_outputs();
+                std::vector<float> ref(2 * no * n), got(2 * no * n);
+                Rng rng(5, uint64_t(scale * 10));
+                for (int k = 0; k < n; ++k) {
+                    std::vector<float> x(d.input_width);
+                    for (float& v : x) v = 6.f * rng.uniform() - 3.f;
+                    evaluate_reference(d, x.data(), &ref[2 * no * k], &ref[2 * no * k + no]);
+                    s.evaluate(x.data(), &got[2 * no * k], &got[2 * no * k + no]);
+                }
+                std::vector<double> rms(2 * no, 0.0);
+                for (int k = 0; k < n; ++k)
+                    for (int i = 0; i < 2 * no; ++i) rms[i] += double(ref[2 * no * k + i]) * ref[2 * no * k + i] / n;
+                double worst = 0, worst_plain = 0;
+                for (int k = 0; k < n; ++k) {
+                    for (int i = 0; i < 2 * no; ++i) {
+                        float a = got[2 * no * k + i], b = ref[2 * no * k + i];
+                        worst = std::max(worst, rel_err(a, b, std::sqrt(rms[i])));
+                        worst_plain = std::max(worst_plain, rel_err(a, b));
+                    }
+                }
+                EXPECT_LT(worst, 1e-5) << name << " weight scale " << scale;
+                std::ostringstream os;
+                os << std::setprecision(2) << worst << " (plain relative: " << worst_plain << ")";
+                RecordProperty(std::string(simd_target_name()) + "_" + name + "_scale" + std::to_string(scale),
+                               os.str());
+            }
+        }
+    });
+}
+
+// Several inputs per call give exactly the results of one input per call.
+TEST(SimdDecoder, ManyInputsPerCallEqualOneAtATime) {
+    for_each_target([] {
+        for (const char* name : {"LengthGen", "PathGen", "EventGen"}) {
+            Decoder d = test::random_decoder(name, 4, 2.f);
+            SimdDecoder s(d);
+            const int K = 16, w = d.input_width, no = d.num_outputs();
+            std::vector<float> x(K * w), mean(K * no), logvar(K * no), eps(K * no), u(K * no);
+            Rng rng(12);
+            for (float& v : x) v = 6.f * rng.uniform() - 3.f;
+            for (float& v : eps) v = 2.f * rng.uniform() - 1.f;
+            for (int count : {2, 5, 16}) {
+                s.evaluate(x.data(), mean.data(), logvar.data(), count);
+                s.sample_encoded(x.data(), eps.data(), u.data(), count);
+                for (int k = 0; k < count; ++k) {
+                    float m1[8], l1[8], u1[8];
+                    s.evaluate(&x[k * w], m1, l1);
+                    s.sample_encoded(&x[k * w], &eps[k * no], u1);
+                    for (int i = 0; i < no; ++i) {
+                        EXPECT_EQ(m1[i], mean[k * no + i]) << name << " " << count << " " << k;
+                        EXPECT_EQ(l1[i], logvar[k * no + i]);
+                        EXPECT_EQ(u1[i], u[k * no + i]);
+                    }
+                }
+            }
+        }
+    });
+}
+
+TEST(SimdDecoder, SampleEncodedIsMeanPlusScaledNoise) {
+    Decoder d = test::random_decoder("EventGen", 2);
+    SimdDecoder s(d);
+    Rng rng(9);
+    for (int k = 0; k < 200; ++k) {
+        std::vector<float> x(d.input_width), eps(6), mean(6), logvar(6), u(6);
+        for (float& v : x) v = 4.f * rng.uniform() - 2.f;
+        for (float& v : eps) v = 4.f * rng.uniform() - 2.f;
+        evaluate_reference(d, x.data(), mean.data(), logvar.data());
+        s.sample_encoded(x.data(), eps.data(), u.data());
+        for (int i = 0; i < 6; ++i) {
+            double want = mean[i] + std::exp(0.5 * logvar[i]) * eps[i];
+            EXPECT_NEAR(u[i], want, 1e-5 * std::max(1.0, std::abs(want)));
+        }
+    }
+}
+
+// Softplus against PyTorch's definition in double precision: 1e-5 relative wherever the
+// result is a normal float, and a tiny absolute error where it underflows to subnormals.
+TEST(SimdDecoder, SoftplusMatchesTorchDefinition) {
+    for_each_target([] {
+        std::vector<float> x;
+        for (float v = -110.f; v <= 110.f; v += 0.0137f) x.push_back(v);
+        for (float v : {-0.f, 0.f, 19.999998f, 20.f, 20.000002f, 1e6f, -1e6f, 88.f, 89.f}) x.push_back(v);
+        std::vector<float> y(x.size());
+        softplus_simd(x.data(), y.data(), x.size());
+        double worst = 0;
+        for (size_t i = 0; i < x.size(); ++i) {
+            double want = x[i] > 20.f ? double(x[i]) : std::log1p(std::exp(double(x[i])));
+            if (want > 1.2e-38) {
+                worst = std::max(worst, rel_err(y[i], want));
+                EXPECT_LT(rel_err(y[i], want), 1e-5) << "x = " << x[i];
+                EXPECT_LT(rel_err(y[i], softplus(x[i])), 1e-5) << "x = " << x[i];
+            } else {
+                EXPECT_LE(std::abs(y[i] - want), 2e-38) << "x = " << x[i];
+            }
+        }
+        std::ostringstream os;
+        os << std::setprecision(2) << worst;
+        RecordProperty(std::string(simd_target_name()) + "_softplus_max_rel_err", os.str());
+    });
+}
+
+TEST(SimdDecoder, NormalsMatchScalarBoxMuller) {
+    for_each_target([] {
+        for (int n : {1, 2, 3, 8, 11, 12, 16, 17, 40, 200}) {
+            Rng a(3, uint64_t(n)), b(3, uint64_t(n));
+            std::vector<float> za(n), zb(n);
+            sample_normals(a, za.data(), n, DecoderImpl::Scalar);
+            sample_normals(b, zb.data(), n, DecoderImpl::Simd);
+            for (int i = 0; i < n; ++i) EXPECT_NEAR(za[i], zb[i], 2e-6 * std::max(1.f, std::abs(za[i]))) << n << " " << i;
+            // Both consumed the same uniforms.
+            EXPECT_EQ(a.next_u32(), b.next_u32()) << n;
+        }
+    });
+}
+
+TEST(SimdDecoder, NormalsAreStandardNormal) {
+    Rng rng(17);
+    const int n = 200000;
+    std::vector<float> z(n);
+    sample_normals(rng, z.data(), n, DecoderImpl::Simd);
+    double m1 = 0, m2 = 0, m4 = 0, within1 = 0;
+    for (float v : z) {
+        m1 += v;
+        m2 += double(v) * v;
+        m4 += double(v) * v * v * v;
+        within1 += std::abs(v) < 1.f;
+    }
+    m1 /= n;
+    m2 /= n;
+    m4 /= n;
+    within1 /= n;
+    EXPECT_NEAR(m1, 0.0, 5 * std::sqrt(1.0 / n));
+    EXPECT_NEAR(m2, 1.0, 5 * std::sqrt(2.0 / n));
+    EXPECT_NEAR(m4, 3.0, 5 * std::sqrt(96.0 / n));
+    EXPECT_NEAR(within1, 0.682689492, 5 * std::sqrt(0.2166 / n));
+}
+
+}  // namespace
+}  // namespace sss
