@@ -320,6 +320,15 @@ void ScatteringModel::group_with(int K, const float* sigma, const float* g, cons
         }
         s.X = X;
         s.W = W;
+        // The first event (the centre) is the representative one with the exact probability
+        // phi / sum_{j<=N} phi^j = (1 - phi) / (1 - phi^N) (1/N for phi = 1); EventGen models
+        // only events k >= 2 (docs/model-format.md).
+        const double p = phi[act[j]], n = double(s.N);
+        const double p_first = p >= 1.0 ? 1.0 / n : (1.0 - p) / -std::expm1(n * std::log(p));
+        if (double(rng[act[j]].uniform()) < p_first) {
+            s.X = Vec3(0.f);
+            s.W = Vec3(0.f, 0.f, 1.f);
+        }
     }
 }
 

@@ -11,7 +11,9 @@
 //   4. PathGen(sigma, g, N) -> cos_theta clamped to [-1, 1]; (alpha, beta) scaled to the unit
 //      disc if outside it.
 //   5. Only if EventGen is asked for: its normals, then EventGen(sigma, g, phi, N, cos_theta,
-//      alpha, beta) -> X scaled into the unit ball if outside, W normalized (+z if zero).
+//      alpha, beta) -> X scaled into the unit ball if outside, W normalized (+z if zero);
+//      then one more xi: if xi < (1 - phi) / (1 - phi^N) (1/N for phi = 1), the first event
+//      (X = 0, W = +z) is the representative one instead (EventGen models events k >= 2).
 #pragma once
 
 #include <cstddef>

@@ -156,6 +156,28 @@ TEST(ScatteringModel, SingleScatteringHasProbabilityExpMinusSigma) {
     }
 }
 
+// For N >= 2 the centre is the representative event with probability (1 - phi)/(1 - phi^N)
+// (1/N for phi = 1), drawn exactly: count X = 0 against the sum of those probabilities.
+TEST(ScatteringModel, FirstEventIsChosenWithItsExactProbability) {
+    ScatteringModel m = random_model();
+    const size_t n = 40000;
+    for (float phi : {0.f, 0.5f, 0.99f, 1.f}) {
+        std::vector<float> s(n, 3.f), g(n, 0.2f), ph(n, phi);
+        std::vector<SphereStep> out(n);
+        m.sample_batch(s.data(), g.data(), ph.data(), n, 21, 0, true, DecoderImpl::Simd, out.data());
+        double expected = 0, var = 0, centre = 0;
+        for (const SphereStep& st : out) {
+            if (st.N < 2) continue;
+            double N = double(st.N);
+            double p = phi >= 1.f ? 1.0 / N : (1.0 - phi) / (1.0 - std::pow(double(phi), N));
+            expected += p;
+            var += p * (1 - p);
+            centre += st.X == Vec3(0.f) && st.W == Vec3(0.f, 0.f, 1.f);
+        }
+        EXPECT_NEAR(centre, expected, 4.5 * std::sqrt(var) + 1e-9) << "phi = " << phi;
+    }
+}
+
 // N = 1: the exit follows the first HG direction (mean cosine g), nothing else moves.
 TEST(ScatteringModel, SingleScatteringIsExact) {
     ScatteringModel m = random_model();
