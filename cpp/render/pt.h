@@ -31,8 +31,10 @@ private:
     // by the number of lights).
     Vec3 direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng) const;
     // Transmittance from p (inside shape `shape`, or -1 for vacuum) along unit w over
-    // `dist`; 0 when a dielectric boundary or an emitter is in the way.
-    Vec3 transmittance(Vec3 p, Vec3 w, float dist, int shape) const;
+    // `dist`; 0 when a dielectric boundary or an emitter is in the way. Unbiased estimate:
+    // once the transmittance of the channel(s) carried falls below kShadowRoulette at a
+    // boundary, the rest of the ray is traced by Russian roulette.
+    Vec3 transmittance(Vec3 p, Vec3 w, float dist, int shape, int channel, Rng& rng) const;
     // Light-sampling pdf (solid angle) of direction w from a medium point, for MIS.
     float area_light_pdf(int light, Vec3 p, Vec3 w, float t, Vec3 n) const;
 
