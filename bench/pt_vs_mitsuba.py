@@ -14,7 +14,13 @@ light. Mitsuba's image is dark in dense media by its
 ray-spawn offset at the null interface (tests/mitsuba_util.py; about 1 % at sigma_t = 1000).
 
 Timed: our `render_full` (the scene is loaded and its distance grid built before the clock
-starts) and Mitsuba's `mi.render` (after `mi.load_dict`). Both use all cores unless --threads
+starts) and Mitsuba's `mi.render` (after `mi.load_dict`; four renders of spp/4 samples with
+different seeds, times summed, whose spread estimates Mitsuba's per-pixel variance).
+
+Two ratios per case: the time ratio at equal spp (Mitsuba / ours), and the equal-error ratio
+(Mitsuba time x its mean per-pixel variance) / (our time x ours): how much longer Mitsuba
+needs for the same noise. Our estimators (exact transmittance in shadow rays, MIS) carry less
+variance per sample than Mitsuba's (0/1 transmittance by free-flight sampling). Both use all cores unless --threads
 says otherwise. Each renderer gets one untimed warm-up render at 1 spp on the first case.
 
     python bench/pt_vs_mitsuba.py                 # 128x128, 64 spp, sigma_t 1, 10, 100, 1000
@@ -47,6 +53,7 @@ import sssphere  # noqa: E402
 
 BUNNY = "/usr/share/glmark2/models/bunny.obj"
 SIGMAS = (1.0, 10.0, 100.0, 1000.0)
+MITSUBA_SPLITS = 4  # Mitsuba renders per case (their spread gives its variance)
 
 
 LIGHTS = {
@@ -96,11 +103,19 @@ def run_case(kind, sigma, args, mu, mi, warm):
         if not warm["mitsuba"]:
             mi.render(mi_scene, spp=1, seed=1)
             warm["mitsuba"] = True
-        t0 = time.perf_counter()
-        img = mi.render(mi_scene, spp=args.spp, seed=args.seed)
-        mi_s = time.perf_counter() - t0
-        mi_img = np.array(img, dtype=np.float64)[:, :, :3]
+        # MITSUBA_SPLITS renders of spp / MITSUBA_SPLITS samples with different seeds: the same
+        # total samples (their summed time is Mitsuba's time), and the spread between them
+        # estimates Mitsuba's per-pixel variance of the mean, for the equal-error comparison.
+        parts, mi_s = [], 0.0
+        for k in range(MITSUBA_SPLITS):
+            t0 = time.perf_counter()
+            img = mi.render(mi_scene, spp=args.spp // MITSUBA_SPLITS, seed=args.seed + 1000 * k)
+            mi_s += time.perf_counter() - t0
+            parts.append(np.array(img, dtype=np.float64)[:, :, :3])
         del mi_scene, img
+        parts = np.stack(parts)
+        mi_img = parts.mean(axis=0)
+        mi_var = parts.var(axis=0, ddof=1) / MITSUBA_SPLITS
 
     ours_img = r.image.astype(np.float64)
     n_pix = ours_img.shape[0] * ours_img.shape[1]
@@ -108,6 +123,8 @@ def run_case(kind, sigma, args, mu, mi, warm):
     ours_mean_sigma = np.sqrt(r.variance.astype(np.float64).sum(axis=(0, 1))) / n_pix
     mi_mean = mi_img.mean(axis=(0, 1))
     verts, tris = ours_scene.shape_mesh(0)
+    ours_var_mean = float(r.variance.astype(np.float64).mean())
+    mi_var_mean = float(mi_var.mean())
     return {
         "scene": kind,
         "triangles": int(len(tris)),
@@ -120,6 +137,12 @@ def run_case(kind, sigma, args, mu, mi, warm):
         "our_reported_render_seconds": r.seconds,
         "mitsuba_seconds": mi_s,
         "ratio_mitsuba_over_ours": mi_s / ours_s if ours_s > 0 else None,
+        # Equal-error comparison: time x mean per-pixel variance of the mean (the time each
+        # needs for a given noise level is proportional to it). > 1: we are more efficient.
+        "our_mean_pixel_variance": ours_var_mean,
+        "mitsuba_mean_pixel_variance": mi_var_mean,
+        "efficiency_ratio_mitsuba_over_ours": (mi_s * mi_var_mean) / (ours_s * ours_var_mean)
+        if ours_s > 0 and ours_var_mean > 0 else None,
         "our_load_seconds": ours_load,
         "mitsuba_load_seconds": mi_load,
         "our_mean_events_per_path": r.mean_events_per_path,
@@ -191,6 +214,8 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     if args.spp is None:
         args.spp = 4 if args.quick else 64
+    if args.spp % MITSUBA_SPLITS:
+        p.error(f"--spp must be a multiple of {MITSUBA_SPLITS} (Mitsuba renders in {MITSUBA_SPLITS} parts)")
     if args.resolution is None:
         args.resolution = 32 if args.quick else 128
 
@@ -229,6 +254,7 @@ def main(argv=None) -> int:
             cases.append(c)
             print(f"{kind:6s} sigma_t {sigma:7g}: ours {c['our_seconds']:8.2f}s  Mitsuba "
                   f"{c['mitsuba_seconds']:8.2f}s  ratio {c['ratio_mitsuba_over_ours']:6.2f}  "
+                  f"equal-error ratio {c['efficiency_ratio_mitsuba_over_ours']:6.2f}  "
                   f"events/path {c['our_mean_events_per_path']:7.1f}  mean ours "
                   f"{c['our_image_mean'][0]:.5f} (+-{c['our_image_mean_sigma'][0]:.5f}) Mitsuba "
                   f"{c['mitsuba_image_mean'][0]:.5f}  diff "
