@@ -266,11 +266,13 @@ PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
                         if (with_event) nee_weight[c] *= float(event_weight_sum(albedo[c], step.N));
                     }
                     // NEE from the representative event, weighted by Lambda = sum_j phi^j, with
-                    // the throughput on entering the sphere. With N >= 2 the last event is
-                    // unknown, so its phase-sampled light hit cannot get an MIS weight: light
-                    // sampling alone here, weight 0 for that hit (phase_pdf = 0 below).
+                    // the throughput on entering the sphere. MIS needs the same vertex on both
+                    // sides: the first event (at o) is known, so it keeps pt's MIS, and its
+                    // phase-sampled light hit (only possible for N = 1) keeps its weight. For
+                    // N >= 2 the last event is unknown: its light hit gets weight 0
+                    // (phase_pdf = 0 below) and the events k >= 2 use light sampling alone.
                     if (with_event && !is_black(nee_weight))
-                        L += beta * nee_weight * direct_light(step.X, step.W, shape, channel, rng, step.N == 1);
+                        L += beta * nee_weight * direct_light(step.X, step.W, shape, channel, rng, step.first_event);
                     beta *= survival;
                     if (is_black(beta)) break;
                     phase_pdf = step.N == 1 ? hg_eval(dot(d, step.exit_dir), s.medium.g) : 0.f;

@@ -109,8 +109,11 @@ WorldSphereStep SphereTracing::sample(Vec3 p, Vec3 w_in, float radius, float sig
     out.exit_pos = p + f.to_world(sphere_exit_point(s.cos_theta)) * radius;
     out.exit_dir = normalize(f.to_world(sphere_exit_direction(s.cos_theta, s.alpha, s.beta)));
     if (with_event) {
-        out.X = p + f.to_world(s.X) * radius;
-        out.W = normalize(f.to_world(s.W));
+        // Both samplers give the first event as exactly X = 0, W = +z (the learned one draws
+        // that choice itself; EventGen models the events k >= 2, which lie off the centre).
+        out.first_event = s.X == Vec3(0.f) && s.W == Vec3(0.f, 0.f, 1.f);
+        out.X = out.first_event ? p : p + f.to_world(s.X) * radius;
+        out.W = out.first_event ? w_in : normalize(f.to_world(s.W));
     }
     return out;
 }

@@ -34,6 +34,7 @@ struct WorldSphereStep {
     Vec3 exit_pos;   // p + r' x, on the sphere
     Vec3 exit_dir;   // unit travel direction after the exit
     Vec3 X, W;       // representative event and the unit direction arriving at it (with_event)
+    bool first_event = true;  // the representative event is the first one, at p (X = p, W = w_in)
 };
 
 class SphereTracing {
