@@ -161,6 +161,7 @@ PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
     bool specular = true;    // last vertex was the camera or a specular interface
     float phase_pdf = 0.f;   // pdf of the direction sampled at the last scattering event
     Vec3 scatter_pos;        // where that event happened (light pdfs are measured from it)
+    float r_at_o = -1.f;     // the distance grid at o when already queried there ("st"), else < 0
     // Path Russian roulette after a scattering event or sphere step: false ends the path.
     auto survives_roulette = [&]() {
         float q = max_component(beta) / beta_start;
@@ -227,7 +228,9 @@ PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
         float t = sample_exponential(rng.uniform(), extinction(s.medium, channel));
         Hit hit;
         bool at_boundary = false;
-        if (!(t < scene_.grid(shape).query(o))) at_boundary = scene_.tracer().intersect(o, d, 0.f, t, &hit);
+        const float r_o = r_at_o >= 0.f ? r_at_o : scene_.grid(shape).query(o);
+        r_at_o = -1.f;
+        if (!(t < r_o)) at_boundary = scene_.tracer().intersect(o, d, 0.f, t, &hit);
         if (!at_boundary && !(t < kInf)) {
             // No boundary ahead of an unbounded flight: numerical leak out of the mesh.
             shape = -1;
@@ -283,6 +286,7 @@ PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
                     if (!survives_roulette()) break;
                     continue;
                 }
+                r_at_o = r;  // the ordinary event below stays at o: its next flight reuses r
             }
             // Real collision: scatter.
             ++out.scatter_events;
