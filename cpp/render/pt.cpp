@@ -49,7 +49,7 @@ float PathTracer::area_light_pdf(int light, Vec3 p, Vec3 w, float t, Vec3 n) con
     return cos_l > 0.f ? t * t / (cos_l * area) : 0.f;
 }
 
-Vec3 PathTracer::transmittance(Vec3 p, Vec3 w, float dist, int shape) const {
+Vec3 PathTracer::transmittance(Vec3 p, Vec3 w, float dist, int shape, int channel, Rng& rng) const {
     const auto& shapes = scene_.desc().shapes;
     Vec3 tr(1.f);
     Vec3 o = p;
@@ -65,6 +65,15 @@ Vec3 PathTracer::transmittance(Vec3 p, Vec3 w, float dist, int shape) const {
         if (s.boundary.type == BoundaryType::Dielectric) return Vec3(0.f);
         if (shape >= 0) tr *= beer(shapes[shape].medium.sigma_t, hit.t);
         if (is_black(tr)) return tr;
+        // Roulette on the rest of the ray once the transmittance so far is small: continue
+        // with probability m / kShadowRoulette and reweight (unbiased; weights stay <= the
+        // threshold, as for the grid-bound roulette in direct_light).
+        float m = channel < 0 ? max_component(tr) : tr[channel];
+        if (m < kShadowRoulette) {
+            float q = m / kShadowRoulette;
+            if (rng.uniform() >= q) return Vec3(0.f);
+            tr /= q;
+        }
         shape = dot(w, hit.normal) < 0.f ? int(hit.mesh) : -1;
         o = offset(o + w * hit.t, hit.normal, w, scene_.ray_epsilon());
         remaining -= hit.t;
@@ -102,13 +111,13 @@ Vec3 PathTracer::direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng, 
                 float dist = length(to);
                 if (!(dist > 0.f)) break;
                 Vec3 w = to / dist;
-                Vec3 tr = transmittance(p, w, dist, shape);
+                Vec3 tr = transmittance(p, w, dist, shape, channel, rng);
                 sum += l.intensity * tr * (hg_eval(dot(d, w), g) / (dist * dist));
                 break;
             }
             case Light::Type::Directional: {
                 Vec3 w = -l.direction;
-                Vec3 tr = transmittance(p, w, kInf, shape);
+                Vec3 tr = transmittance(p, w, kInf, shape, channel, rng);
                 sum += l.irradiance * tr * hg_eval(dot(d, w), g);
                 break;
             }
@@ -122,7 +131,7 @@ Vec3 PathTracer::direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng, 
                 if (dot(w, n) >= 0.f) break;  // behind the one-sided emitter
                 float pdf = area_light_pdf(int(i), p, w, dist, n);
                 float phase = hg_eval(dot(d, w), g);
-                Vec3 tr = transmittance(p, w, dist * (1.f - 1e-4f), shape);
+                Vec3 tr = transmittance(p, w, dist * (1.f - 1e-4f), shape, channel, rng);
                 float mis_w = mis ? power_heuristic(pdf / n_lights, phase) : 1.f;
                 sum += l.radiance * tr * (phase * mis_w / pdf);
                 break;
@@ -131,7 +140,7 @@ Vec3 PathTracer::direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng, 
                 Vec3 w = sample_uniform_sphere(rng.uniform(), rng.uniform());
                 float pdf = uniform_sphere_pdf();
                 float phase = hg_eval(dot(d, w), g);
-                Vec3 tr = transmittance(p, w, kInf, shape);
+                Vec3 tr = transmittance(p, w, kInf, shape, channel, rng);
                 float mis_w = mis ? power_heuristic(pdf / n_lights, phase) : 1.f;
                 sum += l.radiance * tr * (phase * mis_w / pdf);
                 break;

@@ -39,11 +39,13 @@ private:
     // Phase x transmittance x emitted radiance / pdf at medium point p of shape `shape`, for a
     // photon travelling along d before scattering, from one light chosen uniformly (weighted
     // by the number of lights). mis = false: light sampling alone (weight 1), for a vertex
-    // whose phase-sampled continuation cannot be weighted (a sphere step with N >= 2).
+    // whose phase-sampled continuation cannot be weighted (a sphere step's events k >= 2).
     Vec3 direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng, bool mis = true) const;
     // Transmittance from p (inside shape `shape`, or -1 for vacuum) along unit w over
-    // `dist`; 0 when a dielectric boundary or an emitter is in the way.
-    Vec3 transmittance(Vec3 p, Vec3 w, float dist, int shape) const;
+    // `dist`; 0 when a dielectric boundary or an emitter is in the way. Unbiased estimate:
+    // once the transmittance of the channel(s) carried falls below kShadowRoulette at a
+    // boundary, the rest of the ray is traced by Russian roulette.
+    Vec3 transmittance(Vec3 p, Vec3 w, float dist, int shape, int channel, Rng& rng) const;
     // Light-sampling pdf (solid angle) of direction w from a medium point, for MIS.
     float area_light_pdf(int light, Vec3 p, Vec3 w, float t, Vec3 n) const;
 
