@@ -151,6 +151,11 @@ Vec3 PathTracer::direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng, 
 }
 
 PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
+    return st_ ? trace_impl<true>(o, d, rng) : trace_impl<false>(o, d, rng);
+}
+
+template <bool kSphereTracing>
+PathSample PathTracer::trace_impl(Vec3 o, Vec3 d, Rng& rng) const {
     const SceneDesc& desc = scene_.desc();
     const float eps = scene_.ray_epsilon();
     PathSample out;
@@ -237,8 +242,13 @@ PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
         float t = sample_exponential(rng.uniform(), extinction(s.medium, channel));
         Hit hit;
         bool at_boundary = false;
-        const float r_o = r_at_o >= 0.f ? r_at_o : scene_.grid(shape).query(o);
-        r_at_o = -1.f;
+        float r_o;
+        if constexpr (kSphereTracing) {
+            r_o = r_at_o >= 0.f ? r_at_o : scene_.grid(shape).query(o);
+            r_at_o = -1.f;
+        } else {
+            r_o = scene_.grid(shape).query(o);
+        }
         if (!(t < r_o)) at_boundary = scene_.tracer().intersect(o, d, 0.f, t, &hit);
         if (!at_boundary && !(t < kInf)) {
             // No boundary ahead of an unbounded flight: numerical leak out of the mesh.
@@ -248,7 +258,7 @@ PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
 
         if (!at_boundary) {
             o = o + d * t;
-            if (st_) {
+            if constexpr (kSphereTracing) {
                 // Sphere tracing: if the largest sphere around o inside the medium is optically
                 // thick enough, one step replaces every scattering event inside it
                 // (docs/sphere-tracing.md).

@@ -36,6 +36,9 @@ public:
     PathSample trace(Vec3 o, Vec3 d, Rng& rng) const;
 
 private:
+    // The path loop; kSphereTracing = (st_ != nullptr), so "pt" compiles without the step.
+    template <bool kSphereTracing>
+    PathSample trace_impl(Vec3 o, Vec3 d, Rng& rng) const;
     // Phase x transmittance x emitted radiance / pdf at medium point p of shape `shape`, for a
     // photon travelling along d before scattering, from one light chosen uniformly (weighted
     // by the number of lights). mis = false: light sampling alone (weight 1), for a vertex
