@@ -155,6 +155,10 @@ def reference_sphere_walks(sigma, g, albedo, n: int, seed: int = 0) -> dict:
     omega = rotate(exit_dir)
     alpha = omega[:, 1]
     beta = omega[:, 0] * cos_theta - omega[:, 2] * sin_theta
+    # N = 1 leaves radially (from the centre): α = β = 0 exactly, not rounding noise around it.
+    radial = N_out == 1
+    alpha[radial] = 0.0
+    beta[radial] = 0.0
     return {
         "N": N_out,
         "cos_theta": cos_theta,

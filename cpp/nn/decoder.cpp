@@ -125,8 +125,16 @@ Encoding parse_encoding(const json& j, const Field& f) {
         if (j.contains("s")) e.s = float32(j["s"], f.at("s"));
         if (j.contains("c")) e.c = float32(j["c"], f.at("c"));
         if (e.s == 0.f) f.at("s").error("value 0 is not allowed (the encoding must be invertible)");
+    } else if (kind == "logit") {
+        check_keys(j, f, {"kind", "a", "b", "lo", "hi", "eps"});
+        e.kind = Encoding::Kind::Logit;
+        if (j.contains("lo")) e.lo = float32(j["lo"], f.at("lo"));
+        if (j.contains("hi")) e.hi = float32(j["hi"], f.at("hi"));
+        if (j.contains("eps")) e.eps = float32(j["eps"], f.at("eps"));
+        if (!(e.eps >= 0.f)) f.at("eps").error("value ", e.eps, " is not allowed (allowed: eps >= 0)");
+        if (!(e.hi > e.lo)) f.at("hi").error("value ", e.hi, " is not allowed (allowed: hi > lo = ", e.lo, ")");
     } else {
-        f.at("kind").error("unknown encoding kind \"", kind, "\" (allowed: \"affine\", \"log\")");
+        f.at("kind").error("unknown encoding kind \"", kind, "\" (allowed: \"affine\", \"log\", \"logit\")");
     }
     if (j.contains("a")) e.a = float32(j["a"], f.at("a"));
     if (j.contains("b")) e.b = float32(j["b"], f.at("b"));
@@ -297,9 +305,12 @@ std::string f9(float x) {
 }
 
 std::string encoding_json(const Encoding& e) {
-    std::string s = e.kind == Encoding::Kind::Affine ? "{\"kind\": \"affine\"" : "{\"kind\": \"log\"";
+    const char* kind = e.kind == Encoding::Kind::Affine ? "affine" : e.kind == Encoding::Kind::Log ? "log" : "logit";
+    std::string s = std::string("{\"kind\": \"") + kind + "\"";
     s += ", \"a\": " + f9(e.a) + ", \"b\": " + f9(e.b);
     if (e.kind == Encoding::Kind::Log) s += ", \"s\": " + f9(e.s) + ", \"c\": " + f9(e.c);
+    if (e.kind == Encoding::Kind::Logit)
+        s += ", \"lo\": " + f9(e.lo) + ", \"hi\": " + f9(e.hi) + ", \"eps\": " + f9(e.eps);
     return s + "}";
 }
 

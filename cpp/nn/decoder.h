@@ -19,15 +19,43 @@ constexpr int kNotationVersion = 1;
 // e(x), the value a network sees (conditions) or predicts (outputs), and its inverse.
 //   affine: e = a x + b                  x = (e - b) / a
 //   log:    e = a ln(s x + c) + b        x = (exp((e - b) / a) - c) / s      (domain s x + c > 0)
+//   logit:  e = a ln((x - lo + eps) / (hi - x + eps)) + b
+//           x = lo - eps + (hi - lo + 2 eps) / (1 + exp(-(e - b) / a))   (domain lo-eps < x < hi+eps)
+// Log and logit are evaluated in double (a bounded variable near its ends loses digits in float).
 struct Encoding {
-    enum class Kind { Affine, Log };
+    enum class Kind { Affine, Log, Logit };
     Kind kind = Kind::Affine;
     float a = 1.f, b = 0.f, s = 1.f, c = 0.f;  // s, c used by Log only
+    float lo = -1.f, hi = 1.f, eps = 0.f;      // used by Logit only
 
-    bool in_domain(float x) const { return kind == Kind::Affine || s * x + c > 0.f; }
+    bool in_domain(float x) const {
+        switch (kind) {
+            case Kind::Affine: return true;
+            case Kind::Log: return s * x + c > 0.f;
+            case Kind::Logit: return x > lo - eps && x < hi + eps;
+        }
+        return false;
+    }
     // Undefined outside the domain: check in_domain first.
-    float encode(float x) const { return kind == Kind::Affine ? a * x + b : a * std::log(s * x + c) + b; }
-    float decode(float e) const { return kind == Kind::Affine ? (e - b) / a : (std::exp((e - b) / a) - c) / s; }
+    float encode(float x) const {
+        switch (kind) {
+            case Kind::Affine: return a * x + b;
+            case Kind::Log: return float(double(a) * std::log(double(s) * x + c) + b);
+            case Kind::Logit:
+                return float(double(a) * std::log((double(x) - lo + eps) / (double(hi) - x + eps)) + b);
+        }
+        return 0.f;
+    }
+    float decode(float e) const {
+        switch (kind) {
+            case Kind::Affine: return (e - b) / a;
+            case Kind::Log: return float((std::exp((double(e) - b) / a) - c) / s);
+            case Kind::Logit:
+                return float(double(lo) - eps +
+                             (double(hi) - lo + 2.0 * eps) / (1.0 + std::exp(-(double(e) - b) / a)));
+        }
+        return 0.f;
+    }
 };
 
 // A named variable (condition or output) and its encoding.

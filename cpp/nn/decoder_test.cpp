@@ -74,7 +74,10 @@ TEST(Decoder, EncodingsRoundTrip) {
     Encoding log1p_sigma{Encoding::Kind::Log, 0.5f, -1.f, 1.f, 1.f};        // a ln(1 + x) + b
     Encoding log_n{Encoding::Kind::Log, 1.f, 0.f, 1.f, 0.f};                // ln N
     Encoding log_phi{Encoding::Kind::Log, -0.3f, 0.2f, -1.f, 1.001f};       // ln(1 - phi + eps)
+    Encoding logit_cos{Encoding::Kind::Logit, 0.7f, 0.1f};               // cos theta in [-1, 1]
+    logit_cos.eps = 1e-4f;
     std::vector<Case> cases = {{affine, {-3.f, -1.f, 0.f, 0.3f, 7.f, 150.f}},
+                               {logit_cos, {-1.f, -0.999f, -0.3f, 0.f, 0.5f, 0.9999f, 1.f}},
                                {log1p_sigma, {0.f, 0.01f, 1.f, 10.f, 200.f}},
                                {log_n, {2.f, 3.f, 57.f, 1e6f}},
                                {log_phi, {0.f, 0.5f, 0.99f, 1.f}}};
@@ -82,9 +85,10 @@ TEST(Decoder, EncodingsRoundTrip) {
         for (float x : c.xs) {
             ASSERT_TRUE(c.e.in_domain(x)) << x;
             float e = c.e.encode(x);
-            double want = c.e.kind == Encoding::Kind::Affine
-                              ? double(c.e.a) * x + c.e.b
-                              : double(c.e.a) * std::log(double(c.e.s) * x + double(c.e.c)) + c.e.b;
+            double want = c.e.kind == Encoding::Kind::Affine ? double(c.e.a) * x + c.e.b
+                          : c.e.kind == Encoding::Kind::Log
+                              ? double(c.e.a) * std::log(double(c.e.s) * x + double(c.e.c)) + c.e.b
+                              : double(c.e.a) * std::log((double(x) + 1.0 + 1e-4) / (1.0 - x + 1e-4)) + c.e.b;
             EXPECT_NEAR(e, want, 1e-6 * std::max(1.0, std::abs(want))) << x;
             float back = c.e.decode(e);
             EXPECT_NEAR(back, x, 2e-5 * std::max(1.f, std::abs(x))) << x;
@@ -94,6 +98,8 @@ TEST(Decoder, EncodingsRoundTrip) {
     EXPECT_FALSE(log_n.in_domain(-1.f));
     EXPECT_FALSE(log_phi.in_domain(1.01f));
     EXPECT_TRUE(affine.in_domain(-1e30f));
+    EXPECT_FALSE(logit_cos.in_domain(1.001f));
+    EXPECT_FALSE(logit_cos.in_domain(-1.001f));
 }
 
 TEST(Decoder, ReferenceEvaluationFollowsTheFormula) {

@@ -62,7 +62,9 @@ void check_internal_domain(const Decoder& d, const std::string& name, float lo, 
     for (const auto& c : d.conditions) {
         if (c.name != name) continue;
         const Encoding& e = c.encoding;
-        bool ok = e.in_domain(lo) && (unbounded_above ? e.kind == Encoding::Kind::Affine || e.s > 0.f : e.in_domain(hi));
+        bool ok = e.in_domain(lo) && (unbounded_above ? e.kind == Encoding::Kind::Affine ||
+                                                             (e.kind == Encoding::Kind::Log && e.s > 0.f)
+                                                       : e.in_domain(hi));
         if (!ok)
             fail(d.source, ": conditions: the encoding of '", name, "' (s = ", e.s, ", c = ", e.c,
                  ") is undefined for some ", name, " in [", lo, ", ", unbounded_above ? "inf" : std::to_string(hi),

@@ -181,6 +181,46 @@ def _cmd_export(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_eval(args: argparse.Namespace) -> int:
+    from sssphere.learn import evaluate
+
+    models = Path(args.models)
+    if args.decoder == "numpy":
+        from sssphere.learn.numpy_decoder import SphereSampler
+
+        sampler = SphereSampler.from_dir(models)
+
+        def sample_fn(sigma_t, g, albedo, n, seed):
+            return sampler.sample(sigma_t, g, albedo, n, np.random.default_rng(seed))
+    else:
+        from sssphere.model import ScatteringModel
+
+        model = ScatteringModel.load(models)
+
+        def sample_fn(sigma_t, g, albedo, n, seed):
+            return model.sample(sigma_t, g, albedo, n, seed=seed)
+
+    out = Path(args.out) if args.out else models
+    if not out.is_dir():
+        raise SceneError(f"{out}: output directory does not exist")
+    bar = ProgressBar("evaluating 16 cells", enabled=not args.quiet)
+    try:
+        cells = evaluate.evaluate(sample_fn, samples=args.samples, seed=args.seed, progress=bar)
+    finally:
+        bar.close()
+    table = evaluate.table_markdown(cells)
+    print(table)
+    report = evaluate.write_report(cells, out, args.samples, str(models))
+    figures = [] if args.no_plots else evaluate.plot(cells, out)
+    if args.update_card:
+        evaluate.update_model_card(out / "README.md", table)
+    worst = max(max(c.ks["log_N"], c.ks["cos_theta"]) for c in cells)
+    print(f"wrote {report}" + "".join(f", {f}" for f in figures)
+          + f"; worst KS of log N and cos theta: {worst:.3f} (aim {evaluate.TARGET_KS})",
+          file=sys.stderr)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="sssphere", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -210,6 +250,40 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--threads", type=_non_negative_int, default=0, help="worker threads (0 = all cores)")
     d.add_argument("--quiet", action="store_true", help="no progress bar")
     d.set_defaults(func=_cmd_datagen)
+
+    t = sub.add_parser("train", help="train the three CVAEs on walks of the sphere problem "
+                                     "(docs/learning.md) and write the model files")
+    t.add_argument("data", help="training-data file (.npz: sigma, g, phi, N, cos_theta, alpha, "
+                                "beta, X, W)")
+    t.add_argument("-o", "--output", required=True,
+                   help="directory for lengthgen/pathgen/eventgen .json + .onnx and "
+                        "cvae_checkpoint.pt (created if missing)")
+    t.add_argument("--epochs", type=_positive_int, help="passes over the data per model "
+                                                        "(default: the shipped models' setting)")
+    t.add_argument("--seed", type=_non_negative_int, default=0, help="random seed (default 0)")
+    t.add_argument("--max-minutes", type=_positive_float,
+                   help="wall-clock limit for all three models (the schedules follow the clock)")
+    t.add_argument("--quiet", action="store_true", help="no progress bars or summary")
+    t.set_defaults(func=_cmd_train)
+
+    x = sub.add_parser("export", help="write the model files (.json + .onnx) of a training "
+                                      "checkpoint again")
+    x.add_argument("checkpoint", help="cvae_checkpoint.pt written by `sssphere train`")
+    x.add_argument("-o", "--output", required=True, help="output directory (created if missing)")
+    x.set_defaults(func=_cmd_export)
+
+    e = sub.add_parser("eval", help="compare the learned models with ground-truth walks")
+    e.add_argument("--models", default="models", help="directory of the model files")
+    e.add_argument("--samples", type=_positive_int, default=10_000, help="walks per cell")
+    e.add_argument("--seed", type=_non_negative_int, default=0)
+    e.add_argument("--out", help="where eval.json and the figures go (default: --models)")
+    e.add_argument("--decoder", choices=("cpp", "numpy"), default="cpp",
+                   help="the C++ decoders the renderer uses, or the NumPy reference")
+    e.add_argument("--update-card", action="store_true",
+                   help="write the table into OUT/README.md between the eval markers")
+    e.add_argument("--no-plots", action="store_true", help="skip the figures")
+    e.add_argument("--quiet", action="store_true", help="no progress bar")
+    e.set_defaults(func=_cmd_eval)
     return parser
 
 

@@ -91,7 +91,8 @@ def save(path: str | Path, data: dict, seed: int, seconds: float) -> None:
     """Write an .npz training file (sssphere.learn.data) with how it was made in ``meta``."""
     meta = {"generator": "sssphere.learn.datagen", "version": FORMAT_VERSION, "seed": seed,
             "samples": int(len(data["N"])), "seconds": round(seconds, 3),
-            "sigma_max": SIGMA_MAX, "g_max": G_MAX}
+            "sigma_max": SIGMA_MAX, "g_max": G_MAX, "sigma_range": [0.0, SIGMA_MAX],
+            "g_range": [-G_MAX, G_MAX], "phi_range": [0.0, 1.0]}
     save_training_data(path, data, meta=meta)
 
 

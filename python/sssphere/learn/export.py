@@ -1,0 +1,210 @@
+"""Writing trained decoders as model files (docs/model-format.md) and ONNX, and the training
+checkpoint that lets `sssphere export` write them again without retraining.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import logging
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from sssphere.learn.models import CVAE, GaussianMLP
+from sssphere.learn.spec import (FORMAT, FORMAT_VERSION, NOTATION_VERSION, SPECS, SPECS_BY_NAME,
+                                 Encoding, ModelSpec, round9)
+
+ONNX_OPSET = 20
+CHECKPOINT_FORMAT = "sssphere-cvae-checkpoint"
+CHECKPOINT_VERSION = 1
+
+
+class CheckpointError(ValueError):
+    """A checkpoint is missing, unreadable or of another format."""
+
+
+# --------------------------------------------------------------------------------------
+# JSON
+# --------------------------------------------------------------------------------------
+def _clean(obj):
+    """JSON-ready copy: numpy scalars and arrays to Python, floats to 9 significant digits."""
+    if isinstance(obj, dict):
+        return {str(k): _clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_clean(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _clean(obj.tolist())
+    if isinstance(obj, (bool, np.bool_)):
+        return bool(obj)
+    if isinstance(obj, (int, np.integer)):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        if not math.isfinite(obj):
+            raise ValueError(f"cannot write the non-finite number {obj} to a model file")
+        return round9(obj)
+    if obj is None or isinstance(obj, str):
+        return obj
+    raise TypeError(f"cannot write {type(obj).__name__} to a model file")
+
+
+def _dumps(obj, indent: int = 0) -> str:
+    """JSON with 2-space indentation, but a list of numbers on one line."""
+    pad, inner = "  " * indent, "  " * (indent + 1)
+    if isinstance(obj, dict):
+        if not obj:
+            return "{}"
+        items = [f"{inner}{json.dumps(k)}: {_dumps(v, indent + 1)}" for k, v in obj.items()]
+        return "{\n" + ",\n".join(items) + "\n" + pad + "}"
+    if isinstance(obj, list):
+        if all(isinstance(v, (int, float, str, bool)) or v is None for v in obj):
+            return "[" + ", ".join(json.dumps(v, allow_nan=False) for v in obj) + "]"
+        return "[\n" + ",\n".join(inner + _dumps(v, indent + 1) for v in obj) + "\n" + pad + "]"
+    return json.dumps(obj, allow_nan=False)
+
+
+def decoder_json(spec: ModelSpec, decoder: GaussianMLP, encodings: dict, training: dict,
+                 metrics: dict | None) -> dict:
+    """The model-file object of a decoder (float32 weights written with 9 digits)."""
+    layers = []
+    linear = decoder.linear_layers()
+    for i, layer in enumerate(linear):
+        w = layer.weight.detach().to(torch.float32).numpy()
+        b = layer.bias.detach().to(torch.float32).numpy()
+        layers.append({
+            "in": int(w.shape[1]),
+            "out": int(w.shape[0]),
+            "activation": "identity" if i == len(linear) - 1 else "softplus",
+            "weight": [[float(f"{v:.9g}") for v in row] for row in w],
+            "bias": [float(f"{v:.9g}") for v in b],
+        })
+    obj = {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "notation_version": NOTATION_VERSION,
+        "name": spec.name,
+        "conditions": [{"name": n, "encode": encodings[n].to_json()} for n in spec.conditions],
+        "latent_dim": spec.latent_dim,
+        "input_width": spec.input_width,
+        "layers": layers,
+        "outputs": [{"name": n, "encode": encodings[n].to_json()} for n in spec.outputs],
+        "training": training,
+    }
+    if metrics is not None:
+        obj["metrics"] = metrics
+    return _clean(obj)
+
+
+# --------------------------------------------------------------------------------------
+# ONNX
+# --------------------------------------------------------------------------------------
+class _DropTorchvisionNotice(logging.Filter):
+    """The exporter logs one warning per torchvision operator when torchvision is not
+    installed; our decoders use none of them."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return not str(record.msg).startswith("torchvision is not installed")
+
+
+def export_onnx(decoder: GaussianMLP, input_width: int, path) -> None:
+    """`path`: input ``x`` (batch, input_width) → outputs ``mean``, ``logvar``; opset 20."""
+    decoder = decoder.eval()
+    example = torch.zeros(2, input_width)
+    registration_log = logging.getLogger("torch.onnx._internal.exporter._registration")
+    notice_filter = _DropTorchvisionNotice()
+    registration_log.addFilter(notice_filter)
+    try:
+        _export(decoder, example, path)
+    finally:
+        registration_log.removeFilter(notice_filter)
+
+
+def _export(decoder: GaussianMLP, example: torch.Tensor, path) -> None:
+    with warnings.catch_warnings():
+        # torch 2.13's exporter calls its own deprecated pytree API (torch/utils/_pytree.py,
+        # through copyreg); the warning is about torch's internals, not about this model.
+        warnings.filterwarnings("ignore", category=FutureWarning,
+                                message=r"`isinstance\(treespec, LeafSpec\)` is deprecated")
+        program = torch.onnx.export(
+            decoder, (example,), input_names=["x"], output_names=["mean", "logvar"],
+            opset_version=ONNX_OPSET, dynamo=True, verbose=False,
+            dynamic_shapes=({0: torch.export.Dim("batch")},),
+        )
+    program.save(str(path))
+
+
+# --------------------------------------------------------------------------------------
+# Files
+# --------------------------------------------------------------------------------------
+def write_model(out_dir, spec: ModelSpec, model: CVAE, encodings: dict, training: dict,
+                metrics: dict | None) -> list[Path]:
+    """Write ``<stem>.json`` and ``<stem>.onnx`` of a trained model into out_dir."""
+    out = Path(out_dir)
+    obj = decoder_json(spec, model.decoder, encodings, training, metrics)
+    json_path = out / f"{spec.file_stem}.json"
+    tmp = json_path.with_suffix(".json.tmp")
+    tmp.write_text(_dumps(obj) + "\n", encoding="utf-8")
+    tmp.replace(json_path)
+    onnx_path = out / f"{spec.file_stem}.onnx"
+    export_onnx(model.decoder, spec.input_width, onnx_path)
+    return [json_path, onnx_path]
+
+
+def save_checkpoint(path, trained: dict) -> Path:
+    """trained: name → (model, encodings, training, metrics). Tensors and plain data only, so
+    `torch.load(weights_only=True)` reads it."""
+    blob = {"format": CHECKPOINT_FORMAT, "version": CHECKPOINT_VERSION, "models": {}}
+    for name, (model, enc, training, metrics) in trained.items():
+        blob["models"][name] = {
+            "state_dict": {k: v.detach().clone() for k, v in model.state_dict().items()},
+            "encodings": {k: e.to_json() for k, e in enc.items()},
+            "training": json.loads(json.dumps(_clean(training))),
+            "metrics": json.loads(json.dumps(_clean(metrics))),
+        }
+    buf = io.BytesIO()
+    torch.save(blob, buf)
+    Path(path).write_bytes(buf.getvalue())
+    return Path(path)
+
+
+def load_checkpoint(path) -> dict:
+    """name → (model, encodings, training, metrics), as `save_checkpoint` got them."""
+    path = Path(path)
+    if not path.is_file():
+        raise CheckpointError(f"{path}: checkpoint does not exist")
+    try:
+        blob = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as e:  # torch raises many kinds (pickle, zip, runtime) for a bad file
+        raise CheckpointError(f"{path}: not a readable checkpoint "
+                              f"({type(e).__name__}: {e})") from None
+    if not isinstance(blob, dict) or blob.get("format") != CHECKPOINT_FORMAT:
+        raise CheckpointError(f"{path}: not an sssphere CVAE checkpoint")
+    if blob.get("version") != CHECKPOINT_VERSION:
+        raise CheckpointError(f"{path}: checkpoint version {blob.get('version')!r}, this reader "
+                              f"understands {CHECKPOINT_VERSION}")
+    out = {}
+    for name, entry in blob["models"].items():
+        spec = SPECS_BY_NAME.get(name)
+        if spec is None:
+            raise CheckpointError(f"{path}: unknown model {name!r}")
+        model = CVAE(spec)
+        model.load_state_dict(entry["state_dict"])
+        enc = {k: Encoding.from_json(v) for k, v in entry["encodings"].items()}
+        out[name] = (model.eval(), enc, entry["training"], entry["metrics"])
+    return out
+
+
+def export_checkpoint(checkpoint, out_dir) -> list[Path]:
+    """Write the model files (JSON + ONNX) of every model in a checkpoint."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    files = []
+    trained = load_checkpoint(checkpoint)
+    for spec in SPECS:
+        if spec.name in trained:
+            model, enc, training, metrics = trained[spec.name]
+            files += write_model(out, spec, model, enc, training, metrics)
+    return files

@@ -1,0 +1,405 @@
+"""Training the three CVAEs on a training-data file (docs/learning.md).
+
+    from sssphere.learn.train import train
+    summary = train("walks.npz", "models/", epochs=4, seed=0)
+
+writes ``models/lengthgen.json`` / ``.onnx``, ``pathgen.*``, ``eventgen.*`` (the contract of
+docs/model-format.md) and ``models/cvae_checkpoint.pt`` (encoders included, for `export`).
+
+Loss per sample: the negative ELBO, Σ_i −ln N(x_i; μ_i, e^{ℓ_i}) + β·Σ_j max(λ, KL_j), with
+KL_j the batch mean of the latent dimension j's KL to N(0, 1), λ the free bits per dimension
+and β the KL warm-up weight (0 → 1 over the first `kl_warmup` of training). Optimiser AdamW,
+learning rate warmed up linearly and then cosine-annealed to `lr_final`. Everything is seeded:
+the same data, seed, thread count and settings give the same weights, unless `max_minutes`
+cuts training short (then the schedule follows the clock and the result depends on speed).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from sssphere.learn.data import TrainingData, load_training_data
+from sssphere.learn.models import CVAE, gaussian_nll, kl_per_dim
+from sssphere.learn.spec import ENCODING_SETS, SPECS, Encoding, ModelSpec
+
+# Share of a `max_minutes` budget per model, roughly their cost per sample.
+TIME_SHARES = {"LengthGen": 0.2, "PathGen": 0.35, "EventGen": 0.45}
+ACTIVE_LATENT_NATS = 0.01  # a latent dimension "is used" above this mean KL
+
+
+@dataclass
+class TrainConfig:
+    """Hyperparameters (defaults: the shipped models)."""
+
+    epochs: int = 100
+    batch_size: int = 4096
+    lr: float = 3e-3
+    lr_final: float = 3e-5
+    lr_warmup_steps: int = 200
+    weight_decay: float = 1e-5
+    free_bits: float = 0.0  # λ, nats per latent dimension (batch mean); 0: warm-up only
+    kl_warmup: float = 0.15  # fraction of training over which β goes 0 → 1
+    grad_clip: float = 10.0
+    val_fraction: float = 0.02
+    max_val: int = 50_000
+    event_jitter: float = 0.0  # std. dev. of Gaussian noise added to EventGen's X, W targets
+    encodings: str = "logit"  # "logit" (shipped) or "plain" (affine/log only), spec.ENCODING_SETS
+    threads: int = 1
+
+
+# --------------------------------------------------------------------------------------
+# Data → encoded tensors
+# --------------------------------------------------------------------------------------
+def _columns(data: TrainingData, names) -> np.ndarray:
+    cols = []
+    for name in names:
+        if name in ("X_x", "X_y", "X_z", "W_x", "W_y", "W_z"):
+            cols.append(getattr(data, name[0])[:, "xyz".index(name[2])])
+        else:
+            cols.append(np.asarray(getattr(data, name), dtype=np.float64))
+    return np.stack(cols, axis=1)
+
+
+def fit_encodings(spec: ModelSpec, data: TrainingData, rng: np.random.Generator,
+                  which: str = "logit") -> dict:
+    """Per variable: its encoding of spec.ENCODING_SETS[which], standardized on the data
+    (LengthGen's N on the dequantized N + ξ)."""
+    if which not in ENCODING_SETS:
+        raise ValueError(f"unknown encoding set {which!r} (allowed: {', '.join(ENCODING_SETS)})")
+    base = ENCODING_SETS[which]
+    enc = {}
+    for name in spec.conditions:
+        enc[name] = base[name].standardized(_columns(data, [name])[:, 0])
+    for name in spec.outputs:
+        x = _columns(data, [name])[:, 0]
+        if spec.name == "LengthGen":
+            x = x + rng.random(x.shape[0])
+        enc[name] = base[name].standardized(x)
+    return enc
+
+
+def _encode_torch(e: Encoding, x: torch.Tensor) -> torch.Tensor:
+    if e.kind == "affine":
+        return e.a * x + e.b
+    if e.kind == "log":
+        return e.a * torch.log(e.s * x + e.c) + e.b
+    # Jittered targets may step past the ends: keep them inside the domain (lo − ε, hi + ε).
+    x = torch.clamp(x, e.lo - 0.5 * e.eps, e.hi + 0.5 * e.eps)
+    return e.a * (torch.log(x - e.lo + e.eps) - torch.log(e.hi - x + e.eps)) + e.b
+
+
+class _Batches:
+    """Encoded conditions (fixed) and raw outputs, encoded per batch after the model's noise:
+    dequantization N + ξ (LengthGen) or Gaussian jitter (EventGen)."""
+
+    def __init__(self, spec: ModelSpec, data: TrainingData, enc: dict, cfg: TrainConfig):
+        self.spec = spec
+        cond = np.stack([enc[n].encode(_columns(data, [n])[:, 0]) for n in spec.conditions], 1)
+        self.c = torch.from_numpy(cond.astype(np.float32))
+        self.x_raw = torch.from_numpy(_columns(data, spec.outputs))  # float64: N up to 1e5
+        self.out_enc = [enc[n] for n in spec.outputs]
+        self.jitter = cfg.event_jitter if spec.name == "EventGen" else 0.0
+
+    def __len__(self) -> int:
+        return self.c.shape[0]
+
+    def get(self, idx: torch.Tensor, gen: torch.Generator) -> tuple[torch.Tensor, torch.Tensor]:
+        x = self.x_raw[idx]
+        if self.spec.name == "LengthGen":
+            x = x + torch.rand(x.shape, generator=gen, dtype=x.dtype)
+        elif self.jitter > 0:
+            x = x + self.jitter * torch.randn(x.shape, generator=gen, dtype=x.dtype)
+        xe = torch.stack([_encode_torch(e, x[:, i]) for i, e in enumerate(self.out_enc)], 1)
+        return self.c[idx], xe.to(torch.float32)
+
+
+# --------------------------------------------------------------------------------------
+# Progress
+# --------------------------------------------------------------------------------------
+class _Progress:
+    """A one-line progress bar on stderr (on a terminal), or a line per 10 % otherwise."""
+
+    def __init__(self, label: str, enabled: bool):
+        self.label, self.enabled = label, enabled
+        self.tty = sys.stderr.isatty()
+        self.start = time.monotonic()
+        self.last = -1.0
+
+    def update(self, fraction: float, text: str = "") -> None:
+        if not self.enabled:
+            return
+        step = 0.002 if self.tty else 0.1
+        if fraction - self.last < step and fraction < 1.0:
+            return
+        self.last = fraction
+        elapsed = time.monotonic() - self.start
+        left = elapsed * (1 - fraction) / fraction if fraction > 0 else float("nan")
+        bar = "#" * int(round(30 * fraction))
+        line = (f"{self.label:<9} [{bar:.<30}] {100 * fraction:5.1f}%  {elapsed:6.1f}s, "
+                f"{left:6.1f}s left  {text}")
+        sys.stderr.write(("\r" + line) if self.tty else (line + "\n"))
+        sys.stderr.flush()
+
+    def close(self) -> None:
+        if self.enabled and self.tty:
+            sys.stderr.write("\n")
+
+
+# --------------------------------------------------------------------------------------
+# Training one model
+# --------------------------------------------------------------------------------------
+def _lr_at(cfg: TrainConfig, step: int, progress: float) -> float:
+    warm = min(1.0, (step + 1) / cfg.lr_warmup_steps)
+    cos = 0.5 * (1.0 + math.cos(math.pi * min(1.0, progress)))
+    return warm * (cfg.lr_final + (cfg.lr - cfg.lr_final) * cos)
+
+
+@torch.no_grad()
+def evaluate_cvae(model: CVAE, batches: _Batches, idx: torch.Tensor, seed: int) -> dict:
+    """ELBO terms on the walks idx (β = 1, no free bits): NLL, KL and KL per latent dim."""
+    gen = torch.Generator().manual_seed(seed)
+    nll_sum, kl_sum, n = 0.0, torch.zeros(model.spec.latent_dim, dtype=torch.float64), 0
+    for start in range(0, idx.shape[0], 65536):
+        i = idx[start:start + 65536]
+        c, x = batches.get(i, gen)
+        noise = torch.randn(i.shape[0], model.spec.latent_dim, generator=gen)
+        xm, xl, zm, zl = model(c, x, noise)
+        nll_sum += float(gaussian_nll(x, xm, xl).double().sum())
+        kl_sum += kl_per_dim(zm, zl).double().sum(dim=0)
+        n += i.shape[0]
+    kl = (kl_sum / n).tolist()
+    return {"nll": nll_sum / n, "kl": float(sum(kl)), "kl_per_latent_dim": kl,
+            "latent_dims_active": int(sum(k > ACTIVE_LATENT_NATS for k in kl))}
+
+
+def train_cvae(spec: ModelSpec, data: TrainingData, cfg: TrainConfig, seed: int,
+               time_budget_s: float | None = None, progress: bool = True):
+    """Train one CVAE on the walks with N ≥ 2 of data (EventGen: and a representative event
+    k ≥ 2, i.e. X ≠ 0; the first event is sampled exactly, docs/model-format.md).
+    Returns (model, encodings, report)."""
+    rows = data.N >= 2
+    if spec.name == "EventGen":
+        rows &= np.any(data.X != 0, axis=1)
+    data = data.subset(rows)
+    if len(data) < 2:
+        raise ValueError(f"{data.path}: fewer than 2 walks to train {spec.name} on (it needs "
+                         f"N >= 2{' and X != 0' if spec.name == 'EventGen' else ''})")
+    rng = np.random.default_rng([seed, SPECS.index(spec)])
+    torch.manual_seed(seed * 7919 + SPECS.index(spec))
+    enc = fit_encodings(spec, data, rng, cfg.encodings)
+    batches = _Batches(spec, data, enc, cfg)
+    gen = torch.Generator().manual_seed(seed * 104729 + SPECS.index(spec))
+    perm = torch.randperm(len(batches), generator=gen)
+    n_val = min(cfg.max_val, max(1, int(round(cfg.val_fraction * len(batches)))))
+    if len(batches) - n_val < 1:
+        n_val = 0
+    val_idx, train_idx = perm[:n_val], perm[n_val:]
+    n_train = train_idx.shape[0]
+    batch = min(cfg.batch_size, n_train)
+    steps_per_epoch = -(-n_train // batch)
+    total_steps = max(1, cfg.epochs * steps_per_epoch)
+
+    model = CVAE(spec)
+    opt = torch.optim.AdamW(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
+    bar = _Progress(spec.name, progress)
+    t0 = time.monotonic()
+    step, progress_frac, done = 0, 0.0, False
+    epoch_losses = []
+    epochs_done = 0.0
+    for epoch in range(cfg.epochs):
+        order = train_idx[torch.randperm(n_train, generator=gen)]
+        loss_sum, loss_n = 0.0, 0
+        for start in range(0, n_train, batch):
+            elapsed = time.monotonic() - t0
+            progress_frac = step / total_steps
+            if time_budget_s:
+                progress_frac = max(progress_frac, elapsed / time_budget_s)
+            if progress_frac >= 1.0:
+                done = True
+                break
+            for group in opt.param_groups:
+                group["lr"] = _lr_at(cfg, step, progress_frac)
+            beta_kl = min(1.0, progress_frac / cfg.kl_warmup) if cfg.kl_warmup > 0 else 1.0
+            idx = order[start:start + batch]
+            c, x = batches.get(idx, gen)
+            noise = torch.randn(idx.shape[0], spec.latent_dim, generator=gen)
+            xm, xl, zm, zl = model(c, x, noise)
+            nll = gaussian_nll(x, xm, xl).mean()
+            kl = kl_per_dim(zm, zl).mean(dim=0)
+            loss = nll + beta_kl * torch.clamp(kl, min=cfg.free_bits).sum()
+            opt.zero_grad(set_to_none=True)
+            loss.backward()
+            if cfg.grad_clip:
+                torch.nn.utils.clip_grad_norm_(model.parameters(), cfg.grad_clip)
+            opt.step()
+            elbo = float(nll.detach()) + float(kl.detach().sum())
+            if not math.isfinite(elbo):
+                raise FloatingPointError(f"{spec.name}: the loss became {elbo} at step {step}")
+            loss_sum += elbo * idx.shape[0]
+            loss_n += idx.shape[0]
+            step += 1
+            epochs_done = step / steps_per_epoch
+            bar.update(max(progress_frac, step / total_steps),
+                       f"epoch {epoch + 1}/{cfg.epochs} loss {loss_sum / loss_n:8.4f}")
+        if loss_n:
+            epoch_losses.append(loss_sum / loss_n)
+        if done:
+            break
+    bar.update(1.0, f"loss {epoch_losses[-1] if epoch_losses else float('nan'):8.4f}")
+    bar.close()
+    seconds = time.monotonic() - t0
+    model.eval()
+    val = evaluate_cvae(model, batches, val_idx if n_val else train_idx[:50_000], seed + 1)
+    report = {
+        "train_loss_per_epoch": epoch_losses,
+        "val_nll": val["nll"],
+        "val_kl": val["kl"],
+        "val_loss": val["nll"] + val["kl"],
+        "kl_per_latent_dim": val["kl_per_latent_dim"],
+        "latent_dims_active": val["latent_dims_active"],
+        "active_threshold_nats": ACTIVE_LATENT_NATS,
+        "epochs_completed": epochs_done,
+        "steps": step,
+        "stopped_by_time_limit": bool(done and step < total_steps),
+        "seconds": seconds,
+        "samples_per_second": step * batch / seconds if seconds > 0 else float("nan"),
+        "n_train": int(n_train),
+        "n_val": int(n_val),
+    }
+    return model, enc, report
+
+
+# --------------------------------------------------------------------------------------
+# All three
+# --------------------------------------------------------------------------------------
+def _ranges(data: TrainingData) -> dict:
+    """Training ranges of σ, g, φ: the data file's meta ranges (those its conditions were drawn
+    from) when they cover the data, else the data's min and max."""
+    out = {}
+    for k in ("sigma", "g", "phi"):
+        v = getattr(data, k)
+        lo, hi = float(v.min()), float(v.max())
+        r = data.meta.get(f"{k}_range")
+        if r is None and f"{k}_max" in data.meta:  # sssphere datagen: sigma_max, g_max
+            m = data.meta[f"{k}_max"]
+            r = [0.0, m] if k == "sigma" else [-m, m]
+        if (isinstance(r, list) and len(r) == 2 and all(isinstance(x, (int, float)) for x in r)
+                and r[0] <= lo and hi <= r[1]):
+            lo, hi = float(r[0]), float(r[1])
+        out[k] = [lo, hi]
+    return out
+
+
+def train(data_path, out_dir, epochs: int | None = None, seed: int = 0,
+          max_minutes: float | None = None, progress: bool = True,
+          config: TrainConfig | None = None, models=("LengthGen", "PathGen", "EventGen")) -> dict:
+    """Train LengthGen, PathGen and EventGen on a training-data file and export them.
+
+    Parameters
+    ----------
+    data_path : path of a training-data `.npz` (`sssphere.learn.data`).
+    out_dir : directory for ``<name>.json``, ``<name>.onnx`` and ``cvae_checkpoint.pt``
+        (created if missing).
+    epochs : passes over the data per model (default: ``TrainConfig.epochs``).
+    seed : seeds every random choice (initialisation, batches, noise).
+    max_minutes : wall-clock limit for all models together (split by `TIME_SHARES`); the
+        learning-rate and KL schedules then follow the clock.
+    progress : progress bars and the summary on stderr.
+    config : all other hyperparameters.
+    models : which of the three to train (all by default).
+
+    Returns
+    -------
+    dict: per model name its report (losses, latent usage, time), and ``"files"``.
+    """
+    from sssphere.learn.export import save_checkpoint, write_model  # torch-side, lazily
+
+    cfg = TrainConfig(**asdict(config)) if config is not None else TrainConfig()
+    if epochs is not None:
+        if epochs < 1:
+            raise ValueError(f"epochs must be >= 1, got {epochs}")
+        cfg.epochs = int(epochs)
+    if max_minutes is not None and not max_minutes > 0:
+        raise ValueError(f"max_minutes must be > 0, got {max_minutes}")
+    unknown = [m for m in models if m not in TIME_SHARES]
+    if unknown:
+        raise ValueError(f"unknown model(s) {unknown} (allowed: {list(TIME_SHARES)})")
+    data = load_training_data(data_path)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+
+    threads_before = torch.get_num_threads()
+    det_before = torch.are_deterministic_algorithms_enabled()
+    torch.set_num_threads(max(1, cfg.threads))
+    torch.use_deterministic_algorithms(True)
+    t_start = time.monotonic()
+    results, trained, files = {}, {}, []
+    try:
+        share_sum = sum(TIME_SHARES[m] for m in models)
+        for spec in SPECS:
+            if spec.name not in models:
+                continue
+            budget = None
+            if max_minutes is not None:
+                budget = 60.0 * max_minutes * TIME_SHARES[spec.name] / share_sum
+            model, enc, report = train_cvae(spec, data, cfg, seed, budget, progress)
+            training = {
+                **_ranges(data),
+                "data_file": Path(data.path).name,
+                "data_meta": data.meta,
+                "n_walks": len(data),
+                "n_samples": report["n_train"],
+                "n_validation": report["n_val"],
+                "epochs": cfg.epochs,
+                "epochs_completed": report["epochs_completed"],
+                "seed": seed,
+                **{k: v for k, v in asdict(cfg).items() if k not in ("epochs",)},
+                "loss": "negative ELBO: Gaussian NLL of the encoded outputs + "
+                        "beta * sum_j max(free_bits, batch-mean KL_j)",
+                "rows": ("N >= 2 and X != 0 (events k >= 2)" if spec.name == "EventGen"
+                         else "N >= 2"),
+                "noise": ("targets N + U[0,1)" if spec.name == "LengthGen" else
+                          f"targets + N(0, {cfg.event_jitter}^2)"
+                          if spec.name == "EventGen" and cfg.event_jitter > 0 else "none"),
+                "torch_version": torch.__version__,
+            }
+            metrics = {k: report[k] for k in ("val_nll", "val_kl", "val_loss", "kl_per_latent_dim",
+                                              "latent_dims_active", "active_threshold_nats")}
+            files += write_model(out, spec, model, enc, training, metrics)
+            trained[spec.name] = (model, enc, training, metrics)
+            results[spec.name] = report
+        files.append(save_checkpoint(out / "cvae_checkpoint.pt", trained))
+    finally:
+        torch.set_num_threads(threads_before)
+        torch.use_deterministic_algorithms(det_before)
+    total = time.monotonic() - t_start
+    results["files"] = [str(f) for f in files]
+    results["seconds"] = total
+    if progress:
+        print(format_summary(results), file=sys.stderr)
+    return results
+
+
+def format_summary(results: dict) -> str:
+    """A few lines: per model the losses, latent usage and time."""
+    lines = ["model      val NLL   val KL  latent KL per dim (nats)              used  epochs   time"
+             "   samples/s"]
+    for name in TIME_SHARES:
+        r = results.get(name)
+        if r is None:
+            continue
+        kl = " ".join(f"{k:5.2f}" for k in r["kl_per_latent_dim"])
+        lines.append(f"{name:<9} {r['val_nll']:8.4f} {r['val_kl']:8.4f}  {kl:<36} "
+                     f"{r['latent_dims_active']:>4}  {r['epochs_completed']:6.2f} "
+                     f"{r['seconds']:6.1f}s {r['samples_per_second']:10.0f}"
+                     + ("  (time limit)" if r["stopped_by_time_limit"] else ""))
+    names = ", ".join(Path(f).name for f in results["files"])
+    lines.append(f"total {results['seconds']:.1f}s; wrote {names}")
+    return "\n".join(lines)

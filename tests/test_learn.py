@@ -1,0 +1,504 @@
+"""The learning pipeline (python/sssphere/learn/) and its oracle, the NumPy reference walker
+(tests/reference_walks.py): walker facts that need no simulation, the training-data loader,
+a few-second training run, decoder parity (PyTorch / onnxruntime / NumPy), file round trips and
+the errors for bad files and inputs."""
+
+import json
+import math
+import os
+import sys
+
+from pathlib import Path
+
+import numpy as np
+import onnxruntime as ort
+import pytest
+import torch
+
+import sssphere
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+from reference_walks import hg_sample_cos, reference_sphere_walks  # noqa: E402
+
+from sssphere.cli import main as cli_main  # noqa: E402
+from sssphere.learn import data as learn_data  # noqa: E402
+from sssphere.learn.data import DataError, generate_training_data, load_training_data  # noqa: E402
+from sssphere.learn.export import CheckpointError, export_checkpoint, load_checkpoint  # noqa: E402
+from sssphere.learn.numpy_decoder import (ModelFileError, SphereSampler,  # noqa: E402
+                                          load_decoder, postprocess)
+from sssphere.learn.spec import PATHGEN, SPECS, Encoding  # noqa: E402
+from sssphere.learn.train import TrainConfig, fit_encodings, train  # noqa: E402
+
+STEMS = [s.file_stem for s in SPECS]
+
+
+def binomial_ok(k: int, n: int, p: float, z: float = 4.5) -> bool:
+    return abs(k - n * p) <= z * math.sqrt(n * p * (1 - p)) + 1
+
+
+def hg_cdf(g: float, mu: np.ndarray) -> np.ndarray:
+    """P(cos θ ≤ mu) for HG(g), from ∫ρ dω = ½ ∫ (1−g²)/(1+g²−2g t)^{3/2} dt."""
+    return (1 - g * g) / (2 * g) * (1 / np.sqrt(1 + g * g - 2 * g * mu) - 1 / (1 + g))
+
+
+# ----------------------------------------------------------------------------------------
+# The reference walker
+# ----------------------------------------------------------------------------------------
+@pytest.mark.parametrize("sigma, g", [(0.3, 0.0), (1.0, 0.9), (2.5, -0.7), (6.0, 0.4)])
+def test_walker_single_scattering_probability_is_exp_minus_sigma(sigma, g):
+    n = 40_000
+    w = reference_sphere_walks(sigma, g, 0.9, n, seed=11)
+    assert w["N"].dtype == np.int64 and w["N"].min() >= 1
+    assert binomial_ok(int((w["N"] == 1).sum()), n, math.exp(-sigma))
+
+
+def test_walker_geometry_holds_for_every_walk():
+    n = 20_000
+    rng = np.random.default_rng(5)
+    sigma = rng.uniform(0, 30, n)
+    g = rng.uniform(-0.95, 0.95, n)
+    phi = rng.uniform(0, 1, n)
+    w = reference_sphere_walks(sigma, g, phi, n, seed=3)
+    assert set(w) == {"N", "cos_theta", "alpha", "beta", "X", "W"}
+    assert w["X"].shape == (n, 3) and w["W"].shape == (n, 3) and w["cos_theta"].shape == (n,)
+    # The exit point x̂ = (sin θ, 0, cos θ) is a unit vector with sin θ ≥ 0.
+    assert np.all(np.abs(w["cos_theta"]) <= 1)
+    x_hat = np.stack([np.sqrt(1 - w["cos_theta"] ** 2), 0 * w["cos_theta"], w["cos_theta"]], 1)
+    np.testing.assert_allclose(np.linalg.norm(x_hat, axis=1), 1, atol=1e-12)
+    assert np.all(w["alpha"] ** 2 + w["beta"] ** 2 <= 1 + 1e-12)
+    assert np.all(np.linalg.norm(w["X"], axis=1) <= 1 + 1e-12)
+    np.testing.assert_allclose(np.linalg.norm(w["W"], axis=1), 1, atol=1e-12)
+    # The exit direction leaves the sphere: ω·n = √(1 − α² − β²) ≥ 0 is implied, so a walk
+    # that ended with N = 1 left along its first direction, radially: α = β = 0.
+    one = w["N"] == 1
+    assert one.any()
+    np.testing.assert_array_equal(w["alpha"][one], 0)
+    np.testing.assert_array_equal(w["beta"][one], 0)
+    np.testing.assert_array_equal(w["X"][one], 0)
+    np.testing.assert_array_equal(w["W"][one], np.tile([0, 0, 1], (one.sum(), 1)))
+    # σ = 0: every walk leaves after the first event.
+    assert np.all(reference_sphere_walks(0.0, 0.3, 1.0, 100, seed=1)["N"] == 1)
+
+
+@pytest.mark.parametrize("g", [-0.7, 0.0, 0.9])
+def test_walker_single_scattering_exit_follows_hg(g):
+    # With N = 1 the exit point is the first HG direction: cos θ ~ HG(g) exactly.
+    w = reference_sphere_walks(0.2, g, 1.0, 20_000, seed=7)
+    c = np.sort(w["cos_theta"][w["N"] == 1])
+    cdf = hg_cdf(g, c) if abs(g) > 1e-3 else (c + 1) / 2
+    d = np.max(np.abs(np.arange(1, c.size + 1) / c.size - cdf))
+    assert d < 1.63 / math.sqrt(c.size) + 1e-3  # Kolmogorov 1 % level
+    # ... and the sampler itself matches its CDF.
+    xi = np.random.default_rng(2).random(20_000)
+    c2 = np.sort(hg_sample_cos(np.full(xi.size, g), xi))
+    cdf2 = hg_cdf(g, c2) if abs(g) > 1e-3 else (c2 + 1) / 2
+    assert np.max(np.abs(np.arange(1, c2.size + 1) / c2.size - cdf2)) < 1.63 / math.sqrt(c2.size)
+
+
+def test_walker_representative_event_weights():
+    n = 30_000
+    # φ = 0: only event 1 has weight (φ^k / Σ φ^j → 1 for k = 1).
+    w = reference_sphere_walks(3.0, 0.2, 0.0, n, seed=4)
+    np.testing.assert_array_equal(w["X"], 0)
+    np.testing.assert_array_equal(w["W"], np.tile([0, 0, 1], (n, 1)))
+    # φ = 1: uniform over the N events, so P(event 1 | N) = 1/N and E[N · 1{event 1}] = 1.
+    w = reference_sphere_walks(3.0, 0.2, 1.0, n, seed=5)
+    first = np.all(w["X"] == 0, axis=1)
+    v = w["N"] * first
+    assert abs(v.mean() - 1) < 4.5 * v.std() / math.sqrt(n)
+    # General φ: P(event 1 | N) = φ / Σ_{j≤N} φ^j = (1 − φ) / (1 − φ^N).
+    phi = 0.7
+    w = reference_sphere_walks(3.0, 0.2, phi, n, seed=6)
+    first = np.all(w["X"] == 0, axis=1)
+    p1 = (1 - phi) / (1 - phi ** w["N"].astype(float))
+    r = first - p1
+    assert abs(r.mean()) < 4.5 * r.std() / math.sqrt(n)
+
+
+def test_walker_is_deterministic_and_checks_its_arguments():
+    a = reference_sphere_walks([1.0, 5.0, 9.0], 0.5, [0.1, 0.5, 0.9], 3, seed=9)
+    b = reference_sphere_walks(np.array([1.0, 5.0, 9.0]), 0.5, [0.1, 0.5, 0.9], 3, seed=9)
+    for k in a:
+        np.testing.assert_array_equal(a[k], b[k])
+    with pytest.raises(ValueError, match="sigma must be a scalar or have shape"):
+        reference_sphere_walks([1.0, 2.0], 0.0, 0.5, 3)
+    with pytest.raises(ValueError, match="g must lie in"):
+        reference_sphere_walks(1.0, 1.0, 0.5, 3)
+    with pytest.raises(ValueError, match="sigma must be finite"):
+        reference_sphere_walks(-1.0, 0.0, 0.5, 3)
+
+
+# ----------------------------------------------------------------------------------------
+# Training data
+# ----------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def tiny_data(tmp_path_factory):
+    """6000 reference walks over σ ∈ [0, 20] (fast to simulate), as a training-data file."""
+    path = tmp_path_factory.mktemp("data") / "walks.npz"
+    generate_training_data(path, 6000, reference_sphere_walks, seed=1, sigma_max=20.0,
+                           chunk=3000)
+    return path
+
+
+def test_training_data_round_trip(tiny_data):
+    d = load_training_data(tiny_data)
+    assert len(d) == 6000 and d.N.dtype == np.int64 and d.X.shape == (6000, 3)
+    assert 0 <= d.sigma.min() and d.sigma.max() <= 20 and np.abs(d.g).max() <= 0.95
+    assert d.meta["seed"] == 1 and d.meta["sigma_range"] == [0.0, 20.0]
+    # The same seed gives the same file contents.
+    again = generate_training_data(tiny_data.parent / "again.npz", 6000, reference_sphere_walks,
+                                   seed=1, sigma_max=20.0, chunk=3000)
+    np.testing.assert_array_equal(again.X, d.X)
+    np.testing.assert_array_equal(again.sigma, d.sigma)
+
+
+def _write_npz(path, arrays):
+    np.savez(path, **arrays)
+    return path
+
+
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (lambda a: a.pop("W"), "missing array(s) W"),
+        (lambda a: a.update(extra=np.zeros(3)), "unknown array(s) extra"),
+        (lambda a: a.update(X=a["X"][:, :2]), "X has shape (50, 2), expected (50, 3)"),
+        (lambda a: a.update(alpha=a["alpha"][:-1]), "alpha has shape (49,), expected (50,)"),
+        (lambda a: a.update(N=a["N"].astype(float)), "N must hold integers"),
+        (lambda a: a["sigma"].__setitem__(3, np.nan), "sigma has 1 non-finite value(s)"),
+        (lambda a: a["g"].__setitem__(0, 1.0), "|g| < 1 fails for 1 walk(s), first at index 0"),
+        (lambda a: a["phi"].__setitem__(7, 1.5), "0 <= phi <= 1 fails"),
+        (lambda a: a["W"].__setitem__(2, [0, 0, 2]), "|W| = 1 fails"),
+        (lambda a: a.update(meta=np.array("{not json")), "meta is not a JSON string"),
+    ],
+)
+def test_training_data_errors_name_the_file_and_problem(tmp_path, edit, message):
+    w = reference_sphere_walks(2.0, 0.3, 0.9, 50, seed=2)
+    arrays = {"sigma": np.full(50, 2.0), "g": np.full(50, 0.3), "phi": np.full(50, 0.9), **w}
+    edit(arrays)
+    path = _write_npz(tmp_path / "bad.npz", arrays)
+    with pytest.raises(DataError) as e:
+        load_training_data(path)
+    assert str(path) in str(e.value) and message in str(e.value)
+
+
+def test_training_data_missing_or_corrupt_file(tmp_path):
+    with pytest.raises(DataError, match="none.npz: training-data file does not exist"):
+        load_training_data(tmp_path / "none.npz")
+    (tmp_path / "junk.npz").write_bytes(b"not a zip file at all")
+    with pytest.raises(DataError, match="junk.npz: not a readable .npz file"):
+        load_training_data(tmp_path / "junk.npz")
+
+
+@pytest.mark.parametrize("enc", [Encoding("affine", a=2.0, b=-1.0),
+                                 Encoding("log", a=0.5, b=0.2, s=-1.0, c=1.0001),
+                                 Encoding("logit", a=0.8, b=0.1, lo=-1.0, hi=1.0, eps=1e-4)])
+def test_encodings_invert_and_round_trip(enc):
+    x = np.linspace(-0.999, 0.999, 101)
+    np.testing.assert_allclose(enc.decode(enc.encode(x)), x, rtol=0, atol=1e-12)
+    assert Encoding.from_json(json.loads(json.dumps(enc.to_json()))) == enc
+    if enc.kind != "affine":
+        assert not enc.in_domain(np.array([5.0])).any()
+    if enc.kind == "logit":
+        # The inverse maps the whole line into (lo − ε, hi + ε) without overflow.
+        y = enc.decode(np.array([-1e6, 0.0, 1e6]))
+        assert np.all(np.isfinite(y)) and y[0] >= -1 - 1e-4 and y[2] <= 1 + 1e-4
+
+
+def test_encoding_json_errors():
+    with pytest.raises(ValueError, match="unknown parameter 'c' of a 'affine' encoding"):
+        Encoding.from_json({"kind": "affine", "c": 1})
+    with pytest.raises(ValueError, match="unknown encoding kind 'sqrt'"):
+        Encoding.from_json({"kind": "sqrt"})
+    with pytest.raises(ValueError, match="must be a number"):
+        Encoding.from_json({"kind": "log", "a": "1"})
+    with pytest.raises(ValueError, match="lo < hi"):
+        Encoding.from_json({"kind": "logit", "lo": 1, "hi": -1})
+
+
+def test_plain_encoding_set_uses_only_the_first_kinds(tiny_data):
+    # For readers that know affine and log only; the shipped set uses logit for cos θ, α, β.
+    d = load_training_data(tiny_data)
+    d = d.subset(d.N >= 2)
+    plain = fit_encodings(PATHGEN, d, np.random.default_rng(0), "plain")
+    assert {e.kind for e in plain.values()} <= {"affine", "log"}
+    shipped = fit_encodings(PATHGEN, d, np.random.default_rng(0))
+    assert shipped["cos_theta"].kind == "logit"
+    # Standardized: the encoded training values have mean 0 and variance 1.
+    e = shipped["cos_theta"].encode(d.cos_theta)
+    assert abs(e.mean()) < 1e-6 and abs(e.std() - 1) < 1e-6
+
+
+# ----------------------------------------------------------------------------------------
+# Training, export and the decoders
+# ----------------------------------------------------------------------------------------
+SMOKE_CONFIG = TrainConfig(batch_size=512, lr_warmup_steps=10)
+
+
+@pytest.fixture(scope="module")
+def trained(tiny_data, tmp_path_factory):
+    out = tmp_path_factory.mktemp("models")
+    result = train(tiny_data, out, epochs=3, seed=0, progress=False, config=SMOKE_CONFIG)
+    return out, result
+
+
+def test_training_writes_all_files_with_metrics(tiny_data, trained):
+    out, result = trained
+    names = sorted(os.listdir(out))
+    assert names == sorted([f"{s}.{e}" for s in STEMS for e in ("json", "onnx")]
+                           + ["cvae_checkpoint.pt"])
+    d = load_training_data(tiny_data)
+    rows = {"LengthGen": d.N >= 2, "PathGen": d.N >= 2,
+            "EventGen": (d.N >= 2) & np.any(d.X != 0, axis=1)}  # EventGen: events k >= 2
+    for spec in SPECS:
+        r = result[spec.name]
+        assert r["steps"] > 0 and r["epochs_completed"] == 3 and not r["stopped_by_time_limit"]
+        assert all(np.isfinite(r["train_loss_per_epoch"]))
+        # Training does something: the loss of the last epoch is below the first's.
+        assert r["train_loss_per_epoch"][-1] < r["train_loss_per_epoch"][0]
+        obj = json.loads((out / f"{spec.file_stem}.json").read_text())
+        m = obj["metrics"]
+        assert len(m["kl_per_latent_dim"]) == spec.latent_dim
+        assert m["latent_dims_active"] == sum(k > 0.01 for k in m["kl_per_latent_dim"])
+        t = obj["training"]
+        assert t["sigma"] == [0.0, 20.0] and t["g"] == [-0.95, 0.95] and t["seed"] == 0
+        assert t["n_samples"] + t["n_validation"] == int(rows[spec.name].sum())
+
+
+@pytest.mark.parametrize("stem", STEMS)
+def test_decoder_parity_torch_onnxruntime_numpy(trained, stem):
+    out, _ = trained
+    dec = load_decoder(out / f"{stem}.json")
+    model = load_checkpoint(out / "cvae_checkpoint.pt")[dec.name][0]
+    rng = np.random.default_rng(3)
+    x = np.zeros((257, dec.input_width), dtype=np.float32)
+    used = len(dec.condition_names) + dec.latent_dim
+    x[:, :used] = 2.0 * rng.standard_normal((257, used))  # padding stays zero
+    mean_np, logvar_np = dec.evaluate(x)
+    with torch.no_grad():
+        mean_t, logvar_t = model.decoder(torch.from_numpy(x))
+    sess = ort.InferenceSession(str(out / f"{stem}.onnx"), providers=["CPUExecutionProvider"])
+    assert [i.name for i in sess.get_inputs()] == ["x"]
+    assert [o.name for o in sess.get_outputs()] == ["mean", "logvar"]
+    mean_o, logvar_o = sess.run(["mean", "logvar"], {"x": x})
+    k = len(dec.output_names)
+    assert mean_np.shape == (257, k) and logvar_o.shape == (257, k)
+
+    def rel(a, b):  # outputs are standardized: 1 is their natural scale
+        return np.max(np.abs(a - b) / np.maximum(np.maximum(np.abs(a), np.abs(b)), 1.0))
+
+    for a, b in [(mean_np, mean_t.numpy()), (mean_np, mean_o), (mean_o, mean_t.numpy()),
+                 (logvar_np, logvar_t.numpy()), (logvar_np, logvar_o), (logvar_o, logvar_t.numpy())]:
+        assert rel(a, b) <= 1e-5
+    # The C++ decoders the renderer uses: the scalar reference and the SIMD one.
+    cpp = sssphere.ScatteringModel.load(out)
+    for impl in ("scalar", "simd"):
+        mean_c, logvar_c = cpp.evaluate(dec.name, x, impl=impl)
+        assert rel(mean_c, mean_t.numpy()) <= 1e-5 and rel(logvar_c, logvar_t.numpy()) <= 1e-5
+
+
+SHIPPED = Path(__file__).resolve().parents[1] / "models"
+
+
+@pytest.mark.parametrize("stem", STEMS)
+def test_shipped_decoders_agree_across_onnxruntime_numpy_and_cpp(stem):
+    """The shipped files: ONNX (onnxruntime) = JSON (NumPy) = C++ scalar = C++ SIMD, 1e-5."""
+    dec = load_decoder(SHIPPED / f"{stem}.json")
+    rng = np.random.default_rng(5)
+    x = np.zeros((513, dec.input_width), dtype=np.float32)
+    used = len(dec.condition_names) + dec.latent_dim
+    x[:, :used] = 2.0 * rng.standard_normal((513, used))
+    mean_np, logvar_np = dec.evaluate(x)
+    sess = ort.InferenceSession(str(SHIPPED / f"{stem}.onnx"), providers=["CPUExecutionProvider"])
+    mean_o, logvar_o = sess.run(["mean", "logvar"], {"x": x})
+    cpp = sssphere.ScatteringModel.load(SHIPPED)
+    (mean_s, logvar_s), (mean_v, logvar_v) = (cpp.evaluate(dec.name, x, impl=i) for i in ("scalar", "simd"))
+
+    def rel(a, b):
+        return np.max(np.abs(a - b) / np.maximum(np.maximum(np.abs(a), np.abs(b)), 1.0))
+
+    for ref, others in ((mean_np, (mean_o, mean_s, mean_v)), (logvar_np, (logvar_o, logvar_s, logvar_v))):
+        for o in others:
+            assert rel(ref, o) <= 1e-5
+
+
+def test_json_round_trip_is_exact(trained, tmp_path):
+    out, _ = trained
+    ck = load_checkpoint(out / "cvae_checkpoint.pt")
+    for spec in SPECS:
+        obj = json.loads((out / f"{spec.file_stem}.json").read_text())
+        layers = ck[spec.name][0].decoder.linear_layers()
+        assert len(obj["layers"]) == spec.depth + 1 == len(layers)
+        for entry, layer in zip(obj["layers"], layers):
+            np.testing.assert_array_equal(np.asarray(entry["weight"], np.float32),
+                                          layer.weight.detach().numpy())
+            np.testing.assert_array_equal(np.asarray(entry["bias"], np.float32),
+                                          layer.bias.detach().numpy())
+        # 9 significant digits at most, on every number of the file.
+        text = (out / f"{spec.file_stem}.json").read_text()
+        for token in text.replace(",", " ").replace("[", " ").replace("]", " ").split():
+            if token[0].isdigit() or token[0] == "-":
+                mantissa = token.lstrip("-").split("e")[0].replace(".", "").lstrip("0")
+                assert len(mantissa) <= 9, token
+        # Encodings read back are the ones written.
+        for item in obj["conditions"] + obj["outputs"]:
+            assert Encoding.from_json(item["encode"]).to_json() == item["encode"]
+    # Re-exporting the checkpoint gives the same JSON, byte for byte.
+    export_checkpoint(out / "cvae_checkpoint.pt", tmp_path)
+    for stem in STEMS:
+        assert (tmp_path / f"{stem}.json").read_text() == (out / f"{stem}.json").read_text()
+
+
+def test_training_is_deterministic(tiny_data, trained, tmp_path):
+    out, _ = trained
+    train(tiny_data, tmp_path, epochs=3, seed=0, progress=False, config=SMOKE_CONFIG,
+          models=("LengthGen",))
+    assert (tmp_path / "lengthgen.json").read_text() == (out / "lengthgen.json").read_text()
+    train(tiny_data, tmp_path, epochs=3, seed=1, progress=False, config=SMOKE_CONFIG,
+          models=("LengthGen",))
+    assert (tmp_path / "lengthgen.json").read_text() != (out / "lengthgen.json").read_text()
+
+
+def test_samples_obey_the_post_processing_rules(trained):
+    out, _ = trained
+    rng = np.random.default_rng(8)
+    n = 4000
+    length = load_decoder(out / "lengthgen.json").sample({"sigma": rng.uniform(0, 20, n),
+                                                          "g": 0.5}, rng)
+    assert length["N"].dtype == np.int64 and length["N"].min() >= 2
+    sampler = SphereSampler.from_dir(out)
+    sigma = 1.5
+    w = sampler.sample(sigma, -0.3, 0.95, n, rng)
+    assert set(w) == {"N", "cos_theta", "alpha", "beta", "X", "W"}
+    # N = 1 is sampled exactly with probability e^{-σ}, never by the network.
+    assert binomial_ok(int((w["N"] == 1).sum()), n, math.exp(-sigma))
+    assert np.all(np.abs(w["cos_theta"]) <= 1)
+    assert np.all(np.hypot(w["alpha"], w["beta"]) <= 1 + 1e-12)
+    # The first event is the representative one with probability (1 − φ)/(1 − φ^N), drawn
+    # exactly: for φ = 1 that is 1/N, so E[N · 1{X = 0}] = 1 over the walks with N ≥ 2 ...
+    w1 = sampler.sample(sigma, -0.3, 1.0, n, rng)
+    many = w1["N"] >= 2
+    v = w1["N"][many] * np.all(w1["X"][many] == 0, axis=1)
+    assert abs(v.mean() - 1) < 4.5 * v.std() / math.sqrt(v.size)
+    assert np.all(np.all(w1["X"][~many] == 0, axis=1))
+    # ... and for φ = 0 it is always the first event.
+    w0 = sampler.sample(sigma, -0.3, 0.0, 200, rng)
+    np.testing.assert_array_equal(w0["X"], 0)
+    np.testing.assert_array_equal(w0["W"], np.tile([0, 0, 1], (200, 1)))
+    assert np.all(np.linalg.norm(w["X"], axis=1) <= 1 + 1e-12)
+    np.testing.assert_allclose(np.linalg.norm(w["W"], axis=1), 1, atol=1e-12)
+    # The rules themselves, on values that need them.
+    p = postprocess({"N": np.array([-3.0, 2.7, 7.2]), "cos_theta": np.array([1.5, -2.0, 0.3]),
+                     "alpha": np.array([3.0, 0.0, 0.1]), "beta": np.array([4.0, 0.0, 0.2]),
+                     "X_x": np.array([2.0, 0, 0]), "X_y": np.zeros(3), "X_z": np.zeros(3),
+                     "W_x": np.zeros(3), "W_y": np.array([0.0, 2.0, 0]), "W_z": np.zeros(3)})
+    np.testing.assert_array_equal(p["N"], [2, 2, 7])
+    np.testing.assert_array_equal(p["cos_theta"], [1.0, -1.0, 0.3])
+    np.testing.assert_allclose([p["alpha"][0], p["beta"][0]], [0.6, 0.8])
+    assert p["X_x"][0] == 1.0 and p["W_z"][0] == 1.0 and p["W_y"][1] == 1.0
+
+
+# ----------------------------------------------------------------------------------------
+# Errors
+# ----------------------------------------------------------------------------------------
+def _edited_model(trained, tmp_path, edit):
+    obj = json.loads((trained[0] / "pathgen.json").read_text())
+    edit(obj)
+    path = tmp_path / "pathgen.json"
+    path.write_text(json.dumps(obj))
+    return path
+
+
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (lambda o: o.update(format_version=2),
+         "format_version is 2; this reader understands format_version 1 only"),
+        (lambda o: o.update(format="other"), "format is 'other', expected 'sssphere-cvae-decoder'"),
+        (lambda o: o.update(extra=1), "unknown field(s) extra"),
+        (lambda o: o.pop("layers"), "missing field(s) layers"),
+        (lambda o: o.update(input_width=12), "input_width is 12, expected 8"),
+        (lambda o: o["layers"][1]["weight"].pop(), "layers[1].weight has shape (15, 16), expected (16, 16)"),
+        (lambda o: o["layers"][0].update(activation="relu"), "layers[0].activation is 'relu'"),
+        (lambda o: o["outputs"][0]["encode"].update(kind="sqrt"), "unknown encoding kind 'sqrt'"),
+        (lambda o: o["conditions"].reverse(), "PathGen conditions are ['N', 'g', 'sigma']"),
+        (lambda o: o["training"].update(sigma=[5]), "training.sigma must be a range"),
+    ],
+)
+def test_model_file_errors_name_the_file_and_problem(trained, tmp_path, edit, message):
+    path = _edited_model(trained, tmp_path, edit)
+    with pytest.raises(ModelFileError) as e:
+        load_decoder(path)
+    assert str(path) in str(e.value) and message in str(e.value)
+
+
+def test_missing_and_corrupt_model_files(tmp_path):
+    with pytest.raises(ModelFileError, match="none.json: model file does not exist"):
+        load_decoder(tmp_path / "none.json")
+    (tmp_path / "bad.json").write_text('{"format": "sssphere-cvae-decoder", ')
+    with pytest.raises(ModelFileError, match="bad.json: not valid JSON"):
+        load_decoder(tmp_path / "bad.json")
+    with pytest.raises(CheckpointError, match="none.pt: checkpoint does not exist"):
+        load_checkpoint(tmp_path / "none.pt")
+    (tmp_path / "bad.pt").write_bytes(b"junk")
+    with pytest.raises(CheckpointError, match="bad.pt: not a readable checkpoint"):
+        load_checkpoint(tmp_path / "bad.pt")
+
+
+@pytest.mark.parametrize(
+    "conditions, message",
+    [
+        ({"sigma": 25.0, "g": 0.0, "N": 5}, "condition sigma = 25.0 is outside the training range"),
+        ({"sigma": 5.0, "g": 0.99, "N": 5}, "condition g = 0.99 is outside the training range"),
+        ({"sigma": 5.0, "g": 0.0, "N": 1}, "condition N = 1.0 is outside the domain of its log"),
+        ({"sigma": np.nan, "g": 0.0, "N": 3}, "condition sigma = nan is outside the domain"),
+        ({"sigma": 5.0, "g": 0.0}, "missing ['N']"),
+        ({"sigma": [1.0, 2.0], "g": [0.1, 0.2, 0.3], "N": 3}, "do not broadcast"),
+        (np.zeros((4, 2)), "conditions must have shape (batch, 3)"),
+    ],
+)
+def test_bad_decoder_inputs_are_refused(trained, conditions, message):
+    dec = load_decoder(trained[0] / "pathgen.json")
+    with pytest.raises(ValueError) as e:
+        dec.sample(conditions, np.random.default_rng(0))
+    assert message in str(e.value)
+    with pytest.raises(ValueError, match=r"x must have shape \(batch, 8\), got \(3, 7\)"):
+        dec.evaluate(np.zeros((3, 7)))
+
+
+# ----------------------------------------------------------------------------------------
+# Command line
+# ----------------------------------------------------------------------------------------
+def test_cli_train_and_export(tiny_data, tmp_path, capsys):
+    code = cli_main(["train", str(tiny_data), "-o", str(tmp_path / "m"), "--epochs", "1",
+                     "--seed", "2"])
+    err = capsys.readouterr().err
+    assert code == 0, err
+    assert "LengthGen" in err and "latent KL per dim" in err and "wrote" in err
+    assert json.loads((tmp_path / "m" / "eventgen.json").read_text())["training"]["seed"] == 2
+    code = cli_main(["export", str(tmp_path / "m" / "cvae_checkpoint.pt"), "-o", str(tmp_path / "e")])
+    assert code == 0
+    assert (tmp_path / "e" / "pathgen.json").read_text() == (tmp_path / "m" / "pathgen.json").read_text()
+    assert (tmp_path / "e" / "pathgen.onnx").is_file()
+
+
+def test_cli_learn_errors_are_clear(tmp_path, capsys):
+    assert cli_main(["train", str(tmp_path / "none.npz"), "-o", str(tmp_path / "m")]) == 1
+    assert "none.npz: training-data file does not exist" in capsys.readouterr().err
+    assert cli_main(["export", str(tmp_path / "none.pt"), "-o", str(tmp_path / "m")]) == 1
+    assert "none.pt: checkpoint does not exist" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        cli_main(["train", str(tmp_path / "x.npz"), "-o", str(tmp_path), "--max-minutes", "0"])
+    assert "must be a positive number" in capsys.readouterr().err
+
+
+def test_sample_conditions_cover_the_ranges():
+    c = learn_data.sample_conditions(100_000, np.random.default_rng(0), sigma_max=200.0)
+    assert 0 <= c["sigma"].min() < 0.05 and 190 < c["sigma"].max() <= 200
+    assert -0.95 <= c["g"].min() < -0.94 and 0.94 < c["g"].max() <= 0.95
+    assert 0 <= c["phi"].min() and c["phi"].max() <= 1
+    # ln(σ + 0.5) uniform: about a third of the walks at σ ∈ [1, 10].
+    frac = np.mean((c["sigma"] >= 1) & (c["sigma"] <= 10))
+    expected = math.log(10.5 / 1.5) / math.log(200.5 / 0.5)
+    assert abs(frac - expected) < 0.01
