@@ -35,8 +35,8 @@ REPO = Path(__file__).resolve().parents[1]
 BUNNY = "/usr/share/glmark2/models/bunny.obj"
 
 # Relative error allowed on a block mean for the learned models. The model error is a bias of
-# the whole step distribution (N, exit, event); measured with the interim models at the default
-# tau it is below 1 % of the image mean on these scenes (bench/results/st_threshold_interim.json)
+# the whole step distribution (N, exit, event); measured with the shipped models at the default
+# tau it is below 1 % of the image mean on the benchmark scenes (bench/results/st_threshold*.json)
 # and up to about 1 % on a block; 2 % leaves room for a model that is somewhat worse locally.
 # Tests of the integrator alone use exact walks and no allowance.
 MODEL_ALLOWANCE = 0.02

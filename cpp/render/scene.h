@@ -54,7 +54,7 @@ struct Light {
 // Default sphere_threshold tau of integrator "st": a collision at p takes a sphere step when
 // sigma_t * r(p) >= tau. Chosen by measurement (render time against image error on the sphere
 // and bunny scenes): docs/sphere-tracing.md, "Choosing the threshold".
-constexpr float kDefaultSphereThreshold = 8.f;
+constexpr float kDefaultSphereThreshold = 6.f;
 
 struct RenderSettings {
     std::string integrator = "pt";
