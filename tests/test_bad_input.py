@@ -45,7 +45,10 @@ def error_of(scene, **kwargs):
         (lambda s: s["shapes"][0]["medium"].update(g=math.nan), ["shapes[0].medium.g", "finite"]),
         (lambda s: s["camera"].update(origin=[0, 0, math.inf]), ["camera.origin[2]", "finite"]),
         (lambda s: s.update(shapes=[]), ["shapes", "non-empty"]),
-        (lambda s: s["render"].update(integrator="st"), ["integrator 'st'", "not available yet"]),
+        (lambda s: s["render"].update(integrator="mc"), ["render.integrator", "\"pt\", \"st\""]),
+        (lambda s: s["render"].update(sphere_threshold=-1), ["render.sphere_threshold", "0 to 1e30"]),
+        (lambda s: s["render"].update(models=3), ["render.models", "directory path"]),
+        (lambda s: s["render"].update(integrator="st", models="nowhere"), ["nowhere: not a directory"]),
     ],
 )
 def test_bad_scene_dict_names_field_and_value(small_scene, edit, expected):

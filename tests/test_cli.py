@@ -40,7 +40,10 @@ def test_render_scene_file_to_exr_and_png(tmp_path, small_scene):
         (["render", "{scene}", "-o", "{tmp}/x.jpg"], "unsupported image format '.jpg'"),
         (["render", "{tmp}/none.json", "-o", "{tmp}/x.exr"], "none.json: scene file does not exist"),
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--spp", "0"], "must be >= 1"),
-        (["render", "{scene}", "-o", "{tmp}/x.exr", "--integrator", "st"], "invalid choice"),
+        (["render", "{scene}", "-o", "{tmp}/x.exr", "--integrator", "mc"], "invalid choice"),
+        (["render", "{scene}", "-o", "{tmp}/x.exr", "--integrator", "st", "--models", "{tmp}/none"],
+         "none: not a directory"),
+        (["render", "{scene}", "-o", "{tmp}/x.exr", "--sphere-threshold", "-1"], "must be a number >= 0"),
     ],
 )
 def test_cli_errors_are_clear(tmp_path, small_scene, args, expected):

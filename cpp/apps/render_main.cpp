@@ -18,7 +18,20 @@ void on_sigint(int) { g_interrupted = 1; }
 
 void usage() {
     std::cerr << "usage: sssphere-render SCENE.json -o OUT.(exr|png) [--spp N] [--seed N] "
-                 "[--threads N] [--integrator pt] [--quiet]\n";
+                 "[--threads N] [--integrator pt|st] [--sphere-threshold TAU] [--models DIR] [--quiet]\n"
+                 "  st: a collision takes a sphere step where sigma_t * r >= TAU (default: the scene's\n"
+                 "  render.sphere_threshold, else "
+              << sss::kDefaultSphereThreshold
+              << "; inf: never); DIR holds lengthgen.json, pathgen.json,\n"
+                 "  eventgen.json (default: the scene's render.models)\n";
+}
+
+float parse_threshold(const char* text) {
+    char* end = nullptr;
+    float v = std::strtof(text, &end);
+    if (!text[0] || *end || !(v >= 0.f))
+        sss::fail("--sphere-threshold: expected a number >= 0 (inf: no sphere steps), got '", text, "'");
+    return v;
 }
 
 long parse_int(const char* flag, const char* text) {
@@ -31,7 +44,8 @@ long parse_int(const char* flag, const char* text) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    std::string scene_path, out_path, integrator;
+    std::string scene_path, out_path, integrator, models;
+    float threshold = -1.f;  // < 0: the scene's
     long spp = -1, seed = -1, threads = 0;
     bool quiet = false;
     try {
@@ -46,6 +60,8 @@ int main(int argc, char** argv) {
             else if (a == "--seed") seed = parse_int("--seed", value());
             else if (a == "--threads") threads = parse_int("--threads", value());
             else if (a == "--integrator") integrator = value();
+            else if (a == "--sphere-threshold") threshold = parse_threshold(value());
+            else if (a == "--models") models = value();
             else if (a == "--quiet") quiet = true;
             else if (a == "-h" || a == "--help") { usage(); return 0; }
             else if (!a.empty() && a[0] == '-') sss::fail("unknown option '", a, "'");
@@ -64,6 +80,8 @@ int main(int argc, char** argv) {
         opt.seed = seed >= 0 ? uint64_t(seed) : desc.render.seed;
         opt.threads = int(threads);
         opt.max_bounces = desc.render.max_bounces;
+        opt.sphere_threshold = threshold >= 0.f ? threshold : desc.render.sphere_threshold;
+        opt.models = models.empty() ? desc.render.models : models;
         sss::Scene scene(std::move(desc), opt.threads);
 
         std::signal(SIGINT, on_sigint);
@@ -77,9 +95,15 @@ int main(int argc, char** argv) {
         if (!quiet) std::fprintf(stderr, "\n");
         sss::write_image(out_path, r.image, r.width, r.height);
         double paths = double(r.total_paths);
-        std::fprintf(stderr, "%s %s: %.2f s, %.1f scattering events per path%s\n",
+        std::string steps;
+        if (r.total_sphere_steps > 0) {
+            char buf[64];
+            std::snprintf(buf, sizeof buf, " + %.1f sphere steps", r.total_sphere_steps / paths);
+            steps = buf;
+        }
+        std::fprintf(stderr, "%s %s: %.2f s, %.1f scattering events%s per path\n",
                      r.cancelled ? "interrupted; wrote the partial image" : "wrote", out_path.c_str(),
-                     r.seconds, paths > 0 ? r.total_events / paths : 0.0, "");
+                     r.seconds, paths > 0 ? r.total_events / paths : 0.0, steps.c_str());
         return r.cancelled ? 130 : 0;
     } catch (const std::exception& e) {
         std::cerr << "sssphere-render: error: " << e.what() << "\n";

@@ -43,7 +43,8 @@ const Shape& shape_at(const Scene& s, int i) {
 }
 
 py::dict render_py(const Scene& scene, const std::string& integrator, int spp, uint64_t seed, int threads, int max_bounces,
-                   bool nee, py::object progress) {
+                   bool nee, float sphere_threshold, const std::string& models, const std::string& sphere_sampler,
+                   py::object progress) {
     RenderOptions opt;
     opt.integrator = integrator;
     opt.spp = spp;
@@ -51,6 +52,11 @@ py::dict render_py(const Scene& scene, const std::string& integrator, int spp, u
     opt.threads = threads;
     opt.max_bounces = max_bounces;
     opt.nee = nee;
+    opt.sphere_threshold = sphere_threshold;
+    opt.models = models;
+    if (sphere_sampler == "model") opt.sphere_sampler = SphereSampler::Model;
+    else if (sphere_sampler == "walk") opt.sphere_sampler = SphereSampler::Walk;
+    else fail("sphere_sampler '", sphere_sampler, "' is not allowed (allowed: 'model', 'walk')");
     bool interrupted = false;
     std::optional<py::error_already_set> callback_error;
     auto cb = [&](double f) -> bool {
@@ -81,11 +87,13 @@ py::dict render_py(const Scene& scene, const std::string& integrator, int spp, u
     d["image"] = to_array(r.image, {H, W, 3});
     d["variance"] = to_array(r.variance, {H, W, 3});
     d["events"] = to_array(r.events, {H, W});
+    d["sphere_steps"] = to_array(r.sphere_steps, {H, W});
     d["samples"] = to_array(r.samples, {H, W});
     d["seconds"] = r.seconds;
     d["cancelled"] = r.cancelled;
     d["interrupted"] = interrupted;
     d["total_events"] = r.total_events;
+    d["total_sphere_steps"] = r.total_sphere_steps;
     d["total_paths"] = r.total_paths;
     return d;
 }
@@ -113,6 +121,12 @@ PYBIND11_MODULE(_core, m) {
         .def_property_readonly("spp", [](const Scene& s) { return s.desc().render.spp; })
         .def_property_readonly("seed", [](const Scene& s) { return s.desc().render.seed; })
         .def_property_readonly("max_bounces", [](const Scene& s) { return s.desc().render.max_bounces; })
+        .def_property_readonly("sphere_threshold", [](const Scene& s) { return s.desc().render.sphere_threshold; })
+        .def_property_readonly("models",
+                               [](const Scene& s) -> std::optional<std::string> {
+                                   if (s.desc().render.models.empty()) return std::nullopt;
+                                   return s.desc().render.models;
+                               })
         .def_property_readonly("num_shapes", &Scene::num_shapes)
         .def("shape_name", [](const Scene& s, int i) { return shape_at(s, i).name; })
         .def("shape_mesh",
@@ -148,7 +162,9 @@ PYBIND11_MODULE(_core, m) {
         });
 
     m.def("render", &render_py, py::arg("scene"), py::arg("integrator"), py::arg("spp"), py::arg("seed"), py::arg("threads"),
-          py::arg("max_bounces"), py::arg("nee") = true, py::arg("progress") = py::none());
+          py::arg("max_bounces"), py::arg("nee") = true, py::arg("sphere_threshold") = kDefaultSphereThreshold,
+          py::arg("models") = "", py::arg("sphere_sampler") = "model", py::arg("progress") = py::none());
+    m.attr("DEFAULT_SPHERE_THRESHOLD") = kDefaultSphereThreshold;
 
     m.def("write_image",
           [](const std::string& path, py::array_t<float, py::array::c_style | py::array::forcecast> img) {

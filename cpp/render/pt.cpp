@@ -4,9 +4,11 @@
 #include <limits>
 
 #include "core/check.h"
+#include "render/sphere_tracing.h"
 #include "shared/fresnel.h"
 #include "shared/hg.h"
 #include "shared/sampling.h"
+#include "shared/sphere_step.h"
 
 namespace sss {
 
@@ -37,8 +39,8 @@ Vec3 offset(Vec3 p, Vec3 n, Vec3 w, float eps) { return p + n * (dot(w, n) > 0.f
 
 }  // namespace
 
-PathTracer::PathTracer(const Scene& scene, int max_bounces, bool nee)
-    : scene_(scene), max_bounces_(max_bounces), nee_(nee) {}
+PathTracer::PathTracer(const Scene& scene, int max_bounces, bool nee, const SphereTracing* sphere_tracing)
+    : scene_(scene), max_bounces_(max_bounces), nee_(nee), st_(sphere_tracing) {}
 
 float PathTracer::area_light_pdf(int light, Vec3 p, Vec3 w, float t, Vec3 n) const {
     const Light& l = scene_.desc().lights[light];
@@ -79,7 +81,7 @@ Vec3 PathTracer::transmittance(Vec3 p, Vec3 w, float dist, int shape, int channe
     return Vec3(0.f);
 }
 
-Vec3 PathTracer::direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng) const {
+Vec3 PathTracer::direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng, bool mis) const {
     const Shape& s = scene_.desc().shapes[shape];
     // A straight shadow ray never leaves a smooth dielectric boundary (DESIGN §2).
     if (s.boundary.type == BoundaryType::Dielectric) return Vec3(0.f);
@@ -130,7 +132,8 @@ Vec3 PathTracer::direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng) 
                 float pdf = area_light_pdf(int(i), p, w, dist, n);
                 float phase = hg_eval(dot(d, w), g);
                 Vec3 tr = transmittance(p, w, dist * (1.f - 1e-4f), shape, channel, rng);
-                sum += l.radiance * tr * (phase * power_heuristic(pdf / n_lights, phase) / pdf);
+                float mis_w = mis ? power_heuristic(pdf / n_lights, phase) : 1.f;
+                sum += l.radiance * tr * (phase * mis_w / pdf);
                 break;
             }
             case Light::Type::Environment: {
@@ -138,7 +141,8 @@ Vec3 PathTracer::direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng) 
                 float pdf = uniform_sphere_pdf();
                 float phase = hg_eval(dot(d, w), g);
                 Vec3 tr = transmittance(p, w, kInf, shape, channel, rng);
-                sum += l.radiance * tr * (phase * power_heuristic(pdf / n_lights, phase) / pdf);
+                float mis_w = mis ? power_heuristic(pdf / n_lights, phase) : 1.f;
+                sum += l.radiance * tr * (phase * mis_w / pdf);
                 break;
             }
         }
@@ -147,6 +151,11 @@ Vec3 PathTracer::direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng) 
 }
 
 PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
+    return st_ ? trace_impl<true>(o, d, rng) : trace_impl<false>(o, d, rng);
+}
+
+template <bool kSphereTracing>
+PathSample PathTracer::trace_impl(Vec3 o, Vec3 d, Rng& rng) const {
     const SceneDesc& desc = scene_.desc();
     const float eps = scene_.ray_epsilon();
     PathSample out;
@@ -166,6 +175,16 @@ PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
     bool specular = true;    // last vertex was the camera or a specular interface
     float phase_pdf = 0.f;   // pdf of the direction sampled at the last scattering event
     Vec3 scatter_pos;        // where that event happened (light pdfs are measured from it)
+    float r_at_o = -1.f;     // the distance grid at o when already queried there ("st"), else < 0
+    // Path Russian roulette after a scattering event or sphere step: false ends the path.
+    auto survives_roulette = [&]() {
+        float q = max_component(beta) / beta_start;
+        if (q < kRouletteThreshold) {
+            if (rng.uniform() >= q) return false;
+            beta /= q;
+        }
+        return true;
+    };
 
     for (;;) {
         if (shape < 0) {
@@ -223,7 +242,14 @@ PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
         float t = sample_exponential(rng.uniform(), extinction(s.medium, channel));
         Hit hit;
         bool at_boundary = false;
-        if (!(t < scene_.grid(shape).query(o))) at_boundary = scene_.tracer().intersect(o, d, 0.f, t, &hit);
+        float r_o;
+        if constexpr (kSphereTracing) {
+            r_o = r_at_o >= 0.f ? r_at_o : scene_.grid(shape).query(o);
+            r_at_o = -1.f;
+        } else {
+            r_o = scene_.grid(shape).query(o);
+        }
+        if (!(t < r_o)) at_boundary = scene_.tracer().intersect(o, d, 0.f, t, &hit);
         if (!at_boundary && !(t < kInf)) {
             // No boundary ahead of an unbounded flight: numerical leak out of the mesh.
             shape = -1;
@@ -231,8 +257,57 @@ PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
         }
 
         if (!at_boundary) {
-            // Real collision: scatter.
             o = o + d * t;
+            if constexpr (kSphereTracing) {
+                // Sphere tracing: if the largest sphere around o inside the medium is optically
+                // thick enough, one step replaces every scattering event inside it
+                // (docs/sphere-tracing.md).
+                const float sigma_t = extinction(s.medium, channel);
+                const float r = scene_.grid(shape).query(o);
+                if (sigma_t * r >= st_->threshold()) {
+                    ++out.sphere_steps;
+                    const float sigma = std::min(sigma_t * r, st_->sigma_max());
+                    const float radius = std::min(r, sigma / sigma_t);
+                    const Vec3 albedo = s.medium.albedo;
+                    const bool with_event = st_->wants_event(shape);
+                    // The representative event is drawn for one albedo: the carried channel's,
+                    // or, for RGB throughput with a chromatic albedo, a channel picked uniformly
+                    // whose light connection then counts 3 times in that channel only.
+                    float phi = albedo[channel < 0 ? 0 : channel];
+                    Vec3 nee_weight(1.f);
+                    if (with_event && channel < 0 && !(albedo.x == albedo.y && albedo.x == albedo.z)) {
+                        const int c = std::min(2, int(rng.uniform() * 3.f));
+                        phi = albedo[c];
+                        nee_weight = Vec3(0.f);
+                        nee_weight[c] = 3.f;
+                    }
+                    const WorldSphereStep step = st_->sample(o, d, radius, sigma, s.medium.g, phi, with_event, rng);
+                    Vec3 survival;
+                    for (int c = 0; c < 3; ++c) {
+                        survival[c] = float(survival_power(albedo[c], step.N));
+                        if (with_event) nee_weight[c] *= float(event_weight_sum(albedo[c], step.N));
+                    }
+                    // NEE from the representative event, weighted by Lambda = sum_j phi^j, with
+                    // the throughput on entering the sphere. MIS needs the same vertex on both
+                    // sides: the first event (at o) is known, so it keeps pt's MIS, and its
+                    // phase-sampled light hit (only possible for N = 1) keeps its weight. For
+                    // N >= 2 the last event is unknown: its light hit gets weight 0
+                    // (phase_pdf = 0 below) and the events k >= 2 use light sampling alone.
+                    if (with_event && !is_black(nee_weight))
+                        L += beta * nee_weight * direct_light(step.X, step.W, shape, channel, rng, step.first_event);
+                    beta *= survival;
+                    if (is_black(beta)) break;
+                    phase_pdf = step.N == 1 ? hg_eval(dot(d, step.exit_dir), s.medium.g) : 0.f;
+                    scatter_pos = o;
+                    o = step.exit_pos;
+                    d = step.exit_dir;
+                    specular = false;
+                    if (!survives_roulette()) break;
+                    continue;
+                }
+                r_at_o = r;  // the ordinary event below stays at o: its next flight reuses r
+            }
+            // Real collision: scatter.
             ++out.scatter_events;
             if (max_bounces_ >= 0 && int(out.scatter_events) > max_bounces_) break;
             beta *= s.medium.albedo;
@@ -243,11 +318,7 @@ PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
             scatter_pos = o;
             d = d_new;
             specular = false;
-            float q = max_component(beta) / beta_start;
-            if (q < kRouletteThreshold) {
-                if (rng.uniform() >= q) break;
-                beta /= q;
-            }
+            if (!survives_roulette()) break;
             continue;
         }
 

@@ -2,6 +2,11 @@
 // media with Henyey-Greenstein scattering, index-matched and smooth dielectric boundaries,
 // next-event estimation toward one light at every scattering event (MIS with phase sampling for area and
 // environment lights). See docs/notation.md for the conventions.
+//
+// With a SphereTracing policy it is the sphere tracer (integrator "st", DESIGN §5,
+// docs/sphere-tracing.md): at a real collision deep enough inside a medium one learned sphere
+// step replaces the scattering events inside the largest sphere there; everything else (flights,
+// boundaries, lights, NEE, roulette) is the same code.
 #pragma once
 
 #include <cstdint>
@@ -14,22 +19,31 @@ namespace sss {
 
 struct PathSample {
     Vec3 radiance;
-    uint32_t scatter_events = 0;  // real collisions in media along the path
+    uint32_t scatter_events = 0;  // ordinary scattering events (real collisions scattered by HG)
+    uint32_t sphere_steps = 0;    // sphere steps ("st" only), each standing for N >= 1 events
 };
+
+class SphereTracing;
 
 class PathTracer {
 public:
     // nee = false: no light sampling, emitters count only when paths hit them (for tests
     // of the MIS weights, and as the plain estimator).
-    PathTracer(const Scene& scene, int max_bounces, bool nee = true);
+    // sphere_tracing: the policy of integrator "st" (not owned; must outlive the tracer), or
+    // nullptr for "pt".
+    PathTracer(const Scene& scene, int max_bounces, bool nee = true, const SphereTracing* sphere_tracing = nullptr);
     // Radiance arriving at `o` from direction -d (a camera ray o + t d).
     PathSample trace(Vec3 o, Vec3 d, Rng& rng) const;
 
 private:
+    // The path loop; kSphereTracing = (st_ != nullptr), so "pt" compiles without the step.
+    template <bool kSphereTracing>
+    PathSample trace_impl(Vec3 o, Vec3 d, Rng& rng) const;
     // Phase x transmittance x emitted radiance / pdf at medium point p of shape `shape`, for a
     // photon travelling along d before scattering, from one light chosen uniformly (weighted
-    // by the number of lights).
-    Vec3 direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng) const;
+    // by the number of lights). mis = false: light sampling alone (weight 1), for a vertex
+    // whose phase-sampled continuation cannot be weighted (a sphere step's events k >= 2).
+    Vec3 direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng, bool mis = true) const;
     // Transmittance from p (inside shape `shape`, or -1 for vacuum) along unit w over
     // `dist`; 0 when a dielectric boundary or an emitter is in the way. Unbiased estimate:
     // once the transmittance of the channel(s) carried falls below kShadowRoulette at a
@@ -41,6 +55,7 @@ private:
     const Scene& scene_;
     int max_bounces_;
     bool nee_;
+    const SphereTracing* st_;
 };
 
 }  // namespace sss

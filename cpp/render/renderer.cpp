@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <memory>
 #include <mutex>
 #include <thread>
 
@@ -11,6 +12,7 @@
 #include "core/rng.h"
 #include "render/camera.h"
 #include "render/pt.h"
+#include "render/sphere_tracing.h"
 
 namespace sss {
 
@@ -31,9 +33,16 @@ RenderResult render(const Scene& scene, const RenderOptions& opt, const Progress
     const int W = cam.width, H = cam.height;
     if (opt.spp <= 0) fail("spp must be >= 1, got ", opt.spp);
     if (opt.threads < 0) fail("threads must be >= 0 (0 = all cores), got ", opt.threads);
-    if (opt.integrator != "pt")
-        fail(scene.desc().source, ": integrator '", opt.integrator,
-             "' is not available yet (allowed: \"pt\"; \"st\" comes with the sphere tracer)");
+    if (opt.integrator != "pt" && opt.integrator != "st")
+        fail(scene.desc().source, ": integrator '", opt.integrator, "' is not available (allowed: \"pt\", \"st\")");
+    std::unique_ptr<SphereTracing> sphere_tracing;
+    if (opt.integrator == "st") {
+        if (opt.max_bounces != -1)
+            fail("max_bounces ", opt.max_bounces, " is not supported by integrator 'st' (allowed: -1): a sphere "
+                 "step stands for many scattering events at once");
+        sphere_tracing = std::make_unique<SphereTracing>(scene, opt.sphere_threshold, opt.sphere_sampler, opt.models,
+                                                         opt.nee);
+    }
 
     const int tiles_x = (W + kTile - 1) / kTile, tiles_y = (H + kTile - 1) / kTile;
     const int num_tiles = tiles_x * tiles_y;
@@ -48,12 +57,12 @@ RenderResult render(const Scene& scene, const RenderOptions& opt, const Progress
     const int64_t num_tasks = int64_t(num_tiles) * num_passes;
 
     std::vector<double> sum(size_t(W) * H * 3, 0.0), sum_sq(size_t(W) * H * 3, 0.0);
-    std::vector<uint64_t> events(size_t(W) * H, 0);
+    std::vector<uint64_t> events(size_t(W) * H, 0), steps(size_t(W) * H, 0);
     std::vector<uint32_t> count(size_t(W) * H, 0);
     std::vector<TileState> tiles(num_tiles);
 
     PinholeCamera camera(cam);
-    PathTracer tracer(scene, opt.max_bounces, opt.nee);
+    PathTracer tracer(scene, opt.max_bounces, opt.nee, sphere_tracing.get());
     std::atomic<int64_t> next_task{0}, done_samples{0};
     std::atomic<bool> cancel{false};
     std::mutex error_mutex;
@@ -62,7 +71,7 @@ RenderResult render(const Scene& scene, const RenderOptions& opt, const Progress
 
     auto worker = [&]() {
         std::vector<double> s, s2;
-        std::vector<uint64_t> ev;
+        std::vector<uint64_t> ev, st;
         for (int64_t task; !cancel && (task = next_task.fetch_add(1)) < num_tasks;) {
             const int pass = int(task / num_tiles), tile = int(task % num_tiles);
             const int x0 = (tile % tiles_x) * kTile, y0 = (tile / tiles_x) * kTile;
@@ -72,6 +81,7 @@ RenderResult render(const Scene& scene, const RenderOptions& opt, const Progress
             s.assign(size_t(n) * 3, 0.0);
             s2.assign(size_t(n) * 3, 0.0);
             ev.assign(size_t(n), 0);
+            st.assign(size_t(n), 0);
             bool complete = true;
             try {
                 for (int y = y0, i = 0; y < y1 && complete; ++y)
@@ -88,6 +98,7 @@ RenderResult render(const Scene& scene, const RenderOptions& opt, const Progress
                                 s2[3 * i + c] += v * v;
                             }
                             ev[i] += ps.scatter_events;
+                            st[i] += ps.sphere_steps;
                         }
                         done_samples += s1 - s0;
                     }
@@ -113,6 +124,7 @@ RenderResult render(const Scene& scene, const RenderOptions& opt, const Progress
                         sum_sq[3 * p + c] += s2[3 * i + c];
                     }
                     events[p] += ev[i];
+                    steps[p] += st[i];
                     count[p] += uint32_t(s1 - s0);
                 }
             ts.passes_merged = pass + 1;
@@ -166,13 +178,16 @@ RenderResult render(const Scene& scene, const RenderOptions& opt, const Progress
     r.image.assign(size_t(W) * H * 3, 0.f);
     r.variance.assign(size_t(W) * H * 3, 0.f);
     r.events.assign(size_t(W) * H, 0.f);
+    r.sphere_steps.assign(size_t(W) * H, 0.f);
     r.samples = count;
     for (size_t p = 0; p < size_t(W) * H; ++p) {
         double n = count[p];
         r.total_paths += count[p];
         r.total_events += events[p];
+        r.total_sphere_steps += steps[p];
         if (n == 0) continue;
         r.events[p] = float(double(events[p]) / n);
+        r.sphere_steps[p] = float(double(steps[p]) / n);
         for (int c = 0; c < 3; ++c) {
             double mean = sum[3 * p + c] / n;
             r.image[3 * p + c] = float(mean);

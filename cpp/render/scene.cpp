@@ -252,8 +252,8 @@ Light parse_light(const json& j, const Field& f) {
     return l;
 }
 
-RenderSettings parse_render(const json& j, const Field& f) {
-    check_keys(j, f, {"integrator", "spp", "seed", "max_bounces", "grid_resolution"});
+RenderSettings parse_render(const json& j, const Field& f, const std::string& base_dir) {
+    check_keys(j, f, {"integrator", "spp", "seed", "max_bounces", "grid_resolution", "sphere_threshold", "models"});
     RenderSettings r;
     if (j.contains("integrator")) r.integrator = string_in(j["integrator"], f.at("integrator"), {"pt", "st"});
     if (j.contains("spp")) r.spp = int(integer_in(j["spp"], f.at("spp"), 1, 1 << 24, "1 to 16,777,216"));
@@ -263,6 +263,16 @@ RenderSettings parse_render(const json& j, const Field& f) {
         r.max_bounces = int(integer_in(j["max_bounces"], f.at("max_bounces"), -1, INT32_MAX, "-1 (no limit) or >= 0"));
     if (j.contains("grid_resolution"))
         r.grid_resolution = int(integer_in(j["grid_resolution"], f.at("grid_resolution"), 2, 512, "2 to 512"));
+    if (j.contains("sphere_threshold"))
+        r.sphere_threshold = float(number_in(j["sphere_threshold"], f.at("sphere_threshold"), 0.0, 1e30, "0 to 1e30"));
+    if (j.contains("models")) {
+        const json& m = j["models"];
+        if (!m.is_string() || m.get<std::string>().empty())
+            f.at("models").error("expected a directory path string, got ", show(m));
+        std::filesystem::path p(m.get<std::string>());
+        if (p.is_relative()) p = std::filesystem::path(base_dir) / p;
+        r.models = p.string();
+    }
     return r;
 }
 
@@ -297,7 +307,7 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
                 f.at("lights").at(i).error("a scene has at most one environment light");
         }
     }
-    if (root.contains("render")) d.render = parse_render(root["render"], f.at("render"));
+    if (root.contains("render")) d.render = parse_render(root["render"], f.at("render"), base_dir);
     return d;
 }
 

@@ -51,12 +51,19 @@ struct Light {
     Vec3 radiance;                 //   normalize(edge1 x edge2); environment: constant radiance
 };
 
+// Default sphere_threshold tau of integrator "st": a collision at p takes a sphere step when
+// sigma_t * r(p) >= tau. Chosen by measurement (render time against image error on the sphere
+// and bunny scenes): docs/sphere-tracing.md, "Choosing the threshold".
+constexpr float kDefaultSphereThreshold = 6.f;
+
 struct RenderSettings {
     std::string integrator = "pt";
     int spp = 16;
     uint64_t seed = 0;
     int max_bounces = -1;        // scattering events per path; -1 = no limit
     int grid_resolution = 64;    // distance-grid cells along a shape's largest side
+    float sphere_threshold = kDefaultSphereThreshold;  // "st": optical radius of the smallest step
+    std::string models;          // "st": model directory (resolved against the scene file's); "" = unset
 };
 
 struct SceneDesc {

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sssphere.render import INTEGRATORS, render_full, write_image
+from sssphere.render import DEFAULT_SPHERE_THRESHOLD, INTEGRATORS, render_full, write_image
 from sssphere.scene import SceneError, load_scene
 
 IMAGE_SUFFIXES = (".exr", ".png")
@@ -78,7 +78,8 @@ def _cmd_render(args: argparse.Namespace) -> int:
     try:
         result = render_full(
             scene, integrator=args.integrator, spp=args.spp, seed=args.seed,
-            threads=args.threads, progress=bar,
+            threads=args.threads, progress=bar, sphere_threshold=args.sphere_threshold,
+            models=args.models,
         )
     finally:
         bar.close()
@@ -87,13 +88,17 @@ def _cmd_render(args: argparse.Namespace) -> int:
         stem = out.with_suffix("")
         write_image(f"{stem}_variance.exr", result.variance)
         write_image(f"{stem}_events.exr", result.events[:, :, None])
+        if result.mean_sphere_steps_per_path > 0:
+            write_image(f"{stem}_sphere_steps.exr", result.sphere_steps[:, :, None])
     spp_done = int(result.samples.min()) if result.samples.size else 0
     what = "interrupted: wrote the partial image" if result.interrupted else "wrote"
+    steps = (f" + {result.mean_sphere_steps_per_path:.1f} sphere steps"
+             if result.mean_sphere_steps_per_path > 0 else "")
     print(
         f"{what} {out} ({scene.width}x{scene.height}, {spp_done}"
         f"{'' if not result.interrupted else '+'} spp; scene built in {load_s:.2f}s, "
         f"rendered in {result.seconds:.2f}s; {result.mean_events_per_path:.1f} scattering "
-        f"events per path)",
+        f"events{steps} per path)",
         file=sys.stderr,
     )
     if not np.all(np.isfinite(result.image)):
@@ -118,6 +123,16 @@ def _cmd_datagen(args: argparse.Namespace) -> int:
           f"walks/s; mean N {data['N'].mean() if n else 0:.1f}, "
           f"P(N = 1) {np.mean(data['N'] == 1) if n else 0:.3f})", file=sys.stderr)
     return 130 if interrupted else 0
+
+
+def _threshold(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not value >= 0:
+        raise argparse.ArgumentTypeError(f"must be a number >= 0 (inf: no sphere steps), got {text}")
+    return value
 
 
 def _positive_float(text: str) -> float:
@@ -216,8 +231,15 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--seed", type=_non_negative_int, help="random seed (default: the scene's)")
     r.add_argument("--threads", type=_non_negative_int, default=0, help="worker threads (0 = all cores)")
     r.add_argument("--integrator", choices=INTEGRATORS, help="integrator (default: the scene's)")
+    r.add_argument("--sphere-threshold", type=_threshold, metavar="TAU",
+                   help="st: a collision takes a sphere step where sigma_t * r >= TAU (default: the "
+                        "scene's, else %g; inf: never)" % DEFAULT_SPHERE_THRESHOLD)
+    r.add_argument("--models", metavar="DIR",
+                   help="st: directory of lengthgen.json, pathgen.json, eventgen.json (default: the "
+                        "scene's render.models, else the repository's models/)")
     r.add_argument("--aovs", action="store_true",
-                   help="also write OUT_variance.exr and OUT_events.exr (scattering events per path)")
+                   help="also write OUT_variance.exr, OUT_events.exr (scattering events per path) "
+                        "and, for st, OUT_sphere_steps.exr")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     r.set_defaults(func=_cmd_render)
 

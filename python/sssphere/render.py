@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+import numbers
 import os
 from dataclasses import dataclass
 from typing import Callable, Optional, Union
@@ -10,9 +12,12 @@ import numpy as np
 
 from sssphere import _core
 from sssphere._core import SceneError
+from sssphere.model import DEFAULT_MODELS
 from sssphere.scene import Scene, load_scene
 
-INTEGRATORS = ("pt",)
+INTEGRATORS = ("pt", "st")
+SPHERE_SAMPLERS = ("model", "walk")
+DEFAULT_SPHERE_THRESHOLD = float(_core.DEFAULT_SPHERE_THRESHOLD)
 
 
 @dataclass
@@ -21,19 +26,41 @@ class RenderResult:
 
     image : (height, width, 3) float32, mean linear radiance per pixel.
     variance : (height, width, 3) float32, estimated variance of that mean.
-    events : (height, width) float32, mean scattering events per path (complexity picture).
+    events : (height, width) float32, mean ordinary scattering events per path (complexity
+        picture; with ``integrator="st"`` the events not inside sphere steps).
+    sphere_steps : (height, width) float32, mean sphere steps per path (0 for ``"pt"``).
     samples : (height, width) uint32, samples taken per pixel (fewer if interrupted).
     seconds : wall-clock render time.
     interrupted : True if Ctrl-C (or a progress callback returning False) stopped it early.
+    mean_events_per_path, mean_sphere_steps_per_path : the same two counts over the whole image.
     """
 
     image: np.ndarray
     variance: np.ndarray
     events: np.ndarray
+    sphere_steps: np.ndarray
     samples: np.ndarray
     seconds: float
     interrupted: bool
     mean_events_per_path: float
+    mean_sphere_steps_per_path: float
+
+
+def _resolve_st(scene, sphere_threshold, models, sphere_sampler):
+    """The sphere-tracing settings: arguments first, then the scene's render block, then the
+    defaults (threshold DEFAULT_SPHERE_THRESHOLD, the repository's models/)."""
+    if sphere_threshold is None:
+        sphere_threshold = scene.sphere_threshold
+    if isinstance(sphere_threshold, bool) or not isinstance(sphere_threshold, numbers.Real) \
+            or math.isnan(sphere_threshold) or sphere_threshold < 0:
+        raise SceneError(f"sphere_threshold must be a number >= 0 (inf: no sphere steps), "
+                         f"got {sphere_threshold!r}")
+    if models is None:
+        models = scene.models if scene.models is not None else DEFAULT_MODELS
+    if sphere_sampler not in SPHERE_SAMPLERS:
+        raise SceneError(f"sphere_sampler {sphere_sampler!r} is not allowed "
+                         f"(allowed: {', '.join(repr(s) for s in SPHERE_SAMPLERS)})")
+    return float(sphere_threshold), os.fspath(models), sphere_sampler
 
 
 def _resolve(scene, integrator, spp, seed, threads, max_bounces):
@@ -42,8 +69,8 @@ def _resolve(scene, integrator, spp, seed, threads, max_bounces):
     integrator = scene.integrator if integrator is None else integrator
     if integrator not in INTEGRATORS:
         raise SceneError(
-            f"{scene.source}: integrator {integrator!r} is not available yet "
-            f"(allowed: {', '.join(repr(i) for i in INTEGRATORS)}; 'st' comes with the sphere tracer)"
+            f"{scene.source}: integrator {integrator!r} is not available "
+            f"(allowed: {', '.join(repr(i) for i in INTEGRATORS)})"
         )
     spp = scene.spp if spp is None else spp
     if isinstance(spp, bool) or not isinstance(spp, (int, np.integer)) or spp < 1:
@@ -67,6 +94,9 @@ def render_full(
     max_bounces: Optional[int] = None,
     progress: Optional[Callable[[float], Optional[bool]]] = None,
     nee: bool = True,
+    sphere_threshold: Optional[float] = None,
+    models: Union[str, os.PathLike, None] = None,
+    sphere_sampler: str = "model",
 ) -> RenderResult:
     """Render and return the image with its variance and complexity (see RenderResult).
 
@@ -74,19 +104,31 @@ def render_full(
     is called about ten times a second; returning False stops early. Ctrl-C also stops
     early: the result then has ``interrupted=True`` and holds what was rendered.
     ``nee=False`` turns off light sampling (emitters count only when paths hit them).
+
+    Sphere tracing (``integrator="st"``, docs/sphere-tracing.md) also reads
+    ``sphere_threshold`` (τ >= 0: a collision takes a sphere step where σt·r >= τ;
+    ``math.inf`` gives the image of ``"pt"``; default: the scene's, else
+    DEFAULT_SPHERE_THRESHOLD) and ``models`` (the directory of lengthgen.json, pathgen.json,
+    eventgen.json; default: the scene's ``render.models``, else the repository's ``models/``).
+    ``sphere_sampler="walk"`` replaces the networks by exact sphere walks (as slow as path
+    tracing; it validates the integrator without model error).
     """
     scene, integrator, spp, seed, threads, max_bounces = _resolve(
         scene, integrator, spp, seed, threads, max_bounces)
-    r = _core.render(scene, integrator, spp, seed, threads, max_bounces, bool(nee), progress)
+    tau, models_dir, sampler = _resolve_st(scene, sphere_threshold, models, sphere_sampler)
+    r = _core.render(scene, integrator, spp, seed, threads, max_bounces, bool(nee), tau,
+                     models_dir if integrator == "st" else "", sampler, progress)
     paths = max(1, int(r["total_paths"]))
     return RenderResult(
         image=r["image"],
         variance=r["variance"],
         events=r["events"],
+        sphere_steps=r["sphere_steps"],
         samples=r["samples"],
         seconds=float(r["seconds"]),
         interrupted=bool(r["cancelled"]),
         mean_events_per_path=float(r["total_events"]) / paths,
+        mean_sphere_steps_per_path=float(r["total_sphere_steps"]) / paths,
     )
 
 
@@ -97,12 +139,17 @@ def render(
     seed: Optional[int] = None,
     threads: Optional[int] = None,
     nee: bool = True,
+    sphere_threshold: Optional[float] = None,
+    models: Union[str, os.PathLike, None] = None,
 ) -> np.ndarray:
     """Render a scene to a (height, width, 3) float32 array of linear radiance.
 
-    Ctrl-C raises KeyboardInterrupt (use render_full to keep a partial image).
+    ``integrator="st"`` renders with sphere tracing; ``sphere_threshold`` and ``models`` are
+    described in render_full. Ctrl-C raises KeyboardInterrupt (use render_full to keep a
+    partial image).
     """
-    result = render_full(scene, integrator=integrator, spp=spp, seed=seed, threads=threads, nee=nee)
+    result = render_full(scene, integrator=integrator, spp=spp, seed=seed, threads=threads, nee=nee,
+                         sphere_threshold=sphere_threshold, models=models)
     if result.interrupted:
         raise KeyboardInterrupt
     return result.image

@@ -1,0 +1,206 @@
+#include "render/sphere_tracing.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "core/check.h"
+#include "render/renderer.h"
+#include "testing/model_dir.h"
+#include "testing/stats.h"
+
+using namespace sss;
+
+namespace {
+
+std::string error_of(const std::function<void()>& f) {
+    try {
+        f();
+    } catch (const Error& e) {
+        return e.what();
+    }
+    return "";
+}
+#define EXPECT_HAS(msg, part) EXPECT_NE((msg).find(part), std::string::npos) << "message: " << (msg)
+
+// A sphere of radius 1 in a constant environment (optionally with a point light).
+SceneDesc sphere_scene(Vec3 sigma_t, Vec3 albedo, float g, BoundaryType boundary, bool point_light = false) {
+    SceneDesc d;
+    d.source = "st-test";
+    d.camera.origin = {0, 0, 3.5f};
+    d.camera.target = {0, 0, 0};
+    d.camera.fov = 40.f;
+    d.camera.width = d.camera.height = 16;
+    Shape s;
+    s.name = "sphere";
+    s.mesh = make_icosphere({0, 0, 0}, 1.f, 3);
+    s.medium = {sigma_t, albedo, g};
+    s.boundary.type = boundary;
+    d.shapes.push_back(s);
+    Light env;
+    env.type = Light::Type::Environment;
+    env.radiance = Vec3(1.f);
+    d.lights.push_back(env);
+    if (point_light) {
+        Light p;
+        p.type = Light::Type::Point;
+        p.position = {2.f, 2.f, 2.f};
+        p.intensity = Vec3(5.f);
+        d.lights.push_back(p);
+    }
+    d.render.grid_resolution = 16;
+    return d;
+}
+
+RenderOptions st_options(const std::string& models, float threshold) {
+    RenderOptions opt;
+    opt.integrator = "st";
+    opt.models = models;
+    opt.sphere_threshold = threshold;
+    opt.threads = 2;
+    return opt;
+}
+
+}  // namespace
+
+TEST(SphereTracer, FurnaceWithoutNeeIsExactPerPathForAnyModel) {
+    // Albedo 1 in a uniform environment of radiance 1, no NEE: every path keeps weight 1 and
+    // escapes, whatever a (here random) model says about N and the exit. Every pixel is 1.
+    test::ModelDir models;
+    models.write_random(2);
+    for (BoundaryType b : {BoundaryType::IndexMatched, BoundaryType::Dielectric}) {
+        Scene scene(sphere_scene(Vec3(20.f), Vec3(1.f), 0.6f, b), 2);
+        RenderOptions opt = st_options(models.path(), 1.f);
+        opt.nee = false;
+        opt.spp = 8;
+        RenderResult r = render(scene, opt);
+        for (float v : r.image) ASSERT_NEAR(v, 1.f, 1e-5f);
+        EXPECT_GT(r.total_sphere_steps, r.total_paths / 10);  // steps were taken
+    }
+}
+
+TEST(SphereTracer, FurnaceWithNeeAndExactWalksIsUnbiased) {
+    // With exact sphere walks in place of the networks, st with NEE (Lambda-weighted light
+    // connections from the representative event, MIS for the first event only) must give the
+    // furnace's 1 everywhere up to noise. The NEE weights (Lambda = N here) make single samples
+    // heavy-tailed, so pixel variances from few samples are unreliable: the test compares
+    // 4x4-pixel block means (chi-square) and the mean over the sphere.
+    for (Vec3 sigma_t : {Vec3(6.f), Vec3(2.f, 6.f, 12.f)}) {
+        Scene scene(sphere_scene(sigma_t, Vec3(1.f), 0.5f, BoundaryType::IndexMatched), 2);
+        RenderOptions opt = st_options("", 1.f);
+        opt.sphere_sampler = SphereSampler::Walk;
+        opt.spp = 128;
+        opt.seed = 4;
+        RenderResult r = render(scene, opt);
+        const int W = r.width, B = 4;
+        double chi2 = 0, sum = 0, var = 0;
+        int n = 0, pixels = 0;
+        for (int by = 0; by < r.height / B; ++by)
+            for (int bx = 0; bx < W / B; ++bx)
+                for (int c = 0; c < 3; ++c) {
+                    double m = 0, v = 0;
+                    int k = 0;
+                    for (int y = by * B; y < (by + 1) * B; ++y)
+                        for (int x = bx * B; x < (bx + 1) * B; ++x) {
+                            size_t i = 3 * (size_t(y) * W + x) + c;
+                            if (r.variance[i] == 0.f) continue;  // background: exactly 1
+                            m += r.image[i];
+                            v += r.variance[i];
+                            ++k;
+                        }
+                    if (k == 0) continue;
+                    chi2 += (m - k) * (m - k) / v;
+                    sum += m;
+                    var += v;
+                    pixels += k;
+                    ++n;
+                }
+        ASSERT_GT(n, 20);
+        EXPECT_LT(chi2, test::chi2_critical(n)) << "chi2 " << chi2 << " over " << n << " blocks";
+        EXPECT_NEAR(sum / pixels, 1.0, 4.0 * std::sqrt(var) / pixels);
+        EXPECT_GT(r.total_sphere_steps, r.total_paths / 10);
+    }
+}
+
+TEST(SphereTracer, InfiniteThresholdGivesPtBitForBit) {
+    // tau = inf runs st's code (a grid query at every collision) but never steps: the image,
+    // its variance and the event counts are pt's exactly. No models are needed.
+    for (BoundaryType b : {BoundaryType::IndexMatched, BoundaryType::Dielectric}) {
+        Scene scene(sphere_scene(Vec3(3.f, 8.f, 20.f), Vec3(0.9f, 0.8f, 0.95f), 0.4f, b, true), 2);
+        RenderOptions pt;
+        pt.spp = 8;
+        pt.threads = 2;
+        RenderOptions st = st_options("", std::numeric_limits<float>::infinity());
+        st.spp = 8;
+        RenderResult a = render(scene, pt), c = render(scene, st);
+        EXPECT_EQ(a.image, c.image);
+        EXPECT_EQ(a.variance, c.variance);
+        EXPECT_EQ(a.events, c.events);
+        EXPECT_EQ(c.total_sphere_steps, 0u);
+    }
+}
+
+TEST(SphereTracer, IdenticalForAnyThreadCount) {
+    test::ModelDir models;
+    models.write_random(3);
+    Scene scene(sphere_scene(Vec3(15.f), Vec3(0.99f, 0.9f, 0.8f), 0.3f, BoundaryType::IndexMatched, true), 1);
+    RenderOptions opt = st_options(models.path(), 2.f);
+    opt.spp = 4;
+    opt.threads = 1;
+    RenderResult a = render(scene, opt);
+    opt.threads = 3;
+    RenderResult b = render(scene, opt);
+    EXPECT_EQ(a.image, b.image);
+    EXPECT_EQ(a.sphere_steps, b.sphere_steps);
+    EXPECT_GT(a.total_sphere_steps, 0u);
+}
+
+TEST(SphereTracer, RefusesWhatTheModelsCannotDo) {
+    test::ModelDir models;
+    models.write_random(1, [](Decoder& d) {
+        test::set_training_range(d, "sigma", 0.5, 150.0);
+        test::set_training_range(d, "g", -0.5, 0.5);
+        test::set_training_range(d, "phi", 0.0, 0.9);
+    });
+    SceneDesc desc = sphere_scene(Vec3(10.f), Vec3(0.8f), 0.3f, BoundaryType::IndexMatched);
+    auto err = [&](SceneDesc d, RenderOptions opt) {
+        opt.spp = 1;
+        Scene scene(std::move(d), 1);
+        return error_of([&] { render(scene, opt); });
+    };
+    // Fine as it is.
+    EXPECT_EQ(err(desc, st_options(models.path(), 2.f)), "");
+
+    EXPECT_HAS(err(desc, st_options("", 2.f)), "needs the directory of the sphere-step models");
+    EXPECT_HAS(err(desc, st_options(models.path() + "/nowhere", 2.f)), "nowhere: not a directory");
+    EXPECT_HAS(err(desc, st_options(models.path(), -1.f)), "sphere_threshold must be >= 0");
+    EXPECT_HAS(err(desc, st_options(models.path(), std::nanf(""))), "sphere_threshold must be >= 0");
+    EXPECT_HAS(err(desc, st_options(models.path(), 0.25f)), "below the smallest optical radius");
+
+    SceneDesc g = desc;
+    g.shapes[0].medium.g = 0.7f;
+    std::string m = err(g, st_options(models.path(), 2.f));
+    EXPECT_HAS(m, "shapes[0] ('sphere')");
+    EXPECT_HAS(m, "g = 0.7 is outside the training range [-0.5, 0.5]");
+
+    SceneDesc phi = desc;
+    phi.shapes[0].medium.albedo = Vec3(0.8f, 0.95f, 0.8f);
+    EXPECT_HAS(err(phi, st_options(models.path(), 2.f)), "albedo 0.95 is outside EventGen's training range");
+    RenderOptions no_nee = st_options(models.path(), 2.f);
+    no_nee.nee = false;  // EventGen is not used: any albedo
+    EXPECT_EQ(err(phi, no_nee), "");
+    phi.shapes[0].boundary.type = BoundaryType::Dielectric;  // no NEE from inside: EventGen unused
+    EXPECT_EQ(err(phi, st_options(models.path(), 2.f)), "");
+    phi.shapes[0].boundary.type = BoundaryType::IndexMatched;
+    phi.shapes[0].medium.albedo = Vec3(0.9005f);  // within kPhiClampTolerance: clamped
+    EXPECT_EQ(err(phi, st_options(models.path(), 2.f)), "");
+
+    RenderOptions bounces = st_options(models.path(), 2.f);
+    bounces.max_bounces = 5;
+    EXPECT_HAS(err(desc, bounces), "max_bounces 5 is not supported by integrator 'st'");
+
+    test::ModelDir incomplete("incomplete");
+    incomplete.write(test::random_decoder("LengthGen", 1));
+    EXPECT_HAS(err(desc, st_options(incomplete.path(), 2.f)), "cannot open the model file");
+}
