@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "core/check.h"
+#include "io/json_fields.h"
 #include "shared/softplus.h"
 
 namespace sss {
@@ -28,61 +29,7 @@ using json = nlohmann::json;
 // that a corrupt file cannot ask for gigabytes.
 constexpr int64_t kMaxWidth = 4096;
 
-// Where we are in the file, for messages: "<source>: layers[1].weight[3][0]: ...".
-struct Field {
-    const std::string& source;
-    std::string path;
-
-    Field at(const std::string& key) const { return {source, path.empty() ? key : path + "." + key}; }
-    Field at(size_t i) const { return {source, path + "[" + std::to_string(i) + "]"}; }
-
-    template <typename... Args>
-    [[noreturn]] void error(const Args&... args) const {
-        if (path.empty()) fail(source, ": ", args...);
-        fail(source, ": ", path, ": ", args...);
-    }
-};
-
-std::string show(const json& j) {
-    std::string s = j.dump();
-    return s.size() > 60 ? s.substr(0, 57) + "..." : s;
-}
-
-const char* type_name(const json& j) {
-    switch (j.type()) {
-        case json::value_t::null: return "null";
-        case json::value_t::boolean: return "a boolean";
-        case json::value_t::string: return "a string";
-        case json::value_t::array: return "an array";
-        case json::value_t::object: return "an object";
-        default: return "a number";
-    }
-}
-
-void check_keys(const json& obj, const Field& f, std::initializer_list<const char*> allowed) {
-    if (!obj.is_object()) f.error("expected an object, got ", type_name(obj), " ", show(obj));
-    std::set<std::string> ok(allowed.begin(), allowed.end());
-    for (auto it = obj.begin(); it != obj.end(); ++it) {
-        if (!ok.count(it.key())) {
-            std::string list;
-            for (const char* a : allowed) list += std::string(list.empty() ? "" : ", ") + a;
-            f.at(it.key()).error("unknown key '", it.key(), "' (allowed here: ", list, ")");
-        }
-    }
-}
-
-const json& require(const json& obj, const char* key, const Field& f) {
-    auto it = obj.find(key);
-    if (it == obj.end()) f.error("missing required key '", key, "'");
-    return *it;
-}
-
-double number(const json& j, const Field& f) {
-    if (!j.is_number()) f.error("expected a number, got ", type_name(j), " ", show(j));
-    double v = j.get<double>();
-    if (!std::isfinite(v)) f.error("value ", show(j), " is not a finite number");
-    return v;
-}
+using namespace json_fields;
 
 // A float32 parameter (weight, bias, encoding constant): finite after rounding to float.
 float float32(const json& j, const Field& f) {

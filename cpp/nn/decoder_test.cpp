@@ -12,21 +12,14 @@
 #include "shared/softplus.h"
 #include "testing/random_models.h"
 #include "testing/temp_file.h"
+#include "testing/errors.h"
 
 namespace sss {
 namespace {
 
 using json = nlohmann::json;
 
-// The error message of f(), or "" if it does not throw sss::Error.
-std::string error_of(const std::function<void()>& f) {
-    try {
-        f();
-    } catch (const Error& e) {
-        return e.what();
-    }
-    return "";
-}
+using test::error_of;
 
 bool same_bits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
@@ -138,7 +131,6 @@ protected:
     std::string load_error(const json& j) { return load_text_error(j.dump()); }
 };
 
-#define EXPECT_HAS(msg, part) EXPECT_NE((msg).find(part), std::string::npos) << "message: " << (msg)
 
 TEST_F(DecoderFile, ValidFileLoads) {
     test::TempFile f("model.json", valid().dump());

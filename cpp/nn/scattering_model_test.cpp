@@ -12,6 +12,7 @@
 
 #include "core/check.h"
 #include "testing/random_models.h"
+#include "testing/errors.h"
 
 namespace sss {
 namespace {
@@ -19,15 +20,7 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-std::string error_of(const std::function<void()>& f) {
-    try {
-        f();
-    } catch (const Error& e) {
-        return e.what();
-    }
-    return "";
-}
-#define EXPECT_HAS(msg, part) EXPECT_NE((msg).find(part), std::string::npos) << "message: " << (msg)
+using test::error_of;
 
 ScatteringModel random_model(uint64_t seed = 1, float scale = 1.f) {
     return ScatteringModel(test::random_decoder("LengthGen", seed, scale), test::random_decoder("PathGen", seed, scale),

@@ -128,7 +128,9 @@ TEST(Renderer, CancelKeepsFinishedPassesAndCountsThem) {
     uint64_t total = 0;
     for (size_t p = 0; p < r.samples.size(); ++p) {
         total += r.samples[p];
-        if (r.samples[p] > 0) EXPECT_TRUE(std::isfinite(r.image[3 * p]));
+        if (r.samples[p] > 0) {
+            EXPECT_TRUE(std::isfinite(r.image[3 * p]));
+        }
     }
     EXPECT_LT(total, uint64_t(opt.spp) * r.samples.size());
 }

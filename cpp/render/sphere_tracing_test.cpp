@@ -9,20 +9,13 @@
 #include "render/renderer.h"
 #include "testing/model_dir.h"
 #include "testing/stats.h"
+#include "testing/errors.h"
 
 using namespace sss;
 
 namespace {
 
-std::string error_of(const std::function<void()>& f) {
-    try {
-        f();
-    } catch (const Error& e) {
-        return e.what();
-    }
-    return "";
-}
-#define EXPECT_HAS(msg, part) EXPECT_NE((msg).find(part), std::string::npos) << "message: " << (msg)
+using test::error_of;
 
 // A sphere of radius 1 in a constant environment (optionally with a point light).
 SceneDesc sphere_scene(Vec3 sigma_t, Vec3 albedo, float g, BoundaryType boundary, bool point_light = false) {
