@@ -19,8 +19,11 @@ import numpy as np
 
 from sssphere import _core
 
-# models/ at the root of the repository this package lives in (python/sssphere/model.py).
-DEFAULT_MODELS = Path(__file__).resolve().parents[2] / "models"
+# The shipped models: installed with the package (sssphere/models/, a regular install), or
+# models/ at the root of the repository this package lives in (an editable install).
+_PACKAGED_MODELS = Path(__file__).resolve().parent / "models"
+DEFAULT_MODELS = (_PACKAGED_MODELS if (_PACKAGED_MODELS / "lengthgen.json").is_file()
+                  else Path(__file__).resolve().parents[2] / "models")
 
 ArrayLike = Union[float, np.ndarray, list]
 
