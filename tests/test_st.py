@@ -18,7 +18,6 @@ a chi-square test on sum z^2 and a bound on max |z| (Bonferroni), both at p = 1e
 
 from __future__ import annotations
 
-import copy
 import json
 import math
 import os

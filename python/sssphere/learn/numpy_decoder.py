@@ -55,9 +55,9 @@ class NumpyDecoder:
         self.output_encodings = [Encoding.from_json(o["encode"]) for o in obj["outputs"]]
         self.latent_dim = int(obj["latent_dim"])
         self.input_width = int(obj["input_width"])
-        self.weights = [np.asarray(l["weight"], dtype=np.float32) for l in obj["layers"]]
-        self.biases = [np.asarray(l["bias"], dtype=np.float32) for l in obj["layers"]]
-        self.activations = [l["activation"] for l in obj["layers"]]
+        self.weights = [np.asarray(layer["weight"], dtype=np.float32) for layer in obj["layers"]]
+        self.biases = [np.asarray(layer["bias"], dtype=np.float32) for layer in obj["layers"]]
+        self.activations = [layer["activation"] for layer in obj["layers"]]
         self.training = obj["training"]
         self.metrics = obj.get("metrics", {})
         self.ranges = {k: (float(self.training[k][0]), float(self.training[k][1]))
