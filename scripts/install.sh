@@ -23,6 +23,8 @@ if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 packages=(build-essential libembree-dev libtbb-dev libcgal-dev libgmp-dev libmpfr-dev
           libboost-dev libopenimageio-dev nlohmann-json3-dev libhwy-dev libgtest-dev glmark2-data
           python3-dev python3-pip)
+# --dev: clang-format for the C++ format check in scripts/test.sh.
+if [ "$dev" -eq 1 ]; then packages+=(clang-format); fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Runs every check: ruff (Python lint), the GoogleTest suite (ctest) and pytest.
+# Runs every check: ruff and clang-format, the GoogleTest suite (ctest) and pytest.
 # Needs `bash scripts/install.sh --dev` first (it builds build/dev with the C++ tests and
 # installs the module; run it again after changing C++: the rebuild is incremental).
 set -euo pipefail
@@ -8,7 +8,9 @@ if [ ! -f build/dev/CTestTestfile.cmake ]; then
   echo "test.sh: build/dev is missing: run 'bash scripts/install.sh --dev' first" >&2
   exit 2
 fi
-# Lint first (seconds): pyflakes, pycodestyle and bugbear rules from pyproject.toml.
+# Lint and format checks first (seconds): ruff (pyflakes, pycodestyle and bugbear rules from
+# pyproject.toml) and clang-format (.clang-format: Google base, 4-space indent, 90 columns).
 python3 -m ruff check python tests bench scenes
+clang-format --dry-run --Werror $(git ls-files 'cpp/*.cpp' 'cpp/*.h')
 ctest --test-dir build/dev --output-on-failure -j "$(nproc)"
 python3 -m pytest tests "$@"

@@ -17,20 +17,25 @@ volatile std::sig_atomic_t g_interrupted = 0;
 void on_sigint(int) { g_interrupted = 1; }
 
 void usage() {
-    std::cerr << "usage: sssphere-render SCENE.json -o OUT.(exr|png) [--spp N] [--seed N] "
-                 "[--threads N] [--integrator pt|st] [--sphere-threshold TAU] [--models DIR] [--quiet]\n"
-                 "  st: a collision takes a sphere step where sigma_t * r >= TAU (default: the scene's\n"
-                 "  render.sphere_threshold, else "
-              << sss::kDefaultSphereThreshold
-              << "; inf: never); DIR holds lengthgen.json, pathgen.json,\n"
-                 "  eventgen.json (default: the scene's render.models)\n";
+    std::cerr
+        << "usage: sssphere-render SCENE.json -o OUT.(exr|png) [--spp N] [--seed N] "
+           "[--threads N] [--integrator pt|st] [--sphere-threshold TAU] [--models DIR] "
+           "[--quiet]\n"
+           "  st: a collision takes a sphere step where sigma_t * r >= TAU (default: the "
+           "scene's\n"
+           "  render.sphere_threshold, else "
+        << sss::kDefaultSphereThreshold
+        << "; inf: never); DIR holds lengthgen.json, pathgen.json,\n"
+           "  eventgen.json (default: the scene's render.models)\n";
 }
 
 float parse_threshold(const char* text) {
     char* end = nullptr;
     float v = std::strtof(text, &end);
     if (!text[0] || *end || !(v >= 0.f))
-        sss::fail("--sphere-threshold: expected a number >= 0 (inf: no sphere steps), got '", text, "'");
+        sss::fail(
+            "--sphere-threshold: expected a number >= 0 (inf: no sphere steps), got '",
+            text, "'");
     return v;
 }
 
@@ -55,20 +60,36 @@ int main(int argc, char** argv) {
                 if (i + 1 >= argc) sss::fail(a, ": missing value");
                 return argv[++i];
             };
-            if (a == "-o" || a == "--output") out_path = value();
-            else if (a == "--spp") spp = parse_int("--spp", value());
-            else if (a == "--seed") seed = parse_int("--seed", value());
-            else if (a == "--threads") threads = parse_int("--threads", value());
-            else if (a == "--integrator") integrator = value();
-            else if (a == "--sphere-threshold") threshold = parse_threshold(value());
-            else if (a == "--models") models = value();
-            else if (a == "--quiet") quiet = true;
-            else if (a == "-h" || a == "--help") { usage(); return 0; }
-            else if (!a.empty() && a[0] == '-') sss::fail("unknown option '", a, "'");
-            else if (scene_path.empty()) scene_path = a;
-            else sss::fail("more than one scene given ('", scene_path, "', '", a, "')");
+            if (a == "-o" || a == "--output")
+                out_path = value();
+            else if (a == "--spp")
+                spp = parse_int("--spp", value());
+            else if (a == "--seed")
+                seed = parse_int("--seed", value());
+            else if (a == "--threads")
+                threads = parse_int("--threads", value());
+            else if (a == "--integrator")
+                integrator = value();
+            else if (a == "--sphere-threshold")
+                threshold = parse_threshold(value());
+            else if (a == "--models")
+                models = value();
+            else if (a == "--quiet")
+                quiet = true;
+            else if (a == "-h" || a == "--help") {
+                usage();
+                return 0;
+            } else if (!a.empty() && a[0] == '-')
+                sss::fail("unknown option '", a, "'");
+            else if (scene_path.empty())
+                scene_path = a;
+            else
+                sss::fail("more than one scene given ('", scene_path, "', '", a, "')");
         }
-        if (scene_path.empty() || out_path.empty()) { usage(); return 2; }
+        if (scene_path.empty() || out_path.empty()) {
+            usage();
+            return 2;
+        }
         if (spp == 0 || spp < -1) sss::fail("--spp must be >= 1, got ", spp);
         if (threads < 0) sss::fail("--threads must be >= 0, got ", threads);
 
@@ -80,7 +101,8 @@ int main(int argc, char** argv) {
         opt.seed = seed >= 0 ? uint64_t(seed) : desc.render.seed;
         opt.threads = int(threads);
         opt.max_bounces = desc.render.max_bounces;
-        opt.sphere_threshold = threshold >= 0.f ? threshold : desc.render.sphere_threshold;
+        opt.sphere_threshold =
+            threshold >= 0.f ? threshold : desc.render.sphere_threshold;
         opt.models = models.empty() ? desc.render.models : models;
         sss::Scene scene(std::move(desc), opt.threads);
 
@@ -88,7 +110,8 @@ int main(int argc, char** argv) {
         sss::RenderResult r = sss::render(scene, opt, [&](double f) {
             if (!quiet) {
                 int filled = int(f * 40);
-                std::fprintf(stderr, "\r[%-40s] %5.1f%%", std::string(filled, '#').c_str(), 100 * f);
+                std::fprintf(stderr, "\r[%-40s] %5.1f%%",
+                             std::string(filled, '#').c_str(), 100 * f);
             }
             return !g_interrupted;
         });
@@ -98,12 +121,14 @@ int main(int argc, char** argv) {
         std::string steps;
         if (r.total_sphere_steps > 0) {
             char buf[64];
-            std::snprintf(buf, sizeof buf, " + %.1f sphere steps", r.total_sphere_steps / paths);
+            std::snprintf(buf, sizeof buf, " + %.1f sphere steps",
+                          r.total_sphere_steps / paths);
             steps = buf;
         }
         std::fprintf(stderr, "%s %s: %.2f s, %.1f scattering events%s per path\n",
-                     r.cancelled ? "interrupted; wrote the partial image" : "wrote", out_path.c_str(),
-                     r.seconds, paths > 0 ? r.total_events / paths : 0.0, steps.c_str());
+                     r.cancelled ? "interrupted; wrote the partial image" : "wrote",
+                     out_path.c_str(), r.seconds,
+                     paths > 0 ? r.total_events / paths : 0.0, steps.c_str());
         return r.cancelled ? 130 : 0;
     } catch (const std::exception& e) {
         std::cerr << "sssphere-render: error: " << e.what() << "\n";

@@ -1,6 +1,7 @@
 // Errors and always-on checks. Bad user input throws sss::Error with a message that names
-// the file, the field, the value and what is allowed; SSS_CHECK guards internal invariants
-// and is never compiled out (pbrt's CHECK). The Python binding maps Error to ValueError.
+// the file, the field, the value and what is allowed; SSS_CHECK guards internal
+// invariants and is never compiled out (pbrt's CHECK). The Python binding maps Error to
+// ValueError.
 #pragma once
 
 #include <sstream>
@@ -22,9 +23,9 @@ template <typename... Args>
 
 }  // namespace sss
 
-#define SSS_CHECK(cond)                                                                     \
-    do {                                                                                    \
-        if (!(cond))                                                                        \
-            ::sss::fail("internal check failed: ", #cond, " (", __FILE__, ":", __LINE__,    \
-                        ")");                                                               \
+#define SSS_CHECK(cond)                                                                  \
+    do {                                                                                 \
+        if (!(cond))                                                                     \
+            ::sss::fail("internal check failed: ", #cond, " (", __FILE__, ":", __LINE__, \
+                        ")");                                                            \
     } while (0)

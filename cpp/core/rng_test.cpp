@@ -35,8 +35,8 @@ TEST(Rng, StreamsAreReproducibleAndDistinct) {
     EXPECT_LT(same_d, 3);
 }
 
-// Neighbouring pixel streams must not be correlated (the published code seeded every state
-// word with the pixel index).
+// Neighbouring pixel streams must not be correlated (the published code seeded every
+// state word with the pixel index).
 TEST(Rng, NeighbouringStreamsUncorrelated) {
     const int n = 200000;
     double sxy = 0;

@@ -24,11 +24,36 @@ struct Vec3 {
     constexpr Vec3 operator*(float s) const { return {x * s, y * s, z * s}; }
     constexpr Vec3 operator/(float s) const { return {x / s, y / s, z / s}; }
     constexpr Vec3 operator-() const { return {-x, -y, -z}; }
-    Vec3& operator+=(Vec3 o) { x += o.x; y += o.y; z += o.z; return *this; }
-    Vec3& operator-=(Vec3 o) { x -= o.x; y -= o.y; z -= o.z; return *this; }
-    Vec3& operator*=(Vec3 o) { x *= o.x; y *= o.y; z *= o.z; return *this; }
-    Vec3& operator*=(float s) { x *= s; y *= s; z *= s; return *this; }
-    Vec3& operator/=(float s) { x /= s; y /= s; z /= s; return *this; }
+    Vec3& operator+=(Vec3 o) {
+        x += o.x;
+        y += o.y;
+        z += o.z;
+        return *this;
+    }
+    Vec3& operator-=(Vec3 o) {
+        x -= o.x;
+        y -= o.y;
+        z -= o.z;
+        return *this;
+    }
+    Vec3& operator*=(Vec3 o) {
+        x *= o.x;
+        y *= o.y;
+        z *= o.z;
+        return *this;
+    }
+    Vec3& operator*=(float s) {
+        x *= s;
+        y *= s;
+        z *= s;
+        return *this;
+    }
+    Vec3& operator/=(float s) {
+        x /= s;
+        y /= s;
+        z /= s;
+        return *this;
+    }
     constexpr bool operator==(Vec3 o) const { return x == o.x && y == o.y && z == o.z; }
     constexpr bool operator!=(Vec3 o) const { return !(*this == o); }
 };
@@ -40,20 +65,29 @@ constexpr Vec3 cross(Vec3 a, Vec3 b) {
 }
 inline float length(Vec3 v) { return std::sqrt(dot(v, v)); }
 inline Vec3 normalize(Vec3 v) { return v / length(v); }
-inline Vec3 min(Vec3 a, Vec3 b) { return {std::min(a.x, b.x), std::min(a.y, b.y), std::min(a.z, b.z)}; }
-inline Vec3 max(Vec3 a, Vec3 b) { return {std::max(a.x, b.x), std::max(a.y, b.y), std::max(a.z, b.z)}; }
+inline Vec3 min(Vec3 a, Vec3 b) {
+    return {std::min(a.x, b.x), std::min(a.y, b.y), std::min(a.z, b.z)};
+}
+inline Vec3 max(Vec3 a, Vec3 b) {
+    return {std::max(a.x, b.x), std::max(a.y, b.y), std::max(a.z, b.z)};
+}
 inline Vec3 exp(Vec3 v) { return {std::exp(v.x), std::exp(v.y), std::exp(v.z)}; }
 inline Vec3 abs(Vec3 v) { return {std::abs(v.x), std::abs(v.y), std::abs(v.z)}; }
 inline float max_component(Vec3 v) { return std::max(v.x, std::max(v.y, v.z)); }
 inline float min_component(Vec3 v) { return std::min(v.x, std::min(v.y, v.z)); }
 inline float average(Vec3 v) { return (v.x + v.y + v.z) / 3.f; }
-inline bool is_finite(Vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+inline bool is_finite(Vec3 v) {
+    return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
 inline bool is_black(Vec3 v) { return v.x == 0.f && v.y == 0.f && v.z == 0.f; }
 
 // Axis-aligned bounding box.
 struct Bounds3 {
     Vec3 lo{INFINITY}, hi{-INFINITY};
-    void extend(Vec3 p) { lo = min(lo, p); hi = max(hi, p); }
+    void extend(Vec3 p) {
+        lo = min(lo, p);
+        hi = max(hi, p);
+    }
     Vec3 extent() const { return hi - lo; }
     Vec3 center() const { return (lo + hi) * 0.5f; }
     bool contains(Vec3 p) const {

@@ -71,7 +71,8 @@ TriangleMesh load_mesh(const std::string& path) {
     std::string ext = fs::path(path).extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
     if (ext != ".obj" && ext != ".ply" && ext != ".off" && ext != ".stl")
-        fail(path, ": unsupported mesh format '", ext, "' (allowed: .obj, .ply, .off, .stl)");
+        fail(path, ": unsupported mesh format '", ext,
+             "' (allowed: .obj, .ply, .off, .stl)");
     if (!fs::exists(path)) fail(path, ": mesh file does not exist");
     if (!std::ifstream(path).good()) fail(path, ": mesh file cannot be read");
 
@@ -79,7 +80,8 @@ TriangleMesh load_mesh(const std::string& path) {
     std::vector<std::vector<std::size_t>> polygons;
     bool ok = false;
     try {
-        ok = CGAL::IO::read_polygon_soup(path, points, polygons, CGAL::parameters::verbose(false));
+        ok = CGAL::IO::read_polygon_soup(path, points, polygons,
+                                         CGAL::parameters::verbose(false));
     } catch (const std::exception& e) {
         fail(path, ": cannot parse mesh: ", e.what());
     }
@@ -98,8 +100,9 @@ TriangleMesh load_mesh(const std::string& path) {
     for (const auto& poly : polygons) {
         std::vector<uint32_t> q;
         for (std::size_t i : poly) {
-            if (i >= points.size()) fail(path, ": face ", polys.size(), " uses vertex ", i,
-                                         " but there are only ", points.size());
+            if (i >= points.size())
+                fail(path, ": face ", polys.size(), " uses vertex ", i,
+                     " but there are only ", points.size());
             q.push_back(uint32_t(i));
         }
         polys.push_back(std::move(q));
@@ -114,8 +117,11 @@ TriangleMesh make_closed_mesh(std::vector<Vec3> positions,
     std::vector<std::vector<std::size_t>> tris;
     for (size_t f = 0; f < polygons.size(); ++f) {
         const auto& poly = polygons[f];
-        if (poly.size() < 3) fail(what, ": face ", f, " has ", poly.size(), " vertices (at least 3 needed)");
-        for (size_t i = 1; i + 1 < poly.size(); ++i) tris.push_back({poly[0], poly[i], poly[i + 1]});
+        if (poly.size() < 3)
+            fail(what, ": face ", f, " has ", poly.size(),
+                 " vertices (at least 3 needed)");
+        for (size_t i = 1; i + 1 < poly.size(); ++i)
+            tris.push_back({poly[0], poly[i], poly[i + 1]});
     }
     std::vector<Point> points;
     points.reserve(positions.size());
@@ -127,13 +133,17 @@ TriangleMesh make_closed_mesh(std::vector<Vec3> positions,
         const auto& t = tris[f];
         if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2] ||
             CGAL::collinear(points[t[0]], points[t[1]], points[t[2]]))
-            fail(what, ": triangle ", f, " is degenerate (zero area); allowed: triangles of non-zero area");
+            fail(what, ": triangle ", f,
+                 " is degenerate (zero area); allowed: triangles of non-zero area");
     }
     PMP::merge_duplicate_polygons_in_polygon_soup(points, tris);
 
     if (!PMP::orient_polygon_soup(points, tris))
-        fail(what, ": mesh is not manifold (some edges are shared by more than two triangles, or "
-                   "vertices join separate sheets); a closed, manifold triangle mesh is required");
+        fail(what,
+             ": mesh is not manifold (some edges are shared by more than two triangles, "
+             "or "
+             "vertices join separate sheets); a closed, manifold triangle mesh is "
+             "required");
     SurfaceMesh sm;
     PMP::polygon_soup_to_polygon_mesh(points, tris, sm);
     if (!CGAL::is_closed(sm)) {
@@ -155,7 +165,8 @@ TriangleMesh make_closed_mesh(std::vector<Vec3> positions,
     for (auto f : sm.faces()) {
         std::array<uint32_t, 3> t{};
         int i = 0;
-        for (auto v : CGAL::vertices_around_face(sm.halfedge(f), sm)) t[i++] = remap[v.idx()];
+        for (auto v : CGAL::vertices_around_face(sm.halfedge(f), sm))
+            t[i++] = remap[v.idx()];
         mesh.triangles.push_back(t);
     }
     double vol = mesh.volume();
@@ -214,13 +225,15 @@ bool point_inside_mesh(const TriangleMesh& mesh, Vec3 p) {
     return side(Point(p.x, p.y, p.z)) != CGAL::ON_UNBOUNDED_SIDE;
 }
 
-std::vector<double> exact_distances(const TriangleMesh& mesh, const std::vector<Vec3>& points) {
+std::vector<double> exact_distances(const TriangleMesh& mesh,
+                                    const std::vector<Vec3>& points) {
     std::vector<Triangle> tris = cgal_triangles(mesh);
     Tree tree(tris.begin(), tris.end());
     tree.accelerate_distance_queries();
     std::vector<double> d;
     d.reserve(points.size());
-    for (const Vec3& p : points) d.push_back(std::sqrt(tree.squared_distance(Point(p.x, p.y, p.z))));
+    for (const Vec3& p : points)
+        d.push_back(std::sqrt(tree.squared_distance(Point(p.x, p.y, p.z))));
     return d;
 }
 

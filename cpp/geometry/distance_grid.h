@@ -39,7 +39,9 @@ public:
     bool empty() const { return dist_.empty(); }
 
 private:
-    size_t index(int i, int j, int k) const { return (size_t(k) * n_[1] + j) * n_[0] + i; }
+    size_t index(int i, int j, int k) const {
+        return (size_t(k) * n_[1] + j) * n_[0] + i;
+    }
 
     Vec3 origin_;
     float cell_ = 0.f;
@@ -52,6 +54,7 @@ private:
 bool point_inside_mesh(const TriangleMesh& mesh, Vec3 p);
 
 // Exact distance from p to the mesh (for tests and tools; builds an AABB tree per call).
-std::vector<double> exact_distances(const TriangleMesh& mesh, const std::vector<Vec3>& points);
+std::vector<double> exact_distances(const TriangleMesh& mesh,
+                                    const std::vector<Vec3>& points);
 
 }  // namespace sss

@@ -35,7 +35,8 @@ Stats check_conservative(const TriangleMesh& mesh, int resolution, int n, uint64
     }
     // Also points on grid nodes and on cell planes, where the published grid failed.
     for (int i = 0; i < 200; ++i) {
-        Vec3 q = grid.node_position(int(rng.uniform() * grid.nx()), int(rng.uniform() * grid.ny()),
+        Vec3 q = grid.node_position(int(rng.uniform() * grid.nx()),
+                                    int(rng.uniform() * grid.ny()),
                                     int(rng.uniform() * grid.nz()));
         pts.push_back(q);
         pts.push_back(q + Vec3(grid.cell_size() * rng.uniform(), 0.f, 0.f));

@@ -25,7 +25,8 @@ double TriangleMesh::area() const {
     double a = 0;
     for (size_t i = 0; i < triangles.size(); ++i) {
         const auto& t = triangles[i];
-        a += 0.5 * length(cross(positions[t[1]] - positions[t[0]], positions[t[2]] - positions[t[0]]));
+        a += 0.5 * length(cross(positions[t[1]] - positions[t[0]],
+                                positions[t[2]] - positions[t[0]]));
     }
     return a;
 }
@@ -35,24 +36,27 @@ double TriangleMesh::volume() const {
     double v = 0;
     for (const auto& t : triangles) {
         Vec3 a = positions[t[0]], b = positions[t[1]], c = positions[t[2]];
-        double ax = a.x, ay = a.y, az = a.z, bx = b.x, by = b.y, bz = b.z, cx = c.x, cy = c.y,
-               cz = c.z;
-        v += ax * (by * cz - bz * cy) - ay * (bx * cz - bz * cx) + az * (bx * cy - by * cx);
+        double ax = a.x, ay = a.y, az = a.z, bx = b.x, by = b.y, bz = b.z, cx = c.x,
+               cy = c.y, cz = c.z;
+        v += ax * (by * cz - bz * cy) - ay * (bx * cz - bz * cx) +
+             az * (bx * cy - by * cx);
     }
     return v / 6.0;
 }
 
 TriangleMesh make_icosphere(Vec3 center, float radius, int subdivisions) {
-    if (!(radius > 0.f) || !std::isfinite(radius)) fail("sphere radius must be > 0, got ", radius);
+    if (!(radius > 0.f) || !std::isfinite(radius))
+        fail("sphere radius must be > 0, got ", radius);
     const float t = (1.f + std::sqrt(5.f)) / 2.f;
-    std::vector<Vec3> p = {{-1, t, 0}, {1, t, 0},  {-1, -t, 0}, {1, -t, 0},
-                           {0, -1, t}, {0, 1, t},  {0, -1, -t}, {0, 1, -t},
-                           {t, 0, -1}, {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
+    std::vector<Vec3> p = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0},
+                           {0, -1, t}, {0, 1, t}, {0, -1, -t}, {0, 1, -t},
+                           {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
     for (Vec3& v : p) v = normalize(v);
     std::vector<std::array<uint32_t, 3>> f = {
-        {0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
-        {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
-        {3, 8, 9},  {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
+        {0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
+        {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
+        {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
+        {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
     for (int level = 0; level < subdivisions; ++level) {
         std::map<std::pair<uint32_t, uint32_t>, uint32_t> midpoint;
         auto mid = [&](uint32_t a, uint32_t b) {
@@ -65,7 +69,8 @@ TriangleMesh make_icosphere(Vec3 center, float radius, int subdivisions) {
         std::vector<std::array<uint32_t, 3>> next;
         next.reserve(f.size() * 4);
         for (const auto& tri : f) {
-            uint32_t a = mid(tri[0], tri[1]), b = mid(tri[1], tri[2]), c = mid(tri[2], tri[0]);
+            uint32_t a = mid(tri[0], tri[1]), b = mid(tri[1], tri[2]),
+                     c = mid(tri[2], tri[0]);
             next.push_back({tri[0], a, c});
             next.push_back({tri[1], b, a});
             next.push_back({tri[2], c, b});

@@ -23,13 +23,13 @@ struct TriangleMesh {
     double volume() const;  // signed; > 0 for an outward-oriented closed mesh
 };
 
-// Reads a polygon mesh from `path` (by extension: .obj .ply .off .stl), triangulates it and
-// hands it to make_closed_mesh. Throws sss::Error naming the file and the problem.
+// Reads a polygon mesh from `path` (by extension: .obj .ply .off .stl), triangulates it
+// and hands it to make_closed_mesh. Throws sss::Error naming the file and the problem.
 TriangleMesh load_mesh(const std::string& path);
 
-// Validates and orients a polygon soup (`what` names it in errors): duplicate vertices are
-// merged; degenerate (zero-area) triangles, open boundaries, non-manifold edges and zero
-// volume are refused; faces are re-oriented consistently and outward.
+// Validates and orients a polygon soup (`what` names it in errors): duplicate vertices
+// are merged; degenerate (zero-area) triangles, open boundaries, non-manifold edges and
+// zero volume are refused; faces are re-oriented consistently and outward.
 TriangleMesh make_closed_mesh(std::vector<Vec3> positions,
                               std::vector<std::vector<uint32_t>> polygons,
                               const std::string& what);

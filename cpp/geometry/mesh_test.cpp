@@ -15,14 +15,20 @@ namespace {
 std::string cube_off(bool flip_some, bool drop_face = false, bool degenerate = false) {
     std::string s = "OFF\n8 " + std::to_string(drop_face ? 11 : 12) + " 0\n";
     s += "0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 1\n";
-    const int f[12][3] = {{0, 2, 1}, {0, 3, 2}, {4, 5, 6}, {4, 6, 7}, {0, 1, 5}, {0, 5, 4},
-                          {2, 3, 7}, {2, 7, 6}, {1, 2, 6}, {1, 6, 5}, {0, 4, 7}, {0, 7, 3}};
+    const int f[12][3] = {{0, 2, 1}, {0, 3, 2}, {4, 5, 6}, {4, 6, 7},
+                          {0, 1, 5}, {0, 5, 4}, {2, 3, 7}, {2, 7, 6},
+                          {1, 2, 6}, {1, 6, 5}, {0, 4, 7}, {0, 7, 3}};
     for (int i = 0; i < 12; ++i) {
         if (drop_face && i == 11) continue;
         bool flip = flip_some && (i % 3 == 0);
-        if (degenerate && i == 2) { s += "3 4 5 4\n"; continue; }
-        s += flip ? "3 " + std::to_string(f[i][0]) + " " + std::to_string(f[i][2]) + " " + std::to_string(f[i][1]) + "\n"
-                  : "3 " + std::to_string(f[i][0]) + " " + std::to_string(f[i][1]) + " " + std::to_string(f[i][2]) + "\n";
+        if (degenerate && i == 2) {
+            s += "3 4 5 4\n";
+            continue;
+        }
+        s += flip ? "3 " + std::to_string(f[i][0]) + " " + std::to_string(f[i][2]) + " " +
+                        std::to_string(f[i][1]) + "\n"
+                  : "3 " + std::to_string(f[i][0]) + " " + std::to_string(f[i][1]) + " " +
+                        std::to_string(f[i][2]) + "\n";
     }
     return s;
 }
@@ -63,7 +69,9 @@ TEST(Mesh, InsideOutMeshIsTurnedOutward) {
         size_t end = s.find('\n', pos + 1);
         int a, b, c;
         std::sscanf(s.c_str() + pos + 3, "%d %d %d", &a, &b, &c);
-        s.replace(pos + 1, end - pos - 1, "3 " + std::to_string(c) + " " + std::to_string(b) + " " + std::to_string(a));
+        s.replace(
+            pos + 1, end - pos - 1,
+            "3 " + std::to_string(c) + " " + std::to_string(b) + " " + std::to_string(a));
     }
     TriangleMesh m = load_mesh(TempFile("cube.off", s).path());
     EXPECT_NEAR(m.volume(), 1.0, 1e-6);
@@ -71,25 +79,30 @@ TEST(Mesh, InsideOutMeshIsTurnedOutward) {
 
 TEST(Mesh, RefusesOpenMesh) {
     TempFile f("open.off", cube_off(false, /*drop_face=*/true));
-    EXPECT_NE(error_of(f.path()).find("not closed"), std::string::npos) << error_of(f.path());
+    EXPECT_NE(error_of(f.path()).find("not closed"), std::string::npos)
+        << error_of(f.path());
 }
 
 TEST(Mesh, RefusesDegenerateTriangle) {
     TempFile f("degenerate.off", cube_off(false, false, /*degenerate=*/true));
-    EXPECT_NE(error_of(f.path()).find("degenerate"), std::string::npos) << error_of(f.path());
+    EXPECT_NE(error_of(f.path()).find("degenerate"), std::string::npos)
+        << error_of(f.path());
 }
 
 TEST(Mesh, RefusesMissingMalformedAndUnknownFiles) {
-    EXPECT_NE(error_of("/nonexistent/bunny.obj").find("does not exist"), std::string::npos);
+    EXPECT_NE(error_of("/nonexistent/bunny.obj").find("does not exist"),
+              std::string::npos);
     TempFile bad("bad.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n");
     EXPECT_NE(error_of(bad.path()).find(bad.path()), std::string::npos);
     TempFile unknown("mesh.xyz", "1 2 3\n");
-    EXPECT_NE(error_of(unknown.path()).find("unsupported mesh format"), std::string::npos);
+    EXPECT_NE(error_of(unknown.path()).find("unsupported mesh format"),
+              std::string::npos);
 }
 
 TEST(Mesh, ObjQuadsAreTriangulatedAndStlVerticesMerged) {
-    std::string obj = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
-                      "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 3 4 8 7\nf 2 3 7 6\nf 1 5 8 4\n";
+    std::string obj =
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+        "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 3 4 8 7\nf 2 3 7 6\nf 1 5 8 4\n";
     TriangleMesh m = load_mesh(TempFile("cube.obj", obj).path());
     EXPECT_EQ(m.triangles.size(), 12u);
     EXPECT_NEAR(m.volume(), 1.0, 1e-6);
@@ -99,7 +112,8 @@ TEST(Mesh, ObjQuadsAreTriangulatedAndStlVerticesMerged) {
         stl += "facet normal 0 0 0\nouter loop\n";
         for (uint32_t i : t) {
             Vec3 p = m.positions[i];
-            stl += "vertex " + std::to_string(p.x) + " " + std::to_string(p.y) + " " + std::to_string(p.z) + "\n";
+            stl += "vertex " + std::to_string(p.x) + " " + std::to_string(p.y) + " " +
+                   std::to_string(p.z) + "\n";
         }
         stl += "endloop\nendfacet\n";
     }

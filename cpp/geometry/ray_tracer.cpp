@@ -25,10 +25,13 @@ struct RayTracer::Impl {
 
 RayTracer::RayTracer() : impl_(std::make_unique<Impl>()) {
     impl_->device = rtcNewDevice(nullptr);
-    if (!impl_->device) fail("cannot create an Embree device (error ", int(rtcGetDeviceError(nullptr)), ")");
+    if (!impl_->device)
+        fail("cannot create an Embree device (error ", int(rtcGetDeviceError(nullptr)),
+             ")");
     rtcSetDeviceErrorFunction(impl_->device, embree_error, nullptr);
     impl_->scene = rtcNewScene(impl_->device);
-    // Robust traversal: watertight hits on shared edges, so no ray leaks through a closed mesh.
+    // Robust traversal: watertight hits on shared edges, so no ray leaks through a closed
+    // mesh.
     rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);
     rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
 }
@@ -41,17 +44,17 @@ RayTracer::~RayTracer() {
 unsigned RayTracer::add_mesh(const TriangleMesh& mesh) {
     SSS_CHECK(!impl_->committed);
     RTCGeometry geom = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0,
-                                                          RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-                                                          mesh.positions.size()));
+    auto* v = static_cast<float*>(
+        rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                3 * sizeof(float), mesh.positions.size()));
     for (size_t i = 0; i < mesh.positions.size(); ++i) {
         v[3 * i] = mesh.positions[i].x;
         v[3 * i + 1] = mesh.positions[i].y;
         v[3 * i + 2] = mesh.positions[i].z;
     }
-    auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0,
-                                                               RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
-                                                               mesh.triangles.size()));
+    auto* idx = static_cast<unsigned*>(
+        rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                3 * sizeof(unsigned), mesh.triangles.size()));
     for (size_t i = 0; i < mesh.triangles.size(); ++i)
         for (int c = 0; c < 3; ++c) idx[3 * i + c] = mesh.triangles[i][c];
     rtcCommitGeometry(geom);
@@ -73,8 +76,12 @@ bool RayTracer::intersect(Vec3 o, Vec3 d, float tnear, float tfar, Hit* hit) con
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     RTCRayHit rh;
-    rh.ray.org_x = o.x; rh.ray.org_y = o.y; rh.ray.org_z = o.z;
-    rh.ray.dir_x = d.x; rh.ray.dir_y = d.y; rh.ray.dir_z = d.z;
+    rh.ray.org_x = o.x;
+    rh.ray.org_y = o.y;
+    rh.ray.org_z = o.z;
+    rh.ray.dir_x = d.x;
+    rh.ray.dir_y = d.y;
+    rh.ray.dir_z = d.z;
     rh.ray.tnear = tnear;
     rh.ray.tfar = tfar;
     rh.ray.time = 0.f;
@@ -96,8 +103,12 @@ bool RayTracer::occluded(Vec3 o, Vec3 d, float tnear, float tfar) const {
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     RTCRay ray;
-    ray.org_x = o.x; ray.org_y = o.y; ray.org_z = o.z;
-    ray.dir_x = d.x; ray.dir_y = d.y; ray.dir_z = d.z;
+    ray.org_x = o.x;
+    ray.org_y = o.y;
+    ray.org_z = o.z;
+    ray.dir_x = d.x;
+    ray.dir_y = d.y;
+    ray.dir_z = d.z;
     ray.tnear = tnear;
     ray.tfar = tfar;
     ray.time = 0.f;

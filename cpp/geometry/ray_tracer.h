@@ -1,6 +1,7 @@
-// Boundary ray queries with Embree 3: closest hit and occlusion against the triangle meshes
-// of a scene. The device and scene are owned here and released in the destructor; geometry
-// is added before commit() and the scene is read-only (and thread-safe) afterwards.
+// Boundary ray queries with Embree 3: closest hit and occlusion against the triangle
+// meshes of a scene. The device and scene are owned here and released in the destructor;
+// geometry is added before commit() and the scene is read-only (and thread-safe)
+// afterwards.
 #pragma once
 
 #include <memory>
@@ -13,7 +14,7 @@ namespace sss {
 
 struct Hit {
     float t = 0.f;
-    Vec3 normal;        // outward unit normal of the hit triangle (counter-clockwise winding)
+    Vec3 normal;  // outward unit normal of the hit triangle (counter-clockwise winding)
     unsigned mesh = 0;  // index in the order meshes were added
     unsigned prim = 0;  // triangle index within that mesh
 };

@@ -1,12 +1,11 @@
 // Reading JSON files (scenes, model files) with errors that name the file, the field, the
-// value and what is allowed: "<source>: shapes[0].medium.g: value 1.2 is not allowed (...)".
-// Shared by render/scene.cpp and nn/decoder.cpp.
+// value and what is allowed: "<source>: shapes[0].medium.g: value 1.2 is not allowed
+// (...)". Shared by render/scene.cpp and nn/decoder.cpp.
 #pragma once
-
-#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <initializer_list>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <string>
 
@@ -21,7 +20,9 @@ struct Field {
     const std::string& source;
     std::string path;
 
-    Field at(const std::string& key) const { return {source, path.empty() ? key : path + "." + key}; }
+    Field at(const std::string& key) const {
+        return {source, path.empty() ? key : path + "." + key};
+    }
     Field at(size_t i) const { return {source, path + "[" + std::to_string(i) + "]"}; }
 
     template <typename... Args>
@@ -39,24 +40,34 @@ inline std::string show(const json& j) {
 
 inline const char* type_name(const json& j) {
     switch (j.type()) {
-        case json::value_t::null: return "null";
-        case json::value_t::boolean: return "a boolean";
-        case json::value_t::string: return "a string";
-        case json::value_t::array: return "an array";
-        case json::value_t::object: return "an object";
-        default: return "a number";
+        case json::value_t::null:
+            return "null";
+        case json::value_t::boolean:
+            return "a boolean";
+        case json::value_t::string:
+            return "a string";
+        case json::value_t::array:
+            return "an array";
+        case json::value_t::object:
+            return "an object";
+        default:
+            return "a number";
     }
 }
 
 // Unknown keys are errors (STYLE.md: parameter names are a contract).
-inline void check_keys(const json& obj, const Field& f, std::initializer_list<const char*> allowed) {
-    if (!obj.is_object()) f.error("expected an object, got ", type_name(obj), " ", show(obj));
+inline void check_keys(const json& obj, const Field& f,
+                       std::initializer_list<const char*> allowed) {
+    if (!obj.is_object())
+        f.error("expected an object, got ", type_name(obj), " ", show(obj));
     std::set<std::string> ok(allowed.begin(), allowed.end());
     for (auto it = obj.begin(); it != obj.end(); ++it) {
         if (!ok.count(it.key())) {
             std::string list;
-            for (const char* a : allowed) list += std::string(list.empty() ? "" : ", ") + a;
-            f.at(it.key()).error("unknown key '", it.key(), "' (allowed here: ", list, ")");
+            for (const char* a : allowed)
+                list += std::string(list.empty() ? "" : ", ") + a;
+            f.at(it.key()).error("unknown key '", it.key(), "' (allowed here: ", list,
+                                 ")");
         }
     }
 }

@@ -32,10 +32,10 @@ SphereWalk sphere_walk(float sigma, float g, float albedo, Rng& rng) {
     int64_t n_events = 1;
     SphereWalk out;  // X = 0, W = +z: event 1 is the representative one so far
 
-    // Reservoir over events with weights albedo^k: event k replaces the current choice with
-    // probability albedo^k / sum_{j<=k} albedo^j = albedo^(k-1) (1 - albedo) / (1 - albedo^k).
-    // Tracked in double as a running power and a running sum of positive terms (no
-    // cancellation, no underflow trouble: the probability simply tends to 0).
+    // Reservoir over events with weights albedo^k: event k replaces the current choice
+    // with probability albedo^k / sum_{j<=k} albedo^j = albedo^(k-1) (1 - albedo) / (1 -
+    // albedo^k). Tracked in double as a running power and a running sum of positive terms
+    // (no cancellation, no underflow trouble: the probability simply tends to 0).
     const double q = 1.0 - double(albedo);
     double power = 1.0;    // albedo^(k-1)
     double one_minus = q;  // 1 - albedo^k
@@ -85,21 +85,24 @@ SphereWalkBatch sphere_walks(const std::vector<float>& sigma, const std::vector<
     if (n < 0) fail("sphere_walks: n = ", n, " (allowed: n >= 0)");
     auto check_size = [&](const std::vector<float>& v, const char* name) {
         if (v.size() != 1 && int64_t(v.size()) != n)
-            fail("sphere_walks: ", name, " has ", v.size(), " values (allowed: 1 or n = ", n, ")");
+            fail("sphere_walks: ", name, " has ", v.size(),
+                 " values (allowed: 1 or n = ", n, ")");
     };
     check_size(sigma, "sigma_t");
     check_size(g, "g");
     check_size(albedo, "albedo");
     for (size_t i = 0; i < sigma.size(); ++i)
         if (!(sigma[i] >= 0.f && sigma[i] <= kMaxSigma))
-            fail("sphere_walks: sigma_t[", i, "] = ", sigma[i], " (allowed: 0 <= sigma_t <= ",
-                 kMaxSigma, "; the mean number of events grows as sigma_t^2)");
+            fail("sphere_walks: sigma_t[", i, "] = ", sigma[i],
+                 " (allowed: 0 <= sigma_t <= ", kMaxSigma,
+                 "; the mean number of events grows as sigma_t^2)");
     for (size_t i = 0; i < g.size(); ++i)
         if (!(std::abs(g[i]) < 1.f))
             fail("sphere_walks: g[", i, "] = ", g[i], " (allowed: -1 < g < 1)");
     for (size_t i = 0; i < albedo.size(); ++i)
         if (!(albedo[i] >= 0.f && albedo[i] <= 1.f))
-            fail("sphere_walks: albedo[", i, "] = ", albedo[i], " (allowed: 0 <= albedo <= 1)");
+            fail("sphere_walks: albedo[", i, "] = ", albedo[i],
+                 " (allowed: 0 <= albedo <= 1)");
 
     SphereWalkBatch out;
     out.N.resize(n);
@@ -108,7 +111,9 @@ SphereWalkBatch sphere_walks(const std::vector<float>& sigma, const std::vector<
     out.beta.resize(n);
     out.X.resize(3 * n);
     out.W.resize(3 * n);
-    auto at = [](const std::vector<float>& v, int64_t i) { return v.size() == 1 ? v[0] : v[i]; };
+    auto at = [](const std::vector<float>& v, int64_t i) {
+        return v.size() == 1 ? v[0] : v[i];
+    };
 
     // Walk costs differ by orders of magnitude: threads take small chunks from a counter.
     constexpr int64_t kChunk = 256;
@@ -122,12 +127,14 @@ SphereWalkBatch sphere_walks(const std::vector<float>& sigma, const std::vector<
                 out.cos_theta[i] = w.cos_theta;
                 out.alpha[i] = w.alpha;
                 out.beta[i] = w.beta;
-                for (int k = 0; k < 3; ++k) out.X[3 * i + k] = w.X[k], out.W[3 * i + k] = w.W[k];
+                for (int k = 0; k < 3; ++k)
+                    out.X[3 * i + k] = w.X[k], out.W[3 * i + k] = w.W[k];
             }
         }
     };
     if (threads <= 0) threads = int(std::max(1u, std::thread::hardware_concurrency()));
-    threads = int(std::min<int64_t>(threads, std::max<int64_t>(1, (n + kChunk - 1) / kChunk)));
+    threads =
+        int(std::min<int64_t>(threads, std::max<int64_t>(1, (n + kChunk - 1) / kChunk)));
     std::vector<std::thread> pool;
     for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
     worker();

@@ -1,15 +1,16 @@
-// The canonical sphere problem (DESIGN §3, docs/notation.md "Sphere walks"): ground truth for
-// training and evaluating the learned scattering models.
+// The canonical sphere problem (DESIGN §3, docs/notation.md "Sphere walks"): ground truth
+// for training and evaluating the learned scattering models.
 //
-// A photon starts at the centre of the unit sphere travelling +z; the first scattering event
-// is at the centre and counts. It alternates Henyey-Greenstein scattering and exponential
-// free flights with optical radius sigma (= sigma_t * r) until a flight leaves the sphere.
-// Absorption is not simulated: N, the exit point and the exit direction do not depend on the
-// albedo phi, which only chooses the representative event (X, W).
+// A photon starts at the centre of the unit sphere travelling +z; the first scattering
+// event is at the centre and counts. It alternates Henyey-Greenstein scattering and
+// exponential free flights with optical radius sigma (= sigma_t * r) until a flight
+// leaves the sphere. Absorption is not simulated: N, the exit point and the exit
+// direction do not depend on the albedo phi, which only chooses the representative event
+// (X, W).
 //
 // Results are in the exit frame: rotated about z so that the exit point is
-// x = (sin theta, 0, cos theta); n = x, b = +y, t = b x n = (cos theta, 0, -sin theta), and
-// the exit direction is w = alpha b + beta t + sqrt(1 - alpha^2 - beta^2) n.
+// x = (sin theta, 0, cos theta); n = x, b = +y, t = b x n = (cos theta, 0, -sin theta),
+// and the exit direction is w = alpha b + beta t + sqrt(1 - alpha^2 - beta^2) n.
 #pragma once
 
 #include <cstdint>
@@ -33,10 +34,11 @@ struct SphereWalk {
 // Event k is the representative one with probability albedo^k / sum_{j<=N} albedo^j.
 SphereWalk sphere_walk(float sigma, float g, float albedo, Rng& rng);
 
-// The random stream of walk `index` under `seed`; walks are independent of how they are split
-// into batches or threads.
+// The random stream of walk `index` under `seed`; walks are independent of how they are
+// split into batches or threads.
 inline Rng sphere_walk_rng(uint64_t seed, uint64_t index) {
-    constexpr uint64_t kSphereWalkStream = 0x5370686572655721ull;  // differs from render streams
+    constexpr uint64_t kSphereWalkStream =
+        0x5370686572655721ull;  // differs from render streams
     return Rng(seed, index, kSphereWalkStream);
 }
 
@@ -46,9 +48,9 @@ struct SphereWalkBatch {
     std::vector<float> X, W;  // n x 3, row-major
 };
 
-// Walks first_index .. first_index + n - 1 with per-walk parameters (arrays of length n, or of
-// length 1 to broadcast). threads <= 0: all hardware threads. The result is identical for any
-// thread count. Throws sss::Error on invalid parameters.
+// Walks first_index .. first_index + n - 1 with per-walk parameters (arrays of length n,
+// or of length 1 to broadcast). threads <= 0: all hardware threads. The result is
+// identical for any thread count. Throws sss::Error on invalid parameters.
 SphereWalkBatch sphere_walks(const std::vector<float>& sigma, const std::vector<float>& g,
                              const std::vector<float>& albedo, int64_t n, uint64_t seed,
                              uint64_t first_index = 0, int threads = 0);

@@ -28,8 +28,8 @@ TEST(SphereWalk, SingleEventProbabilityIsExpMinusSigma) {
     }
 }
 
-// Invariants of every walk: N >= 1, the exit direction leaves the sphere, the representative
-// event lies inside it and its direction is a unit vector.
+// Invariants of every walk: N >= 1, the exit direction leaves the sphere, the
+// representative event lies inside it and its direction is a unit vector.
 TEST(SphereWalk, OutputsSatisfyTheirConstraints) {
     for (float g : {-0.9f, 0.f, 0.9f}) {
         SphereWalkBatch b = walks(8.f, g, 0.9f, 20000);
@@ -41,7 +41,8 @@ TEST(SphereWalk, OutputsSatisfyTheirConstraints) {
             Vec3 W{b.W[3 * i], b.W[3 * i + 1], b.W[3 * i + 2]};
             ASSERT_LE(length(X), 1.f + 1e-6f);
             ASSERT_NEAR(length(W), 1.f, 1e-5f);
-            if (b.N[i] == 1) {  // single scattering: exit straight along the first direction
+            if (b.N[i] ==
+                1) {  // single scattering: exit straight along the first direction
                 ASSERT_EQ(X, Vec3(0.f));
                 ASSERT_EQ(W, Vec3(0.f, 0.f, 1.f));
                 ASSERT_EQ(b.alpha[i], 0.f);
@@ -60,8 +61,8 @@ TEST(SphereWalk, ZeroAlbedoKeepsTheCentreAsRepresentativeEvent) {
     }
 }
 
-// With albedo 1 every event is equally likely: the chosen index is uniform in 1..N, so the
-// centre is chosen with probability E[1/N].
+// With albedo 1 every event is equally likely: the chosen index is uniform in 1..N, so
+// the centre is chosen with probability E[1/N].
 TEST(SphereWalk, UnitAlbedoChoosesEventsUniformly) {
     const int64_t n = 200000;
     SphereWalkBatch b = walks(3.f, 0.f, 1.f, n);
@@ -75,7 +76,8 @@ TEST(SphereWalk, UnitAlbedoChoosesEventsUniformly) {
     EXPECT_NEAR(centre, expected, 4.5 * std::sqrt(var));
 }
 
-// sigma = 0: one event, the exit direction is the first HG direction, cos theta ~ HG (chi^2).
+// sigma = 0: one event, the exit direction is the first HG direction, cos theta ~ HG
+// (chi^2).
 TEST(SphereWalk, NoScatteringLimitFollowsHenyeyGreenstein) {
     for (float g : {-0.7f, 0.f, 0.4f, 0.9f}) {
         const int64_t n = 200000;

@@ -1,11 +1,10 @@
 #include "nn/decoder.h"
 
-#include <nlohmann/json.hpp>
-
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 
@@ -25,8 +24,8 @@ namespace {
 
 using json = nlohmann::json;
 
-// Largest layer width and latent size accepted: far above paper Table 1 (<= 20), low enough
-// that a corrupt file cannot ask for gigabytes.
+// Largest layer width and latent size accepted: far above paper Table 1 (<= 20), low
+// enough that a corrupt file cannot ask for gigabytes.
 constexpr int64_t kMaxWidth = 4096;
 
 using namespace json_fields;
@@ -39,12 +38,15 @@ float float32(const json& j, const Field& f) {
     return x;
 }
 
-int64_t integer_in(const json& j, const Field& f, int64_t lo, int64_t hi, const char* allowed) {
-    if (!j.is_number_integer()) f.error("expected an integer, got ", type_name(j), " ", show(j));
+int64_t integer_in(const json& j, const Field& f, int64_t lo, int64_t hi,
+                   const char* allowed) {
+    if (!j.is_number_integer())
+        f.error("expected an integer, got ", type_name(j), " ", show(j));
     if (j.is_number_unsigned() && j.get<uint64_t>() > uint64_t(INT64_MAX))
         f.error("value ", show(j), " is not allowed (allowed: ", allowed, ")");
     int64_t v = j.get<int64_t>();
-    if (v < lo || v > hi) f.error("value ", show(j), " is not allowed (allowed: ", allowed, ")");
+    if (v < lo || v > hi)
+        f.error("value ", show(j), " is not allowed (allowed: ", allowed, ")");
     return v;
 }
 
@@ -71,27 +73,34 @@ Encoding parse_encoding(const json& j, const Field& f) {
         e.kind = Encoding::Kind::Log;
         if (j.contains("s")) e.s = float32(j["s"], f.at("s"));
         if (j.contains("c")) e.c = float32(j["c"], f.at("c"));
-        if (e.s == 0.f) f.at("s").error("value 0 is not allowed (the encoding must be invertible)");
+        if (e.s == 0.f)
+            f.at("s").error("value 0 is not allowed (the encoding must be invertible)");
     } else if (kind == "logit") {
         check_keys(j, f, {"kind", "a", "b", "lo", "hi", "eps"});
         e.kind = Encoding::Kind::Logit;
         if (j.contains("lo")) e.lo = float32(j["lo"], f.at("lo"));
         if (j.contains("hi")) e.hi = float32(j["hi"], f.at("hi"));
         if (j.contains("eps")) e.eps = float32(j["eps"], f.at("eps"));
-        if (!(e.eps >= 0.f)) f.at("eps").error("value ", e.eps, " is not allowed (allowed: eps >= 0)");
-        if (!(e.hi > e.lo)) f.at("hi").error("value ", e.hi, " is not allowed (allowed: hi > lo = ", e.lo, ")");
+        if (!(e.eps >= 0.f))
+            f.at("eps").error("value ", e.eps, " is not allowed (allowed: eps >= 0)");
+        if (!(e.hi > e.lo))
+            f.at("hi").error("value ", e.hi, " is not allowed (allowed: hi > lo = ", e.lo,
+                             ")");
     } else {
-        f.at("kind").error("unknown encoding kind \"", kind, "\" (allowed: \"affine\", \"log\", \"logit\")");
+        f.at("kind").error("unknown encoding kind \"", kind,
+                           "\" (allowed: \"affine\", \"log\", \"logit\")");
     }
     if (j.contains("a")) e.a = float32(j["a"], f.at("a"));
     if (j.contains("b")) e.b = float32(j["b"], f.at("b"));
-    if (e.a == 0.f) f.at("a").error("value 0 is not allowed (the encoding must be invertible)");
+    if (e.a == 0.f)
+        f.at("a").error("value 0 is not allowed (the encoding must be invertible)");
     return e;
 }
 
 std::vector<EncodedVariable> parse_variables(const json& j, const Field& f) {
     if (!j.is_array() || j.empty())
-        f.error("expected a non-empty array of {\"name\", \"encode\"} objects, got ", show(j));
+        f.error("expected a non-empty array of {\"name\", \"encode\"} objects, got ",
+                show(j));
     std::vector<EncodedVariable> vars;
     std::set<std::string> seen;
     for (size_t i = 0; i < j.size(); ++i) {
@@ -99,7 +108,8 @@ std::vector<EncodedVariable> parse_variables(const json& j, const Field& f) {
         check_keys(j[i], fi, {"name", "encode"});
         EncodedVariable v;
         v.name = string_of(require(j[i], "name", fi), fi.at("name"));
-        if (!seen.insert(v.name).second) fi.at("name").error("duplicate name \"", v.name, "\"");
+        if (!seen.insert(v.name).second)
+            fi.at("name").error("duplicate name \"", v.name, "\"");
         v.encoding = parse_encoding(require(j[i], "encode", fi), fi.at("encode"));
         vars.push_back(std::move(v));
     }
@@ -112,24 +122,30 @@ DenseLayer parse_layer(const json& j, const Field& f, int expected_in, bool last
     L.in = int(integer_in(require(j, "in", f), f.at("in"), 1, kMaxWidth, "1 to 4096"));
     L.out = int(integer_in(require(j, "out", f), f.at("out"), 1, kMaxWidth, "1 to 4096"));
     if (L.in != expected_in)
-        f.at("in").error("value ", L.in, " does not match the width of the previous layer's output (",
-                         expected_in, f.path == "layers[0]" ? ", the input_width" : "", ")");
+        f.at("in").error(
+            "value ", L.in, " does not match the width of the previous layer's output (",
+            expected_in, f.path == "layers[0]" ? ", the input_width" : "", ")");
     std::string act = string_of(require(j, "activation", f), f.at("activation"));
     const char* want = last ? "identity" : "softplus";
     if (act != "softplus" && act != "identity")
-        f.at("activation").error("unknown activation \"", act, "\" (allowed: \"softplus\", \"identity\")");
+        f.at("activation")
+            .error("unknown activation \"", act,
+                   "\" (allowed: \"softplus\", \"identity\")");
     if (act != want)
-        f.at("activation").error("\"", act, "\" is not allowed here: hidden layers use \"softplus\", ",
-                                 "the last layer \"identity\"");
+        f.at("activation")
+            .error("\"", act, "\" is not allowed here: hidden layers use \"softplus\", ",
+                   "the last layer \"identity\"");
     L.softplus = !last;
 
     Field fw = f.at("weight");
     const json& w = array_of(require(j, "weight", f), fw, size_t(L.out), "'out' rows");
     L.weight.resize(size_t(L.out) * L.in);
     for (int o = 0; o < L.out; ++o) {
-        const json& row = array_of(w[o], fw.at(size_t(o)), size_t(L.in), "a row of 'in' numbers");
+        const json& row =
+            array_of(w[o], fw.at(size_t(o)), size_t(L.in), "a row of 'in' numbers");
         for (int i = 0; i < L.in; ++i)
-            L.weight[size_t(o) * L.in + i] = float32(row[i], fw.at(size_t(o)).at(size_t(i)));
+            L.weight[size_t(o) * L.in + i] =
+                float32(row[i], fw.at(size_t(o)).at(size_t(i)));
     }
     Field fb = f.at("bias");
     const json& b = array_of(require(j, "bias", f), fb, size_t(L.out), "'out' numbers");
@@ -139,8 +155,10 @@ DenseLayer parse_layer(const json& j, const Field& f, int expected_in, bool last
 }
 
 std::string parse_error_hint(const std::string& text) {
-    if (text.find("NaN") != std::string::npos || text.find("Infinity") != std::string::npos)
-        return " (NaN and Infinity are not JSON; every number in a model file must be finite)";
+    if (text.find("NaN") != std::string::npos ||
+        text.find("Infinity") != std::string::npos)
+        return " (NaN and Infinity are not JSON; every number in a model file must be "
+               "finite)";
     return "";
 }
 
@@ -156,24 +174,29 @@ Decoder parse_decoder(const std::string& text, const std::string& source) {
     Field root{source, ""};
     if (!j.is_object()) root.error("expected a JSON object, got ", type_name(j));
 
-    // The format is checked before anything else, so that a file of another kind or version
-    // is reported as such rather than by its first unexpected key.
+    // The format is checked before anything else, so that a file of another kind or
+    // version is reported as such rather than by its first unexpected key.
     std::string format = string_of(require(j, "format", root), root.at("format"));
     if (format != kDecoderFormat)
-        fail(source, ": format \"", format, "\" is not a decoder file (this build reads format \"",
-             kDecoderFormat, "\", format_version ", kDecoderFormatVersion, ")");
+        fail(source, ": format \"", format,
+             "\" is not a decoder file (this build reads format \"", kDecoderFormat,
+             "\", format_version ", kDecoderFormatVersion, ")");
     const json& jv = require(j, "format_version", root);
     if (!jv.is_number_integer() || jv.get<int64_t>() != kDecoderFormatVersion)
-        fail(source, ": format_version ", show(jv), " is not supported (this build reads format_version ",
-             kDecoderFormatVersion, ")");
+        fail(source, ": format_version ", show(jv),
+             " is not supported (this build reads format_version ", kDecoderFormatVersion,
+             ")");
 
-    check_keys(j, root, {"format", "format_version", "notation_version", "name", "conditions", "latent_dim",
-                         "input_width", "layers", "outputs", "training", "metrics"});
-    int64_t notation = integer_in(require(j, "notation_version", root), root.at("notation_version"), 0, INT32_MAX,
-                                  "a non-negative integer");
+    check_keys(j, root,
+               {"format", "format_version", "notation_version", "name", "conditions",
+                "latent_dim", "input_width", "layers", "outputs", "training", "metrics"});
+    int64_t notation =
+        integer_in(require(j, "notation_version", root), root.at("notation_version"), 0,
+                   INT32_MAX, "a non-negative integer");
     if (notation != kNotationVersion)
         root.at("notation_version")
-            .error("notation_version ", notation, " is not supported (this build uses notation_version ",
+            .error("notation_version ", notation,
+                   " is not supported (this build uses notation_version ",
                    kNotationVersion, ", docs/notation.md)");
 
     Decoder d;
@@ -181,23 +204,29 @@ Decoder parse_decoder(const std::string& text, const std::string& source) {
     d.name = string_of(require(j, "name", root), root.at("name"));
     if (d.name.empty()) root.at("name").error("must not be empty");
     d.conditions = parse_variables(require(j, "conditions", root), root.at("conditions"));
-    d.latent_dim = int(integer_in(require(j, "latent_dim", root), root.at("latent_dim"), 0, kMaxWidth, "0 to 4096"));
+    d.latent_dim = int(integer_in(require(j, "latent_dim", root), root.at("latent_dim"),
+                                  0, kMaxWidth, "0 to 4096"));
     d.input_width =
-        int(integer_in(require(j, "input_width", root), root.at("input_width"), 1, 2 * kMaxWidth, "1 to 8192"));
+        int(integer_in(require(j, "input_width", root), root.at("input_width"), 1,
+                       2 * kMaxWidth, "1 to 8192"));
     int needed = d.num_conditions() + d.latent_dim;
     int padded = (needed + 3) / 4 * 4;
     if (d.input_width != padded)
         root.at("input_width")
-            .error("value ", d.input_width, " is not len(conditions) + latent_dim = ", d.num_conditions(), " + ",
-                   d.latent_dim, " = ", needed, " rounded up to a multiple of 4 (", padded, ")");
+            .error("value ", d.input_width,
+                   " is not len(conditions) + latent_dim = ", d.num_conditions(), " + ",
+                   d.latent_dim, " = ", needed, " rounded up to a multiple of 4 (",
+                   padded, ")");
     d.outputs = parse_variables(require(j, "outputs", root), root.at("outputs"));
 
     const json& layers = require(j, "layers", root);
     Field fl = root.at("layers");
-    if (!layers.is_array() || layers.empty()) fl.error("expected a non-empty array of layers, got ", show(layers));
+    if (!layers.is_array() || layers.empty())
+        fl.error("expected a non-empty array of layers, got ", show(layers));
     int width = d.input_width;
     for (size_t i = 0; i < layers.size(); ++i) {
-        d.layers.push_back(parse_layer(layers[i], fl.at(i), width, i + 1 == layers.size()));
+        d.layers.push_back(
+            parse_layer(layers[i], fl.at(i), width, i + 1 == layers.size()));
         width = d.layers.back().out;
     }
     if (width != 2 * d.num_outputs())
@@ -215,7 +244,9 @@ Decoder parse_decoder(const std::string& text, const std::string& source) {
         for (const auto& c : d.conditions) is_condition |= c.name == param;
         auto it = training.find(param);
         if (it == training.end()) {
-            if (is_condition) ft.error("missing the range of condition '", param, "' (an array [lo, hi])");
+            if (is_condition)
+                ft.error("missing the range of condition '", param,
+                         "' (an array [lo, hi])");
             continue;
         }
         Field fp = ft.at(param);
@@ -226,14 +257,16 @@ Decoder parse_decoder(const std::string& text, const std::string& source) {
     }
     d.training_json = training.dump();
     if (j.contains("metrics")) {
-        if (!j["metrics"].is_object()) root.at("metrics").error("expected an object, got ", type_name(j["metrics"]));
+        if (!j["metrics"].is_object())
+            root.at("metrics").error("expected an object, got ", type_name(j["metrics"]));
         d.metrics_json = j["metrics"].dump();
     }
     return d;
 }
 
 Decoder load_decoder(const std::string& path) {
-    if (std::filesystem::is_directory(path)) fail(path, ": is a directory, not a model file");
+    if (std::filesystem::is_directory(path))
+        fail(path, ": is a directory, not a model file");
     std::ifstream in(path, std::ios::binary);
     if (!in) fail(path, ": cannot open the model file (missing or unreadable)");
     std::ostringstream text;
@@ -252,19 +285,23 @@ std::string f9(float x) {
 }
 
 std::string encoding_json(const Encoding& e) {
-    const char* kind = e.kind == Encoding::Kind::Affine ? "affine" : e.kind == Encoding::Kind::Log ? "log" : "logit";
+    const char* kind = e.kind == Encoding::Kind::Affine ? "affine"
+                       : e.kind == Encoding::Kind::Log  ? "log"
+                                                        : "logit";
     std::string s = std::string("{\"kind\": \"") + kind + "\"";
     s += ", \"a\": " + f9(e.a) + ", \"b\": " + f9(e.b);
     if (e.kind == Encoding::Kind::Log) s += ", \"s\": " + f9(e.s) + ", \"c\": " + f9(e.c);
     if (e.kind == Encoding::Kind::Logit)
-        s += ", \"lo\": " + f9(e.lo) + ", \"hi\": " + f9(e.hi) + ", \"eps\": " + f9(e.eps);
+        s +=
+            ", \"lo\": " + f9(e.lo) + ", \"hi\": " + f9(e.hi) + ", \"eps\": " + f9(e.eps);
     return s + "}";
 }
 
 std::string variables_json(const std::vector<EncodedVariable>& vars) {
     std::string s = "[";
     for (size_t i = 0; i < vars.size(); ++i)
-        s += std::string(i ? ",\n    " : "\n    ") + "{\"name\": " + json(vars[i].name).dump() +
+        s += std::string(i ? ",\n    " : "\n    ") +
+             "{\"name\": " + json(vars[i].name).dump() +
              ", \"encode\": " + encoding_json(vars[i].encoding) + "}";
     return s + "\n  ]";
 }
@@ -283,12 +320,13 @@ std::string decoder_to_json(const Decoder& d) {
     s += "  \"layers\": [";
     for (size_t l = 0; l < d.layers.size(); ++l) {
         const DenseLayer& L = d.layers[l];
-        s += std::string(l ? "," : "") + "\n    {\"in\": " + std::to_string(L.in) + ", \"out\": " +
-             std::to_string(L.out) + ", \"activation\": \"" + (L.softplus ? "softplus" : "identity") +
-             "\",\n     \"weight\": [";
+        s += std::string(l ? "," : "") + "\n    {\"in\": " + std::to_string(L.in) +
+             ", \"out\": " + std::to_string(L.out) + ", \"activation\": \"" +
+             (L.softplus ? "softplus" : "identity") + "\",\n     \"weight\": [";
         for (int o = 0; o < L.out; ++o) {
             s += o ? ",\n                [" : "[";
-            for (int i = 0; i < L.in; ++i) s += (i ? ", " : "") + f9(L.weight[size_t(o) * L.in + i]);
+            for (int i = 0; i < L.in; ++i)
+                s += (i ? ", " : "") + f9(L.weight[size_t(o) * L.in + i]);
             s += "]";
         }
         s += "],\n     \"bias\": [";

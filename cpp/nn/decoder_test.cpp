@@ -1,18 +1,18 @@
 #include "nn/decoder.h"
 
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <functional>
+#include <nlohmann/json.hpp>
 
 #include "core/check.h"
 #include "shared/softplus.h"
+#include "testing/errors.h"
 #include "testing/random_models.h"
 #include "testing/temp_file.h"
-#include "testing/errors.h"
 
 namespace sss {
 namespace {
@@ -37,15 +37,18 @@ TEST(Decoder, JsonRoundTripIsExact) {
             EXPECT_EQ(a.in, b.in);
             EXPECT_EQ(a.out, b.out);
             EXPECT_EQ(a.softplus, b.softplus);
-            for (size_t k = 0; k < a.weight.size(); ++k) ASSERT_TRUE(same_bits(a.weight[k], b.weight[k])) << k;
-            for (size_t k = 0; k < a.bias.size(); ++k) ASSERT_TRUE(same_bits(a.bias[k], b.bias[k])) << k;
+            for (size_t k = 0; k < a.weight.size(); ++k)
+                ASSERT_TRUE(same_bits(a.weight[k], b.weight[k])) << k;
+            for (size_t k = 0; k < a.bias.size(); ++k)
+                ASSERT_TRUE(same_bits(a.bias[k], b.bias[k])) << k;
         }
         ASSERT_EQ(e.conditions.size(), d.conditions.size());
         for (size_t i = 0; i < d.conditions.size(); ++i) {
             EXPECT_EQ(e.conditions[i].name, d.conditions[i].name);
             const Encoding &a = d.conditions[i].encoding, &b = e.conditions[i].encoding;
             EXPECT_EQ(a.kind, b.kind);
-            EXPECT_TRUE(same_bits(a.a, b.a) && same_bits(a.b, b.b) && same_bits(a.s, b.s) && same_bits(a.c, b.c));
+            EXPECT_TRUE(same_bits(a.a, b.a) && same_bits(a.b, b.b) &&
+                        same_bits(a.s, b.s) && same_bits(a.c, b.c));
         }
         ASSERT_EQ(e.outputs.size(), d.outputs.size());
         ASSERT_NE(e.training_range("sigma"), nullptr);
@@ -64,24 +67,29 @@ TEST(Decoder, EncodingsRoundTrip) {
         std::vector<float> xs;
     };
     Encoding affine{Encoding::Kind::Affine, 2.5f, -0.75f, 1.f, 0.f};
-    Encoding log1p_sigma{Encoding::Kind::Log, 0.5f, -1.f, 1.f, 1.f};        // a ln(1 + x) + b
-    Encoding log_n{Encoding::Kind::Log, 1.f, 0.f, 1.f, 0.f};                // ln N
-    Encoding log_phi{Encoding::Kind::Log, -0.3f, 0.2f, -1.f, 1.001f};       // ln(1 - phi + eps)
-    Encoding logit_cos{Encoding::Kind::Logit, 0.7f, 0.1f};               // cos theta in [-1, 1]
+    Encoding log1p_sigma{Encoding::Kind::Log, 0.5f, -1.f, 1.f, 1.f};  // a ln(1 + x) + b
+    Encoding log_n{Encoding::Kind::Log, 1.f, 0.f, 1.f, 0.f};          // ln N
+    Encoding log_phi{Encoding::Kind::Log, -0.3f, 0.2f, -1.f,
+                     1.001f};                               // ln(1 - phi + eps)
+    Encoding logit_cos{Encoding::Kind::Logit, 0.7f, 0.1f};  // cos theta in [-1, 1]
     logit_cos.eps = 1e-4f;
-    std::vector<Case> cases = {{affine, {-3.f, -1.f, 0.f, 0.3f, 7.f, 150.f}},
-                               {logit_cos, {-1.f, -0.999f, -0.3f, 0.f, 0.5f, 0.9999f, 1.f}},
-                               {log1p_sigma, {0.f, 0.01f, 1.f, 10.f, 200.f}},
-                               {log_n, {2.f, 3.f, 57.f, 1e6f}},
-                               {log_phi, {0.f, 0.5f, 0.99f, 1.f}}};
+    std::vector<Case> cases = {
+        {affine, {-3.f, -1.f, 0.f, 0.3f, 7.f, 150.f}},
+        {logit_cos, {-1.f, -0.999f, -0.3f, 0.f, 0.5f, 0.9999f, 1.f}},
+        {log1p_sigma, {0.f, 0.01f, 1.f, 10.f, 200.f}},
+        {log_n, {2.f, 3.f, 57.f, 1e6f}},
+        {log_phi, {0.f, 0.5f, 0.99f, 1.f}}};
     for (const Case& c : cases) {
         for (float x : c.xs) {
             ASSERT_TRUE(c.e.in_domain(x)) << x;
             float e = c.e.encode(x);
-            double want = c.e.kind == Encoding::Kind::Affine ? double(c.e.a) * x + c.e.b
-                          : c.e.kind == Encoding::Kind::Log
-                              ? double(c.e.a) * std::log(double(c.e.s) * x + double(c.e.c)) + c.e.b
-                              : double(c.e.a) * std::log((double(x) + 1.0 + 1e-4) / (1.0 - x + 1e-4)) + c.e.b;
+            double want =
+                c.e.kind == Encoding::Kind::Affine ? double(c.e.a) * x + c.e.b
+                : c.e.kind == Encoding::Kind::Log
+                    ? double(c.e.a) * std::log(double(c.e.s) * x + double(c.e.c)) + c.e.b
+                    : double(c.e.a) *
+                              std::log((double(x) + 1.0 + 1e-4) / (1.0 - x + 1e-4)) +
+                          c.e.b;
             EXPECT_NEAR(e, want, 1e-6 * std::max(1.0, std::abs(want))) << x;
             float back = c.e.decode(e);
             EXPECT_NEAR(back, x, 2e-5 * std::max(1.f, std::abs(x))) << x;
@@ -103,7 +111,8 @@ TEST(Decoder, ReferenceEvaluationFollowsTheFormula) {
     float x[4] = {1.f, -2.f, 3.f, 0.25f};
     float mean, logvar;
     evaluate_reference(d, x, &mean, &logvar);
-    float h0 = std::log1p(std::exp(1.5f)), h1 = std::log1p(std::exp(-4.f)), h2 = 30.f + 0.25f;  // > 20: identity
+    float h0 = std::log1p(std::exp(1.5f)), h1 = std::log1p(std::exp(-4.f)),
+          h2 = 30.f + 0.25f;  // > 20: identity
     EXPECT_FLOAT_EQ(mean, h0 + h1 + h2);
     EXPECT_FLOAT_EQ(logvar, 2.f * h2 - 1.f);
 }
@@ -116,21 +125,24 @@ TEST(Decoder, SoftplusIsTorchs) {
     EXPECT_FLOAT_EQ(softplus(-30.f), std::exp(-30.f));
 }
 
-// ---- Load errors ---------------------------------------------------------------------------
+// ---- Load errors
+// ---------------------------------------------------------------------------
 
 class DecoderFile : public ::testing::Test {
 protected:
-    json valid() { return json::parse(decoder_to_json(test::random_decoder("PathGen", 1))); }
+    json valid() {
+        return json::parse(decoder_to_json(test::random_decoder("PathGen", 1)));
+    }
     // The message of loading `text` from a temporary file, which it must name.
     std::string load_text_error(const std::string& text) {
         test::TempFile f("model.json", text);
         std::string msg = error_of([&] { load_decoder(f.path()); });
-        EXPECT_NE(msg.find(f.path()), std::string::npos) << "message does not name the file: " << msg;
+        EXPECT_NE(msg.find(f.path()), std::string::npos)
+            << "message does not name the file: " << msg;
         return msg;
     }
     std::string load_error(const json& j) { return load_text_error(j.dump()); }
 };
-
 
 TEST_F(DecoderFile, ValidFileLoads) {
     test::TempFile f("model.json", valid().dump());
@@ -140,7 +152,8 @@ TEST_F(DecoderFile, ValidFileLoads) {
 }
 
 TEST_F(DecoderFile, MissingOrUnreadable) {
-    std::string missing = (std::filesystem::temp_directory_path() / "sss_no_such_model.json").string();
+    std::string missing =
+        (std::filesystem::temp_directory_path() / "sss_no_such_model.json").string();
     std::string msg = error_of([&] { load_decoder(missing); });
     EXPECT_HAS(msg, missing);
     EXPECT_HAS(msg, "cannot open");
@@ -150,7 +163,8 @@ TEST_F(DecoderFile, MissingOrUnreadable) {
 }
 
 TEST_F(DecoderFile, MalformedJson) {
-    EXPECT_HAS(load_text_error("{\"format\": \"sssphere-cvae-decoder\", "), "malformed JSON");
+    EXPECT_HAS(load_text_error("{\"format\": \"sssphere-cvae-decoder\", "),
+               "malformed JSON");
     EXPECT_HAS(load_text_error(""), "malformed JSON");
     std::string nan = valid().dump();
     nan.replace(nan.find("\"bias\":[") + 8, 0, "NaN, ");
@@ -209,7 +223,8 @@ TEST_F(DecoderFile, UnknownOrMissingKeys) {
 TEST_F(DecoderFile, InconsistentShapes) {
     json j = valid();
     j["input_width"] = 12;
-    EXPECT_HAS(load_error(j), "input_width: value 12 is not len(conditions) + latent_dim = 3 + 5 = 8");
+    EXPECT_HAS(load_error(j),
+               "input_width: value 12 is not len(conditions) + latent_dim = 3 + 5 = 8");
     j = valid();
     j["latent_dim"] = 6;  // 3 + 6 = 9 -> 12, but input_width says 8
     EXPECT_HAS(load_error(j), "rounded up to a multiple of 4 (12)");
@@ -245,7 +260,8 @@ TEST_F(DecoderFile, InconsistentShapes) {
 TEST_F(DecoderFile, NonFiniteNumbers) {
     json j = valid();
     j["layers"][1]["weight"][2][5] = 1e39;  // finite in JSON, infinite as float32
-    EXPECT_HAS(load_error(j), "layers[1].weight[2][5]: value 1e+39 is not a finite float32");
+    EXPECT_HAS(load_error(j),
+               "layers[1].weight[2][5]: value 1e+39 is not a finite float32");
     j = valid();
     j["layers"][2]["bias"][0] = -3.5e38;
     EXPECT_HAS(load_error(j), "layers[2].bias[0]");
@@ -260,7 +276,8 @@ TEST_F(DecoderFile, NonFiniteNumbers) {
 TEST_F(DecoderFile, BadEncodings) {
     json j = valid();
     j["conditions"][0]["encode"] = {{"kind", "sqrt"}};
-    EXPECT_HAS(load_error(j), "conditions[0].encode.kind: unknown encoding kind \"sqrt\"");
+    EXPECT_HAS(load_error(j),
+               "conditions[0].encode.kind: unknown encoding kind \"sqrt\"");
     j = valid();
     j["conditions"][1]["encode"] = {{"kind", "affine"}, {"s", 2}};
     EXPECT_HAS(load_error(j), "conditions[1].encode.s: unknown key 's'");

@@ -1,11 +1,17 @@
-// SIMD decoder kernels, compiled once per Highway target (foreach_target re-includes this file)
-// and picked at run time; the packing and the public entry points are compiled once (HWY_ONCE).
+// SIMD decoder kernels, compiled once per Highway target (foreach_target re-includes this
+// file) and picked at run time; the packing and the public entry points are compiled once
+// (HWY_ONCE).
+// Highway's foreach_target pattern needs exactly this include order.
+// clang-format off
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "nn/simd_decoder.cpp"
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
 
 #include <hwy/highway.h>
 #include <hwy/contrib/math/math-inl.h>
+// clang-format on
+
+#include "nn/simd_decoder.h"
 
 #include <algorithm>
 #include <cmath>
@@ -15,7 +21,6 @@
 
 #include "core/check.h"
 #include "core/rng.h"
-#include "nn/simd_decoder.h"
 #include "shared/softplus.h"
 
 #ifndef SSS_NN_SIMD_DECODER_CONSTANTS
@@ -28,7 +33,8 @@ constexpr int kMaxPaths = 16;
 // Highway's Exp is valid up to ~88.7 (std::exp returns inf beyond): arguments are clamped
 // here, which keeps exp(88) = 1.6e38 finite where the scalar code would overflow.
 constexpr float kMaxExpArg = 88.f;
-// Slack after every padded array: the widest vector (16 floats) may run past a multiple of 4.
+// Slack after every padded array: the widest vector (16 floats) may run past a multiple
+// of 4.
 constexpr int kSlack = 16;
 }  // namespace sss::simd_detail
 #endif
@@ -39,11 +45,13 @@ namespace HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 using namespace simd_detail;
 
-// y[0 .. K*N) = bias + sum_j x[j] * wt[j * stride + (0 .. K*N)]: K output vectors of tag D.
-// Even and odd j go to separate accumulators when K is small, to shorten the dependency chain.
+// y[0 .. K*N) = bias + sum_j x[j] * wt[j * stride + (0 .. K*N)]: K output vectors of tag
+// D. Even and odd j go to separate accumulators when K is small, to shorten the
+// dependency chain.
 template <int K, class D>
-HWY_INLINE void MatVecBlock(D d, const float* HWY_RESTRICT wt, size_t stride, const float* HWY_RESTRICT bias,
-                            const float* HWY_RESTRICT x, int in, float* HWY_RESTRICT y) {
+HWY_INLINE void MatVecBlock(D d, const float* HWY_RESTRICT wt, size_t stride,
+                            const float* HWY_RESTRICT bias, const float* HWY_RESTRICT x,
+                            int in, float* HWY_RESTRICT y) {
     const size_t N = hn::Lanes(d);
     hn::Vec<D> a0[K], a1[K];
     for (int k = 0; k < K; ++k) {
@@ -63,22 +71,32 @@ HWY_INLINE void MatVecBlock(D d, const float* HWY_RESTRICT wt, size_t stride, co
     if (j < in) {
         const auto x0 = hn::Set(d, x[j]);
         const float* w0 = wt + size_t(j) * stride;
-        for (int k = 0; k < K; ++k) a0[k] = hn::MulAdd(hn::LoadU(d, w0 + k * N), x0, a0[k]);
+        for (int k = 0; k < K; ++k)
+            a0[k] = hn::MulAdd(hn::LoadU(d, w0 + k * N), x0, a0[k]);
     }
     for (int k = 0; k < K; ++k) hn::StoreU(hn::Add(a0[k], a1[k]), d, y + k * N);
 }
 
 template <class D>
 HWY_INLINE void MatVec(D d, const float* HWY_RESTRICT wt, const float* HWY_RESTRICT bias,
-                       const float* HWY_RESTRICT x, int in, int out_pad, float* HWY_RESTRICT y) {
+                       const float* HWY_RESTRICT x, int in, int out_pad,
+                       float* HWY_RESTRICT y) {
     const int N = int(hn::Lanes(d));
     int o = 0;
-    for (; o + 4 * N <= out_pad; o += 4 * N) MatVecBlock<4>(d, wt + o, out_pad, bias + o, x, in, y + o);
+    for (; o + 4 * N <= out_pad; o += 4 * N)
+        MatVecBlock<4>(d, wt + o, out_pad, bias + o, x, in, y + o);
     switch ((out_pad - o) / N) {
-        case 3: MatVecBlock<3>(d, wt + o, out_pad, bias + o, x, in, y + o); break;
-        case 2: MatVecBlock<2>(d, wt + o, out_pad, bias + o, x, in, y + o); break;
-        case 1: MatVecBlock<1>(d, wt + o, out_pad, bias + o, x, in, y + o); break;
-        default: break;
+        case 3:
+            MatVecBlock<3>(d, wt + o, out_pad, bias + o, x, in, y + o);
+            break;
+        case 2:
+            MatVecBlock<2>(d, wt + o, out_pad, bias + o, x, in, y + o);
+            break;
+        case 1:
+            MatVecBlock<1>(d, wt + o, out_pad, bias + o, x, in, y + o);
+            break;
+        default:
+            break;
     }
 }
 
@@ -98,15 +116,18 @@ HWY_INLINE void SoftplusInPlace(D d, float* HWY_RESTRICT y, int n) {
 // divides n (a multiple of 4).
 template <class F>
 HWY_INLINE void WithBlockTag(int n, F&& f) {
-    if (n % 16 == 0) f(hn::CappedTag<float, 16>());
-    else if (n % 8 == 0) f(hn::CappedTag<float, 8>());
-    else f(hn::CappedTag<float, 4>());
+    if (n % 16 == 0)
+        f(hn::CappedTag<float, 16>());
+    else if (n % 8 == 0)
+        f(hn::CappedTag<float, 8>());
+    else
+        f(hn::CappedTag<float, 4>());
 }
 
-// Runs the network for K inputs (path k at x + k * input_width). Each layer writes path k's
-// padded outputs at out + k * out_pad, so one layer of all K paths is one contiguous array:
-// Softplus runs over it with the widest vectors, and the K independent dependency chains
-// overlap in the out-of-order core. Returns the last layer's outputs, path k's
+// Runs the network for K inputs (path k at x + k * input_width). Each layer writes path
+// k's padded outputs at out + k * out_pad, so one layer of all K paths is one contiguous
+// array: Softplus runs over it with the widest vectors, and the K independent dependency
+// chains overlap in the out-of-order core. Returns the last layer's outputs, path k's
 // [means | log-variances] at k * 2 * output_half().
 HWY_INLINE const float* RunNet(const SimdDecoder& net, int K, const float* HWY_RESTRICT x,
                                float* HWY_RESTRICT buf0, float* HWY_RESTRICT buf1) {
@@ -119,9 +140,12 @@ HWY_INLINE const float* RunNet(const SimdDecoder& net, int K, const float* HWY_R
         const float* bias = data + L.bias;
         WithBlockTag(L.out_pad, [&](auto d) {
             for (int k = 0; k < K; ++k)
-                MatVec(d, wt, bias, in + k * in_stride, L.in, L.out_pad, out + k * L.out_pad);
+                MatVec(d, wt, bias, in + k * in_stride, L.in, L.out_pad,
+                       out + k * L.out_pad);
         });
-        if (L.softplus) WithBlockTag(K * L.out_pad, [&](auto d) { SoftplusInPlace(d, out, K * L.out_pad); });
+        if (L.softplus)
+            WithBlockTag(K * L.out_pad,
+                         [&](auto d) { SoftplusInPlace(d, out, K * L.out_pad); });
         in = out;
         in_stride = L.out_pad;
         out = out == buf0 ? buf1 : buf0;
@@ -142,7 +166,8 @@ HWY_INLINE void WithScratch(const SimdDecoder& net, int K, F&& f) {
     }
 }
 
-void EvaluateNet(const SimdDecoder* net, int K, const float* x, float* mean, float* logvar) {
+void EvaluateNet(const SimdDecoder* net, int K, const float* x, float* mean,
+                 float* logvar) {
     WithScratch(*net, K, [&](float* b0, float* b1) {
         const float* y = RunNet(*net, K, x, b0, b1);
         const int half = net->output_half(), n = net->num_outputs();
@@ -154,14 +179,17 @@ void EvaluateNet(const SimdDecoder* net, int K, const float* x, float* mean, flo
     });
 }
 
-void SampleNet(const SimdDecoder* net, int K, const float* x, const float* eps, float* u) {
+void SampleNet(const SimdDecoder* net, int K, const float* x, const float* eps,
+               float* u) {
     WithScratch(*net, K, [&](float* b0, float* b1) {
         const float* y = RunNet(*net, K, x, b0, b1);
         const int half = net->output_half(), n = net->num_outputs();
         if (half > kStackFloats) {  // very wide outputs: not vectorized
             for (int k = 0; k < K; ++k)
                 for (int i = 0; i < n; ++i)
-                    u[k * n + i] = y[2 * k * half + i] + std::exp(0.5f * y[2 * k * half + half + i]) * eps[k * n + i];
+                    u[k * n + i] =
+                        y[2 * k * half + i] +
+                        std::exp(0.5f * y[2 * k * half + half + i]) * eps[k * n + i];
             return;
         }
         HWY_ALIGN float e[kStackFloats + kSlack], r[kStackFloats + kSlack];
@@ -173,9 +201,12 @@ void SampleNet(const SimdDecoder* net, int K, const float* x, const float* eps, 
                 const float* yk = y + 2 * k * half;
                 std::copy(eps + k * n, eps + (k + 1) * n, e);
                 for (int i = 0; i < half; i += N) {
-                    // exp(logvar / 2), the argument clamped where Highway's Exp stops being valid
-                    const auto sd = hn::Exp(d, hn::Min(hn::Mul(h, hn::LoadU(d, yk + half + i)), big));
-                    hn::StoreU(hn::MulAdd(sd, hn::LoadU(d, e + i), hn::LoadU(d, yk + i)), d, r + i);
+                    // exp(logvar / 2), the argument clamped where Highway's Exp stops
+                    // being valid
+                    const auto sd =
+                        hn::Exp(d, hn::Min(hn::Mul(h, hn::LoadU(d, yk + half + i)), big));
+                    hn::StoreU(hn::MulAdd(sd, hn::LoadU(d, e + i), hn::LoadU(d, yk + i)),
+                               d, r + i);
                 }
                 std::copy(r, r + n, u + k * n);
             }
@@ -183,14 +214,16 @@ void SampleNet(const SimdDecoder* net, int K, const float* x, const float* eps, 
     });
 }
 
-// c = r cos a, s = r sin a with r = sqrt(-2 ln(1 - xr)), a = 2 pi xa, on n (a multiple of 4)
-// lanes.
+// c = r cos a, s = r sin a with r = sqrt(-2 ln(1 - xr)), a = 2 pi xa, on n (a multiple of
+// 4) lanes.
 void BoxMuller(const float* xr, const float* xa, float* c, float* s, int n) {
     WithBlockTag(n, [&](auto d) {
         const int N = int(hn::Lanes(d));
-        const auto one = hn::Set(d, 1.f), m2 = hn::Set(d, -2.f), two_pi = hn::Set(d, kTwoPi);
+        const auto one = hn::Set(d, 1.f), m2 = hn::Set(d, -2.f),
+                   two_pi = hn::Set(d, kTwoPi);
         for (int i = 0; i < n; i += N) {
-            const auto r = hn::Sqrt(hn::Mul(m2, hn::Log(d, hn::Sub(one, hn::LoadU(d, xr + i)))));
+            const auto r =
+                hn::Sqrt(hn::Mul(m2, hn::Log(d, hn::Sub(one, hn::LoadU(d, xr + i)))));
             const auto a = hn::Mul(two_pi, hn::LoadU(d, xa + i));
             hn::StoreU(hn::Mul(r, hn::Cos(d, a)), d, c + i);
             hn::StoreU(hn::Mul(r, hn::Sin(d, a)), d, s + i);
@@ -219,9 +252,12 @@ HWY_EXPORT(SoftplusArray);
 
 using namespace simd_detail;
 
-void SimdDecoder::FreeAligned::operator()(float* p) const { ::operator delete[](p, std::align_val_t(64)); }
+void SimdDecoder::FreeAligned::operator()(float* p) const {
+    ::operator delete[](p, std::align_val_t(64));
+}
 
-SimdDecoder::SimdDecoder(const Decoder& d) : input_width_(d.input_width), num_outputs_(d.num_outputs()) {
+SimdDecoder::SimdDecoder(const Decoder& d)
+    : input_width_(d.input_width), num_outputs_(d.num_outputs()) {
     auto pad4 = [](int n) { return (n + 3) / 4 * 4; };
     output_half_ = pad4(num_outputs_);
     // Offsets first, then one aligned allocation.
@@ -245,7 +281,8 @@ SimdDecoder::SimdDecoder(const Decoder& d) : input_width_(d.input_width), num_ou
         layers_.push_back(P);
     }
     size += kSlack;
-    data_.reset(static_cast<float*>(::operator new[](size * sizeof(float), std::align_val_t(64))));
+    data_.reset(static_cast<float*>(
+        ::operator new[](size * sizeof(float), std::align_val_t(64))));
     std::fill(data_.get(), data_.get() + size, 0.f);
     for (size_t l = 0; l < d.layers.size(); ++l) {
         const DenseLayer& L = d.layers[l];
@@ -255,7 +292,9 @@ SimdDecoder::SimdDecoder(const Decoder& d) : input_width_(d.input_width), num_ou
         // log-variance rows (o >= num_outputs) move to the second half.
         for (int o = 0; o < L.out; ++o) {
             int slot = last && o >= num_outputs_ ? o - num_outputs_ + output_half_ : o;
-            for (int i = 0; i < L.in; ++i) data_[P.weight + size_t(i) * P.out_pad + slot] = L.weight[size_t(o) * L.in + i];
+            for (int i = 0; i < L.in; ++i)
+                data_[P.weight + size_t(i) * P.out_pad + slot] =
+                    L.weight[size_t(o) * L.in + i];
             data_[P.bias + slot] = L.bias[o];
         }
     }
@@ -265,7 +304,8 @@ void SimdDecoder::evaluate(const float* x, float* mean, float* logvar, int count
     HWY_DYNAMIC_DISPATCH(EvaluateNet)(this, count, x, mean, logvar);
 }
 
-void SimdDecoder::sample_encoded(const float* x, const float* eps, float* u, int count) const {
+void SimdDecoder::sample_encoded(const float* x, const float* eps, float* u,
+                                 int count) const {
     HWY_DYNAMIC_DISPATCH(SampleNet)(this, count, x, eps, u);
 }
 
@@ -278,7 +318,8 @@ void draw_normal_uniforms(Rng& rng, int n, float* xr, float* xa) {
     }
 }
 
-void box_muller(const float* xr, const float* xa, float* c, float* s, int lanes, DecoderImpl impl) {
+void box_muller(const float* xr, const float* xa, float* c, float* s, int lanes,
+                DecoderImpl impl) {
     if (impl == DecoderImpl::Simd) {
         HWY_DYNAMIC_DISPATCH(BoxMuller)(xr, xa, c, s, lanes);
         return;
@@ -302,7 +343,8 @@ void assemble_normals(const float* c, const float* s, int n, float* z) {
 
 void sample_normals(Rng& rng, float* z, int n, DecoderImpl impl) {
     constexpr int kChunk = 128;  // normals per call, a multiple of 8 (whole blocks)
-    HWY_ALIGN float xr[kChunk / 2 + kSlack], xa[kChunk / 2 + kSlack], c[kChunk / 2 + kSlack], s[kChunk / 2 + kSlack];
+    HWY_ALIGN float xr[kChunk / 2 + kSlack], xa[kChunk / 2 + kSlack],
+        c[kChunk / 2 + kSlack], s[kChunk / 2 + kSlack];
     for (int done = 0; done < n; done += kChunk) {
         int m = std::min(n - done, kChunk), lanes = normal_lanes(m);
         draw_normal_uniforms(rng, m, xr, xa);
@@ -326,7 +368,8 @@ const char* simd_target_name() { return HWY_DYNAMIC_DISPATCH(TargetName)(); }
 
 std::vector<std::string> simd_targets() {
     std::vector<std::string> names;
-    for (int64_t t : hwy::SupportedAndGeneratedTargets()) names.push_back(hwy::TargetName(t));
+    for (int64_t t : hwy::SupportedAndGeneratedTargets())
+        names.push_back(hwy::TargetName(t));
     return names;
 }
 
@@ -335,7 +378,8 @@ void simd_use_target(const std::string& name) {
     int64_t mask = 0;
     for (int64_t t : hwy::SupportedAndGeneratedTargets())
         if (name == hwy::TargetName(t)) mask = t;
-    if (!name.empty() && mask == 0) fail("SIMD target '", name, "' is not available here");
+    if (!name.empty() && mask == 0)
+        fail("SIMD target '", name, "' is not available here");
     hwy::SetSupportedTargetsForTest(mask);
     hwy::GetChosenTarget().Update(hwy::SupportedTargets());
 }

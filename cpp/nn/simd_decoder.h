@@ -1,15 +1,16 @@
 // The SIMD decoder: the same network as evaluate_reference (nn/decoder.h), evaluated on
 // 4-wide blocks with Highway (libhwy-dev). Compiled for the x86-64-v2 baseline (Highway's
-// SSSE3 target: its SSE4 target also wants AES and CLMUL) and for SSE4, AVX2+FMA and AVX-512,
-// chosen at run time (Highway's dynamic dispatch). The results agree with the scalar reference
-// to ~1e-6 relative (FMA and a different summation order, nothing else).
+// SSSE3 target: its SSE4 target also wants AES and CLMUL) and for SSE4, AVX2+FMA and
+// AVX-512, chosen at run time (Highway's dynamic dispatch). The results agree with the
+// scalar reference to ~1e-6 relative (FMA and a different summation order, nothing else).
 //
-// Layout: each layer's weights are stored transposed, column j (the weights of input j for
-// every output) contiguous and padded with zeros to out_pad = a multiple of 4 outputs, so that
-// y[o .. o+4) += W^T[j][o .. o+4) * x[j] is one 4-wide multiply-add; wider ISAs take 8 or 16
-// outputs of the same column at once. Softplus and exp(logvar / 2) run on the padded blocks.
-// The last layer's rows are reordered to [means, 0.., log-variances, 0..], each half padded
-// to a multiple of 4, so both halves start on a block.
+// Layout: each layer's weights are stored transposed, column j (the weights of input j
+// for every output) contiguous and padded with zeros to out_pad = a multiple of 4
+// outputs, so that y[o .. o+4) += W^T[j][o .. o+4) * x[j] is one 4-wide multiply-add;
+// wider ISAs take 8 or 16 outputs of the same column at once. Softplus and exp(logvar /
+// 2) run on the padded blocks. The last layer's rows are reordered to [means, 0..,
+// log-variances, 0..], each half padded to a multiple of 4, so both halves start on a
+// block.
 #pragma once
 
 #include <cstddef>
@@ -32,11 +33,12 @@ public:
     int num_outputs() const { return num_outputs_; }
 
     // mean and logvar (num_outputs() each) for the input x (input_width() floats); with
-    // count > 1, for `count` inputs one after the other (and outputs likewise). Several inputs
-    // per call run faster per input: their dependency chains overlap (bench/README.md).
+    // count > 1, for `count` inputs one after the other (and outputs likewise). Several
+    // inputs per call run faster per input: their dependency chains overlap
+    // (bench/README.md).
     void evaluate(const float* x, float* mean, float* logvar, int count = 1) const;
-    // The encoded output sample u_i = mean_i + exp(logvar_i / 2) eps_i (num_outputs() each),
-    // for `count` inputs as above.
+    // The encoded output sample u_i = mean_i + exp(logvar_i / 2) eps_i (num_outputs()
+    // each), for `count` inputs as above.
     void sample_encoded(const float* x, const float* eps, float* u, int count = 1) const;
 
     // The packed network, for the kernels (simd_decoder.cpp).
@@ -47,8 +49,8 @@ public:
     };
     const std::vector<Layer>& layers() const { return layers_; }
     const float* data() const { return data_.get(); }
-    int output_half() const { return output_half_; }   // offset of the log-variances
-    int scratch_floats() const { return scratch_; }    // activation buffer size (each of 2)
+    int output_half() const { return output_half_; }  // offset of the log-variances
+    int scratch_floats() const { return scratch_; }  // activation buffer size (each of 2)
 
 private:
     struct FreeAligned {
@@ -59,30 +61,33 @@ private:
     std::unique_ptr<float[], FreeAligned> data_;
 };
 
-// Standard normals z[0 .. n) from rng, by Box-Muller on blocks of at most 4 pairs: a block of
-// k pairs draws 2k uniforms xi_0 .. xi_{2k-1} and, for j < k, with r_j = sqrt(-2 ln(1 - xi_j))
-// and a_j = 2 pi xi_{k+j}, sets z_j = r_j cos a_j and z_{k+j} = r_j sin a_j. Blocks of 4 pairs
-// follow each other; an odd n discards the last sine. Both implementations consume the same
-// uniforms and agree to float rounding (|z| <= sqrt(2 ln 2^24) = 5.77: xi has 24 bits).
+// Standard normals z[0 .. n) from rng, by Box-Muller on blocks of at most 4 pairs: a
+// block of k pairs draws 2k uniforms xi_0 .. xi_{2k-1} and, for j < k, with r_j = sqrt(-2
+// ln(1 - xi_j)) and a_j = 2 pi xi_{k+j}, sets z_j = r_j cos a_j and z_{k+j} = r_j sin
+// a_j. Blocks of 4 pairs follow each other; an odd n discards the last sine. Both
+// implementations consume the same uniforms and agree to float rounding (|z| <= sqrt(2 ln
+// 2^24) = 5.77: xi has 24 bits).
 class Rng;
 void sample_normals(Rng& rng, float* z, int n, DecoderImpl impl);
 
-// sample_normals in three stages, so that the normals of several paths can share one vector
-// call: the lanes that n normals take (4 per block), drawing their uniforms (radius and angle
-// lanes; unused lanes get 0), Box-Muller on any number of lanes (a multiple of 4), and putting
-// the results of one path's lanes in order.
+// sample_normals in three stages, so that the normals of several paths can share one
+// vector call: the lanes that n normals take (4 per block), drawing their uniforms
+// (radius and angle lanes; unused lanes get 0), Box-Muller on any number of lanes (a
+// multiple of 4), and putting the results of one path's lanes in order.
 inline int normal_lanes(int n) { return 4 * ((n + 7) / 8); }
 void draw_normal_uniforms(Rng& rng, int n, float* xr, float* xa);
-void box_muller(const float* xr, const float* xa, float* c, float* s, int lanes, DecoderImpl impl);
+void box_muller(const float* xr, const float* xa, float* c, float* s, int lanes,
+                DecoderImpl impl);
 void assemble_normals(const float* c, const float* s, int n, float* z);
 
-// PyTorch's Softplus on x[0 .. n) with the decoder's SIMD kernel (for tests and benchmarks).
+// PyTorch's Softplus on x[0 .. n) with the decoder's SIMD kernel (for tests and
+// benchmarks).
 void softplus_simd(const float* x, float* y, size_t n);
 
 // The Highway target the SIMD code runs on here ("AVX2", "AVX3", "SSE4", ...).
 const char* simd_target_name();
-// The targets compiled into the SIMD decoder that this CPU can run, best first, and a way to
-// pin one of them ("" returns to the best). For tests that cover every target; not
+// The targets compiled into the SIMD decoder that this CPU can run, best first, and a way
+// to pin one of them ("" returns to the best). For tests that cover every target; not
 // thread-safe: call it only while no other thread uses the decoders.
 std::vector<std::string> simd_targets();
 void simd_use_target(const std::string& name);

@@ -15,7 +15,8 @@
 namespace sss {
 namespace {
 
-// Symmetric relative error of a against b; below `floor` in magnitude it is absolute/floor.
+// Symmetric relative error of a against b; below `floor` in magnitude it is
+// absolute/floor.
 double rel_err(double a, double b, double floor = 1e-30) {
     return std::abs(a - b) / std::max({std::abs(a), std::abs(b), floor});
 }
@@ -35,8 +36,8 @@ void for_each_target(F&& body) {
     simd_use_target("");
 }
 
-// The x86-64-v2 baseline compiles Highway's SSSE3 target (its SSE4 target also wants AES and
-// CLMUL, which v2 lacks); one of the two always runs, and the best target is chosen.
+// The x86-64-v2 baseline compiles Highway's SSSE3 target (its SSE4 target also wants AES
+// and CLMUL, which v2 lacks); one of the two always runs, and the best target is chosen.
 TEST(SimdDecoder, TargetsIncludeTheBaseline) {
     std::vector<std::string> targets = simd_targets();
     ASSERT_FALSE(targets.empty());
@@ -46,12 +47,12 @@ TEST(SimdDecoder, TargetsIncludeTheBaseline) {
     EXPECT_EQ(std::string(simd_target_name()), targets.front());
 }
 
-// Scalar reference and SIMD decoder on random inputs for random-weight models of each Table-1
-// shape. Weight scales up to 6 push pre-activations well past Softplus' threshold of 20 and
-// deep into its exponential tail. The error of each output is measured relative to the larger
-// of its two values and the root-mean-square of that output over the batch: an output that
-// cancels to near zero is judged on the scale of its typical values (summation order and FMA
-// move it by a few float ulps of the terms, not of the sum).
+// Scalar reference and SIMD decoder on random inputs for random-weight models of each
+// Table-1 shape. Weight scales up to 6 push pre-activations well past Softplus' threshold
+// of 20 and deep into its exponential tail. The error of each output is measured relative
+// to the larger of its two values and the root-mean-square of that output over the batch:
+// an output that cancels to near zero is judged on the scale of its typical values
+// (summation order and FMA move it by a few float ulps of the terms, not of the sum).
 TEST(SimdDecoder, MatchesScalarReference) {
     for_each_target([] {
         for (const char* name : {"LengthGen", "PathGen", "EventGen"}) {
@@ -64,12 +65,14 @@ TEST(SimdDecoder, MatchesScalarReference) {
                 for (int k = 0; k < n; ++k) {
                     std::vector<float> x(d.input_width);
                     for (float& v : x) v = 6.f * rng.uniform() - 3.f;
-                    evaluate_reference(d, x.data(), &ref[2 * no * k], &ref[2 * no * k + no]);
+                    evaluate_reference(d, x.data(), &ref[2 * no * k],
+                                       &ref[2 * no * k + no]);
                     s.evaluate(x.data(), &got[2 * no * k], &got[2 * no * k + no]);
                 }
                 std::vector<double> rms(2 * no, 0.0);
                 for (int k = 0; k < n; ++k)
-                    for (int i = 0; i < 2 * no; ++i) rms[i] += double(ref[2 * no * k + i]) * ref[2 * no * k + i] / n;
+                    for (int i = 0; i < 2 * no; ++i)
+                        rms[i] += double(ref[2 * no * k + i]) * ref[2 * no * k + i] / n;
                 double worst = 0, worst_plain = 0;
                 for (int k = 0; k < n; ++k) {
                     for (int i = 0; i < 2 * no; ++i) {
@@ -80,8 +83,10 @@ TEST(SimdDecoder, MatchesScalarReference) {
                 }
                 EXPECT_LT(worst, 1e-5) << name << " weight scale " << scale;
                 std::ostringstream os;
-                os << std::setprecision(2) << worst << " (plain relative: " << worst_plain << ")";
-                RecordProperty(std::string(simd_target_name()) + "_" + name + "_scale" + std::to_string(scale),
+                os << std::setprecision(2) << worst << " (plain relative: " << worst_plain
+                   << ")";
+                RecordProperty(std::string(simd_target_name()) + "_" + name + "_scale" +
+                                   std::to_string(scale),
                                os.str());
             }
         }
@@ -95,7 +100,8 @@ TEST(SimdDecoder, ManyInputsPerCallEqualOneAtATime) {
             Decoder d = test::random_decoder(name, 4, 2.f);
             SimdDecoder s(d);
             const int K = 16, w = d.input_width, no = d.num_outputs();
-            std::vector<float> x(K * w), mean(K * no), logvar(K * no), eps(K * no), u(K * no);
+            std::vector<float> x(K * w), mean(K * no), logvar(K * no), eps(K * no),
+                u(K * no);
             Rng rng(12);
             for (float& v : x) v = 6.f * rng.uniform() - 3.f;
             for (float& v : eps) v = 2.f * rng.uniform() - 1.f;
@@ -107,7 +113,8 @@ TEST(SimdDecoder, ManyInputsPerCallEqualOneAtATime) {
                     s.evaluate(&x[k * w], m1, l1);
                     s.sample_encoded(&x[k * w], &eps[k * no], u1);
                     for (int i = 0; i < no; ++i) {
-                        EXPECT_EQ(m1[i], mean[k * no + i]) << name << " " << count << " " << k;
+                        EXPECT_EQ(m1[i], mean[k * no + i])
+                            << name << " " << count << " " << k;
                         EXPECT_EQ(l1[i], logvar[k * no + i]);
                         EXPECT_EQ(u1[i], u[k * no + i]);
                     }
@@ -140,7 +147,8 @@ TEST(SimdDecoder, SoftplusMatchesTorchDefinition) {
     for_each_target([] {
         std::vector<float> x;
         for (float v = -110.f; v <= 110.f; v += 0.0137f) x.push_back(v);
-        for (float v : {-0.f, 0.f, 19.999998f, 20.f, 20.000002f, 1e6f, -1e6f, 88.f, 89.f}) x.push_back(v);
+        for (float v : {-0.f, 0.f, 19.999998f, 20.f, 20.000002f, 1e6f, -1e6f, 88.f, 89.f})
+            x.push_back(v);
         std::vector<float> y(x.size());
         softplus_simd(x.data(), y.data(), x.size());
         double worst = 0;
@@ -156,7 +164,8 @@ TEST(SimdDecoder, SoftplusMatchesTorchDefinition) {
         }
         std::ostringstream os;
         os << std::setprecision(2) << worst;
-        RecordProperty(std::string(simd_target_name()) + "_softplus_max_rel_err", os.str());
+        RecordProperty(std::string(simd_target_name()) + "_softplus_max_rel_err",
+                       os.str());
     });
 }
 
@@ -167,7 +176,9 @@ TEST(SimdDecoder, NormalsMatchScalarBoxMuller) {
             std::vector<float> za(n), zb(n);
             sample_normals(a, za.data(), n, DecoderImpl::Scalar);
             sample_normals(b, zb.data(), n, DecoderImpl::Simd);
-            for (int i = 0; i < n; ++i) EXPECT_NEAR(za[i], zb[i], 2e-6 * std::max(1.f, std::abs(za[i]))) << n << " " << i;
+            for (int i = 0; i < n; ++i)
+                EXPECT_NEAR(za[i], zb[i], 2e-6 * std::max(1.f, std::abs(za[i])))
+                    << n << " " << i;
             // Both consumed the same uniforms.
             EXPECT_EQ(a.next_u32(), b.next_u32()) << n;
         }

@@ -29,9 +29,10 @@ py::array_t<T> to_array(std::vector<T>&& v, std::vector<py::ssize_t> shape) {
 void bind_media(py::module_& m) {
     m.def(
         "sphere_walks",
-        [](const FloatArray& sigma, const FloatArray& g, const FloatArray& albedo, int64_t n,
-           uint64_t seed, uint64_t first_index, int threads) {
-            std::vector<float> s = to_vector(sigma), gg = to_vector(g), a = to_vector(albedo);
+        [](const FloatArray& sigma, const FloatArray& g, const FloatArray& albedo,
+           int64_t n, uint64_t seed, uint64_t first_index, int threads) {
+            std::vector<float> s = to_vector(sigma), gg = to_vector(g),
+                               a = to_vector(albedo);
             sss::SphereWalkBatch b;
             {
                 py::gil_scoped_release release;
@@ -46,8 +47,9 @@ void bind_media(py::module_& m) {
             d["W"] = to_array(std::move(b.W), {n, 3});
             return d;
         },
-        py::arg("sigma_t"), py::arg("g"), py::arg("albedo"), py::arg("n"), py::arg("seed") = 0,
-        py::arg("first_index") = 0, py::arg("threads") = 0,
-        "Canonical unit-sphere walks (see media/sphere_walk.h); parameters are float32 arrays "
+        py::arg("sigma_t"), py::arg("g"), py::arg("albedo"), py::arg("n"),
+        py::arg("seed") = 0, py::arg("first_index") = 0, py::arg("threads") = 0,
+        "Canonical unit-sphere walks (see media/sphere_walk.h); parameters are float32 "
+        "arrays "
         "of length 1 or n.");
 }

@@ -1,5 +1,6 @@
-// _core.ScatteringModel: the learned sphere step (cpp/nn/scattering_model.h), numpy in and out.
-// The Python API is python/sssphere/model.py, which checks and broadcasts the arguments.
+// _core.ScatteringModel: the learned sphere step (cpp/nn/scattering_model.h), numpy in
+// and out. The Python API is python/sssphere/model.py, which checks and broadcasts the
+// arguments.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
@@ -19,7 +20,8 @@ using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>
 
 std::vector<float> per_sample(const FloatArray& a, const char* name, size_t n) {
     if (a.ndim() != 1 || size_t(a.shape(0)) != n)
-        fail(name, " must have shape (", n, ",), got ndim ", a.ndim(), a.ndim() == 1 ? " length " + std::to_string(a.shape(0)) : "");
+        fail(name, " must have shape (", n, ",), got ndim ", a.ndim(),
+             a.ndim() == 1 ? " length " + std::to_string(a.shape(0)) : "");
     return std::vector<float>(a.data(), a.data() + n);
 }
 
@@ -29,22 +31,26 @@ DecoderImpl parse_impl(const std::string& impl) {
     fail("impl '", impl, "' is not allowed (allowed: \"scalar\", \"simd\")");
 }
 
-py::dict sample_py(const ScatteringModel& m, const FloatArray& sigma, const FloatArray& g, const FloatArray& albedo,
-                   int64_t n, uint64_t seed, int threads, bool event, const std::string& impl) {
+py::dict sample_py(const ScatteringModel& m, const FloatArray& sigma, const FloatArray& g,
+                   const FloatArray& albedo, int64_t n, uint64_t seed, int threads,
+                   bool event, const std::string& impl) {
     if (n < 1) fail("n must be >= 1, got ", n);
-    std::vector<float> s = per_sample(sigma, "sigma", size_t(n)), gg = per_sample(g, "g", size_t(n)),
+    std::vector<float> s = per_sample(sigma, "sigma", size_t(n)),
+                       gg = per_sample(g, "g", size_t(n)),
                        phi = per_sample(albedo, "albedo", size_t(n));
     DecoderImpl which = parse_impl(impl);
     std::vector<SphereStep> out(n);
     {
         py::gil_scoped_release release;
-        m.sample_batch(s.data(), gg.data(), phi.data(), size_t(n), seed, threads, event, which, out.data());
+        m.sample_batch(s.data(), gg.data(), phi.data(), size_t(n), seed, threads, event,
+                       which, out.data());
     }
     py::array_t<int64_t> N(n);
-    py::array_t<float> cos_theta(n), alpha(n), beta(n), X({py::ssize_t(n), py::ssize_t(3)}),
-        W({py::ssize_t(n), py::ssize_t(3)});
+    py::array_t<float> cos_theta(n), alpha(n), beta(n),
+        X({py::ssize_t(n), py::ssize_t(3)}), W({py::ssize_t(n), py::ssize_t(3)});
     auto pN = N.mutable_unchecked<1>();
-    auto pc = cos_theta.mutable_unchecked<1>(), pa = alpha.mutable_unchecked<1>(), pb = beta.mutable_unchecked<1>();
+    auto pc = cos_theta.mutable_unchecked<1>(), pa = alpha.mutable_unchecked<1>(),
+         pb = beta.mutable_unchecked<1>();
     auto pX = X.mutable_unchecked<2>(), pW = W.mutable_unchecked<2>();
     for (py::ssize_t i = 0; i < n; ++i) {
         const SphereStep& st = out[i];
@@ -67,12 +73,13 @@ py::dict sample_py(const ScatteringModel& m, const FloatArray& sigma, const Floa
     return d;
 }
 
-py::tuple evaluate_py(const ScatteringModel& m, const std::string& name, const FloatArray& x, const std::string& impl) {
+py::tuple evaluate_py(const ScatteringModel& m, const std::string& name,
+                      const FloatArray& x, const std::string& impl) {
     const Decoder& d = m.decoder(name);
     DecoderImpl which = parse_impl(impl);
     if (x.ndim() != 2 || x.shape(1) != d.input_width)
-        fail("x must have shape (batch, ", d.input_width, ") for ", d.name, ", got ndim ", x.ndim(),
-             x.ndim() == 2 ? " width " + std::to_string(x.shape(1)) : "");
+        fail("x must have shape (batch, ", d.input_width, ") for ", d.name, ", got ndim ",
+             x.ndim(), x.ndim() == 2 ? " width " + std::to_string(x.shape(1)) : "");
     py::ssize_t batch = x.shape(0), no = d.num_outputs();
     py::array_t<float> mean({batch, no}), logvar({batch, no});
     const float* px = x.data();
@@ -102,16 +109,26 @@ void bind_nn(py::module_& m) {
             [](const std::string& path) {
                 return std::make_shared<ScatteringModel>(ScatteringModel::load(path));
             },
-            py::arg("path"), "Loads lengthgen.json, pathgen.json and eventgen.json from a directory.")
-        .def("sample", &sample_py, py::arg("sigma"), py::arg("g"), py::arg("albedo"), py::arg("n"), py::arg("seed"),
-             py::arg("threads") = 0, py::arg("event") = true, py::arg("impl") = "simd",
-             "n sphere steps for per-sample float32 arrays sigma, g, albedo (length n); sample i uses the "
-             "random stream (seed, i). Returns a dict of numpy arrays N, cos_theta, alpha, beta, X (n, 3), W (n, 3).")
-        .def("evaluate", &evaluate_py, py::arg("model_name"), py::arg("x"), py::arg("impl") = "simd",
-             "(mean, logvar), each (batch, outputs), of decoder model_name for x (batch, input_width) float32.")
-        .def("input_width", [](const ScatteringModel& m, const std::string& name) { return m.decoder(name).input_width; })
+            py::arg("path"),
+            "Loads lengthgen.json, pathgen.json and eventgen.json from a directory.")
+        .def("sample", &sample_py, py::arg("sigma"), py::arg("g"), py::arg("albedo"),
+             py::arg("n"), py::arg("seed"), py::arg("threads") = 0,
+             py::arg("event") = true, py::arg("impl") = "simd",
+             "n sphere steps for per-sample float32 arrays sigma, g, albedo (length n); "
+             "sample i uses the "
+             "random stream (seed, i). Returns a dict of numpy arrays N, cos_theta, "
+             "alpha, beta, X (n, 3), W (n, 3).")
+        .def("evaluate", &evaluate_py, py::arg("model_name"), py::arg("x"),
+             py::arg("impl") = "simd",
+             "(mean, logvar), each (batch, outputs), of decoder model_name for x (batch, "
+             "input_width) float32.")
+        .def("input_width",
+             [](const ScatteringModel& m, const std::string& name) {
+                 return m.decoder(name).input_width;
+             })
         .def("training_range",
-             [](const ScatteringModel& m, const std::string& name, const std::string& param) -> py::object {
+             [](const ScatteringModel& m, const std::string& name,
+                const std::string& param) -> py::object {
                  const Range* r = m.decoder(name).training_range(param);
                  if (!r) return py::none();
                  return py::make_tuple(r->lo, r->hi);
@@ -122,12 +139,14 @@ void bind_nn(py::module_& m) {
                                    return py::make_tuple(r.lo, r.hi);
                                })
         .def_property_readonly("path", &ScatteringModel::where)
-        .def_property_readonly_static("simd_target", [](py::object) { return std::string(simd_target_name()); })
+        .def_property_readonly_static(
+            "simd_target", [](py::object) { return std::string(simd_target_name()); })
         .def("__repr__", [](const ScatteringModel& m) {
             std::ostringstream os;
             Range r = m.sigma_range();
-            os << "<sssphere.ScatteringModel '" << m.where() << "': LengthGen, PathGen, EventGen; sigma in [" << r.lo
-               << ", " << r.hi << "]; SIMD target " << simd_target_name() << ">";
+            os << "<sssphere.ScatteringModel '" << m.where()
+               << "': LengthGen, PathGen, EventGen; sigma in [" << r.lo << ", " << r.hi
+               << "]; SIMD target " << simd_target_name() << ">";
             return os.str();
         });
 }

@@ -29,22 +29,26 @@ py::array_t<T> to_array(const std::vector<T>& v, std::vector<py::ssize_t> shape)
     return a;
 }
 
-std::vector<Vec3> points_from(const py::array_t<float, py::array::c_style | py::array::forcecast>& p) {
+std::vector<Vec3> points_from(
+    const py::array_t<float, py::array::c_style | py::array::forcecast>& p) {
     if (p.ndim() != 2 || p.shape(1) != 3)
         fail("points must have shape (n, 3), got ndim ", p.ndim());
     std::vector<Vec3> pts(p.shape(0));
-    for (py::ssize_t i = 0; i < p.shape(0); ++i) pts[i] = {p.at(i, 0), p.at(i, 1), p.at(i, 2)};
+    for (py::ssize_t i = 0; i < p.shape(0); ++i)
+        pts[i] = {p.at(i, 0), p.at(i, 1), p.at(i, 2)};
     return pts;
 }
 
 const Shape& shape_at(const Scene& s, int i) {
-    if (i < 0 || i >= s.num_shapes()) fail("shape index ", i, " out of range [0, ", s.num_shapes(), ")");
+    if (i < 0 || i >= s.num_shapes())
+        fail("shape index ", i, " out of range [0, ", s.num_shapes(), ")");
     return s.desc().shapes[i];
 }
 
-py::dict render_py(const Scene& scene, const std::string& integrator, int spp, uint64_t seed, int threads, int max_bounces,
-                   bool nee, float sphere_threshold, const std::string& models, const std::string& sphere_sampler,
-                   py::object progress) {
+py::dict render_py(const Scene& scene, const std::string& integrator, int spp,
+                   uint64_t seed, int threads, int max_bounces, bool nee,
+                   float sphere_threshold, const std::string& models,
+                   const std::string& sphere_sampler, py::object progress) {
     RenderOptions opt;
     opt.integrator = integrator;
     opt.spp = spp;
@@ -54,9 +58,13 @@ py::dict render_py(const Scene& scene, const std::string& integrator, int spp, u
     opt.nee = nee;
     opt.sphere_threshold = sphere_threshold;
     opt.models = models;
-    if (sphere_sampler == "model") opt.sphere_sampler = SphereSampler::Model;
-    else if (sphere_sampler == "walk") opt.sphere_sampler = SphereSampler::Walk;
-    else fail("sphere_sampler '", sphere_sampler, "' is not allowed (allowed: 'model', 'walk')");
+    if (sphere_sampler == "model")
+        opt.sphere_sampler = SphereSampler::Model;
+    else if (sphere_sampler == "walk")
+        opt.sphere_sampler = SphereSampler::Walk;
+    else
+        fail("sphere_sampler '", sphere_sampler,
+             "' is not allowed (allowed: 'model', 'walk')");
     bool interrupted = false;
     std::optional<py::error_already_set> callback_error;
     auto cb = [&](double f) -> bool {
@@ -71,8 +79,10 @@ py::dict render_py(const Scene& scene, const std::string& integrator, int spp, u
             py::object r = progress(f);
             return r.is_none() || r.cast<bool>();
         } catch (py::error_already_set& e) {
-            if (e.matches(PyExc_KeyboardInterrupt)) interrupted = true;
-            else callback_error = std::move(e);
+            if (e.matches(PyExc_KeyboardInterrupt))
+                interrupted = true;
+            else
+                callback_error = std::move(e);
             return false;
         }
     };
@@ -107,40 +117,55 @@ PYBIND11_MODULE(_core, m) {
     bind_nn(m);
 
     py::class_<Scene, std::shared_ptr<Scene>>(m, "Scene")
-        .def(py::init([](const std::string& text, const std::string& base_dir, const std::string& source,
-                         int threads) {
+        .def(py::init([](const std::string& text, const std::string& base_dir,
+                         const std::string& source, int threads) {
                  SceneDesc desc = parse_scene(text, base_dir, source);
                  py::gil_scoped_release release;
                  return std::make_shared<Scene>(std::move(desc), threads);
              }),
-             py::arg("json_text"), py::arg("base_dir"), py::arg("source"), py::arg("threads") = 0)
-        .def_property_readonly("width", [](const Scene& s) { return s.desc().camera.width; })
-        .def_property_readonly("height", [](const Scene& s) { return s.desc().camera.height; })
+             py::arg("json_text"), py::arg("base_dir"), py::arg("source"),
+             py::arg("threads") = 0)
+        .def_property_readonly("width",
+                               [](const Scene& s) { return s.desc().camera.width; })
+        .def_property_readonly("height",
+                               [](const Scene& s) { return s.desc().camera.height; })
         .def_property_readonly("source", [](const Scene& s) { return s.desc().source; })
-        .def_property_readonly("integrator", [](const Scene& s) { return s.desc().render.integrator; })
+        .def_property_readonly("integrator",
+                               [](const Scene& s) { return s.desc().render.integrator; })
         .def_property_readonly("spp", [](const Scene& s) { return s.desc().render.spp; })
-        .def_property_readonly("seed", [](const Scene& s) { return s.desc().render.seed; })
-        .def_property_readonly("max_bounces", [](const Scene& s) { return s.desc().render.max_bounces; })
-        .def_property_readonly("sphere_threshold", [](const Scene& s) { return s.desc().render.sphere_threshold; })
+        .def_property_readonly("seed",
+                               [](const Scene& s) { return s.desc().render.seed; })
+        .def_property_readonly("max_bounces",
+                               [](const Scene& s) { return s.desc().render.max_bounces; })
+        .def_property_readonly(
+            "sphere_threshold",
+            [](const Scene& s) { return s.desc().render.sphere_threshold; })
         .def_property_readonly("models",
                                [](const Scene& s) -> std::optional<std::string> {
-                                   if (s.desc().render.models.empty()) return std::nullopt;
+                                   if (s.desc().render.models.empty())
+                                       return std::nullopt;
                                    return s.desc().render.models;
                                })
         .def_property_readonly("num_shapes", &Scene::num_shapes)
         .def("shape_name", [](const Scene& s, int i) { return shape_at(s, i).name; })
-        .def("shape_mesh",
-             [](const Scene& s, int i) {
-                 const TriangleMesh& mesh = shape_at(s, i).mesh;
-                 py::array_t<float> v({py::ssize_t(mesh.positions.size()), py::ssize_t(3)});
-                 py::array_t<uint32_t> f({py::ssize_t(mesh.triangles.size()), py::ssize_t(3)});
-                 std::memcpy(v.mutable_data(), mesh.positions.data(), mesh.positions.size() * sizeof(Vec3));
-                 std::memcpy(f.mutable_data(), mesh.triangles.data(), mesh.triangles.size() * 3 * sizeof(uint32_t));
-                 return py::make_tuple(v, f);
-             },
-             "World-space (vertices (n, 3) float32, triangles (m, 3) uint32) of shape i.")
+        .def(
+            "shape_mesh",
+            [](const Scene& s, int i) {
+                const TriangleMesh& mesh = shape_at(s, i).mesh;
+                py::array_t<float> v(
+                    {py::ssize_t(mesh.positions.size()), py::ssize_t(3)});
+                py::array_t<uint32_t> f(
+                    {py::ssize_t(mesh.triangles.size()), py::ssize_t(3)});
+                std::memcpy(v.mutable_data(), mesh.positions.data(),
+                            mesh.positions.size() * sizeof(Vec3));
+                std::memcpy(f.mutable_data(), mesh.triangles.data(),
+                            mesh.triangles.size() * 3 * sizeof(uint32_t));
+                return py::make_tuple(v, f);
+            },
+            "World-space (vertices (n, 3) float32, triangles (m, 3) uint32) of shape i.")
         .def("distance_lower_bound",
-             [](const Scene& s, int i, py::array_t<float, py::array::c_style | py::array::forcecast> p) {
+             [](const Scene& s, int i,
+                py::array_t<float, py::array::c_style | py::array::forcecast> p) {
                  shape_at(s, i);
                  std::vector<Vec3> pts = points_from(p);
                  std::vector<float> r(pts.size());
@@ -148,50 +173,63 @@ PYBIND11_MODULE(_core, m) {
                  return to_array(r, {py::ssize_t(r.size())});
              })
         .def("exact_distance",
-             [](const Scene& s, int i, py::array_t<float, py::array::c_style | py::array::forcecast> p) {
-                 std::vector<double> d = exact_distances(shape_at(s, i).mesh, points_from(p));
+             [](const Scene& s, int i,
+                py::array_t<float, py::array::c_style | py::array::forcecast> p) {
+                 std::vector<double> d =
+                     exact_distances(shape_at(s, i).mesh, points_from(p));
                  return to_array(d, {py::ssize_t(d.size())});
              })
         .def("__repr__", [](const Scene& s) {
             std::ostringstream os;
-            os << "<sssphere.Scene '" << s.desc().source << "': " << s.desc().camera.width << "x"
-               << s.desc().camera.height << ", " << s.num_shapes() << " shape(s), "
-               << s.desc().lights.size() << " light(s), integrator '" << s.desc().render.integrator
-               << "', " << s.desc().render.spp << " spp>";
+            os << "<sssphere.Scene '" << s.desc().source << "': " << s.desc().camera.width
+               << "x" << s.desc().camera.height << ", " << s.num_shapes() << " shape(s), "
+               << s.desc().lights.size() << " light(s), integrator '"
+               << s.desc().render.integrator << "', " << s.desc().render.spp << " spp>";
             return os.str();
         });
 
-    m.def("render", &render_py, py::arg("scene"), py::arg("integrator"), py::arg("spp"), py::arg("seed"), py::arg("threads"),
-          py::arg("max_bounces"), py::arg("nee") = true, py::arg("sphere_threshold") = kDefaultSphereThreshold,
-          py::arg("models") = "", py::arg("sphere_sampler") = "model", py::arg("progress") = py::none());
+    m.def("render", &render_py, py::arg("scene"), py::arg("integrator"), py::arg("spp"),
+          py::arg("seed"), py::arg("threads"), py::arg("max_bounces"),
+          py::arg("nee") = true, py::arg("sphere_threshold") = kDefaultSphereThreshold,
+          py::arg("models") = "", py::arg("sphere_sampler") = "model",
+          py::arg("progress") = py::none());
     m.attr("DEFAULT_SPHERE_THRESHOLD") = kDefaultSphereThreshold;
 
-    m.def("write_image",
-          [](const std::string& path, py::array_t<float, py::array::c_style | py::array::forcecast> img) {
-              if (img.ndim() != 3 || (img.shape(2) != 3 && img.shape(2) != 1))
-                  fail(path, ": image must have shape (height, width, 3) or (height, width, 1)");
-              std::vector<float> px(img.data(), img.data() + img.size());
-              py::gil_scoped_release release;
-              write_image(path, px, int(img.shape(1)), int(img.shape(0)), int(img.shape(2)));
-          },
-          py::arg("path"), py::arg("image"));
+    m.def(
+        "write_image",
+        [](const std::string& path,
+           py::array_t<float, py::array::c_style | py::array::forcecast> img) {
+            if (img.ndim() != 3 || (img.shape(2) != 3 && img.shape(2) != 1))
+                fail(path,
+                     ": image must have shape (height, width, 3) or (height, width, 1)");
+            std::vector<float> px(img.data(), img.data() + img.size());
+            py::gil_scoped_release release;
+            write_image(path, px, int(img.shape(1)), int(img.shape(0)),
+                        int(img.shape(2)));
+        },
+        py::arg("path"), py::arg("image"));
 
-    m.def("read_image",
-          [](const std::string& path) {
-              int w, h, c;
-              std::vector<float> px = read_image(path, &w, &h, &c);
-              return to_array(px, {py::ssize_t(h), py::ssize_t(w), py::ssize_t(c)});
-          },
-          py::arg("path"));
+    m.def(
+        "read_image",
+        [](const std::string& path) {
+            int w, h, c;
+            std::vector<float> px = read_image(path, &w, &h, &c);
+            return to_array(px, {py::ssize_t(h), py::ssize_t(w), py::ssize_t(c)});
+        },
+        py::arg("path"));
 
-    m.def("load_mesh",
-          [](const std::string& path) {
-              TriangleMesh mesh = load_mesh(path);
-              py::array_t<float> v({py::ssize_t(mesh.positions.size()), py::ssize_t(3)});
-              py::array_t<uint32_t> f({py::ssize_t(mesh.triangles.size()), py::ssize_t(3)});
-              std::memcpy(v.mutable_data(), mesh.positions.data(), mesh.positions.size() * sizeof(Vec3));
-              std::memcpy(f.mutable_data(), mesh.triangles.data(), mesh.triangles.size() * 3 * sizeof(uint32_t));
-              return py::make_tuple(v, f);
-          },
-          py::arg("path"), "Loads, checks and orients a closed mesh: (vertices, triangles).");
+    m.def(
+        "load_mesh",
+        [](const std::string& path) {
+            TriangleMesh mesh = load_mesh(path);
+            py::array_t<float> v({py::ssize_t(mesh.positions.size()), py::ssize_t(3)});
+            py::array_t<uint32_t> f({py::ssize_t(mesh.triangles.size()), py::ssize_t(3)});
+            std::memcpy(v.mutable_data(), mesh.positions.data(),
+                        mesh.positions.size() * sizeof(Vec3));
+            std::memcpy(f.mutable_data(), mesh.triangles.data(),
+                        mesh.triangles.size() * 3 * sizeof(uint32_t));
+            return py::make_tuple(v, f);
+        },
+        py::arg("path"),
+        "Loads, checks and orients a closed mesh: (vertices, triangles).");
 }

@@ -11,7 +11,8 @@ namespace sss {
 
 class PinholeCamera {
 public:
-    explicit PinholeCamera(const Camera& c) : origin_(c.origin), width_(c.width), height_(c.height) {
+    explicit PinholeCamera(const Camera& c)
+        : origin_(c.origin), width_(c.width), height_(c.height) {
         forward_ = normalize(c.target - c.origin);
         right_ = normalize(cross(forward_, c.up));
         up_ = cross(right_, forward_);

@@ -15,8 +15,8 @@ float linear_to_srgb(float v) {
     return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.f / 2.4f) - 0.055f;
 }
 
-void write_image(const std::string& path, const std::vector<float>& pixels, int width, int height,
-                 int channels) {
+void write_image(const std::string& path, const std::vector<float>& pixels, int width,
+                 int height, int channels) {
     namespace fs = std::filesystem;
     std::string ext = fs::path(path).extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
@@ -33,20 +33,23 @@ void write_image(const std::string& path, const std::vector<float>& pixels, int 
     if (ext == ".exr") {
         OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::FLOAT);
         spec.attribute("compression", "zip");
-        ok = out->open(path, spec) && out->write_image(OIIO::TypeDesc::FLOAT, pixels.data());
+        ok = out->open(path, spec) &&
+             out->write_image(OIIO::TypeDesc::FLOAT, pixels.data());
     } else {
         std::vector<unsigned char> bytes(pixels.size());
         for (size_t i = 0; i < pixels.size(); ++i)
             bytes[i] = (unsigned char)std::lround(255.f * linear_to_srgb(pixels[i]));
         OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::UINT8);
         spec.attribute("oiio:ColorSpace", "sRGB");
-        ok = out->open(path, spec) && out->write_image(OIIO::TypeDesc::UINT8, bytes.data());
+        ok = out->open(path, spec) &&
+             out->write_image(OIIO::TypeDesc::UINT8, bytes.data());
     }
     if (!ok) fail(path, ": cannot write image: ", out->geterror());
     if (!out->close()) fail(path, ": cannot finish writing image: ", out->geterror());
 }
 
-std::vector<float> read_image(const std::string& path, int* width, int* height, int* channels) {
+std::vector<float> read_image(const std::string& path, int* width, int* height,
+                              int* channels) {
     if (!std::filesystem::exists(path)) fail(path, ": image file does not exist");
     auto in = OIIO::ImageInput::open(path);
     if (!in) fail(path, ": cannot read image: ", OIIO::geterror());

@@ -8,12 +8,13 @@
 namespace sss {
 
 // `pixels` holds height * width * channels floats, row 0 at the top.
-void write_image(const std::string& path, const std::vector<float>& pixels, int width, int height,
-                 int channels = 3);
+void write_image(const std::string& path, const std::vector<float>& pixels, int width,
+                 int height, int channels = 3);
 
 // Reads an image as float (height * width * channels, row 0 at the top); 8-bit files give
 // their stored values / 255 (no colour conversion).
-std::vector<float> read_image(const std::string& path, int* width, int* height, int* channels);
+std::vector<float> read_image(const std::string& path, int* width, int* height,
+                              int* channels);
 
 // sRGB encoding of a linear value, clamped to [0, 1].
 float linear_to_srgb(float v);

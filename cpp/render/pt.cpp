@@ -15,31 +15,39 @@ namespace sss {
 namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
-// Russian roulette starts once the throughput fell below this fraction of its start value.
+// Russian roulette starts once the throughput fell below this fraction of its start
+// value.
 constexpr float kRouletteThreshold = 0.1f;
 // Shadow rays whose transmittance is bounded (by the distance grid) below this value are
 // traced with probability bound / kShadowRoulette and reweighted: unbiased, and it skips
 // almost every shadow ray deep inside a dense medium.
-// 0.1 by measurement (docs/notation.md): the image variance barely changes, the time drops.
+// 0.1 by measurement (docs/notation.md): the image variance barely changes, the time
+// drops.
 constexpr float kShadowRoulette = 0.1f;
 // Shadow rays cross at most this many boundaries (then the light counts as blocked).
 constexpr int kMaxShadowCrossings = 64;
 
-float extinction(const Medium& m, int channel) { return channel < 0 ? m.sigma_t.x : m.sigma_t[channel]; }
+float extinction(const Medium& m, int channel) {
+    return channel < 0 ? m.sigma_t.x : m.sigma_t[channel];
+}
 
 // Transmittance exp(-sigma_t d) per channel; a zero extinction gives 1 even for d = inf.
 Vec3 beer(Vec3 sigma_t, float d) {
     Vec3 tr;
-    for (int c = 0; c < 3; ++c) tr[c] = sigma_t[c] > 0.f ? std::exp(-sigma_t[c] * d) : 1.f;
+    for (int c = 0; c < 3; ++c)
+        tr[c] = sigma_t[c] > 0.f ? std::exp(-sigma_t[c] * d) : 1.f;
     return tr;
 }
 
 // Moves p off the surface with normal n to the side that direction w points into.
-Vec3 offset(Vec3 p, Vec3 n, Vec3 w, float eps) { return p + n * (dot(w, n) > 0.f ? eps : -eps); }
+Vec3 offset(Vec3 p, Vec3 n, Vec3 w, float eps) {
+    return p + n * (dot(w, n) > 0.f ? eps : -eps);
+}
 
 }  // namespace
 
-PathTracer::PathTracer(const Scene& scene, int max_bounces, bool nee, const SphereTracing* sphere_tracing)
+PathTracer::PathTracer(const Scene& scene, int max_bounces, bool nee,
+                       const SphereTracing* sphere_tracing)
     : scene_(scene), max_bounces_(max_bounces), nee_(nee), st_(sphere_tracing) {}
 
 float PathTracer::area_light_pdf(int light, Vec3 p, Vec3 w, float t, Vec3 n) const {
@@ -49,7 +57,8 @@ float PathTracer::area_light_pdf(int light, Vec3 p, Vec3 w, float t, Vec3 n) con
     return cos_l > 0.f ? t * t / (cos_l * area) : 0.f;
 }
 
-Vec3 PathTracer::transmittance(Vec3 p, Vec3 w, float dist, int shape, int channel, Rng& rng) const {
+Vec3 PathTracer::transmittance(Vec3 p, Vec3 w, float dist, int shape, int channel,
+                               Rng& rng) const {
     const auto& shapes = scene_.desc().shapes;
     Vec3 tr(1.f);
     Vec3 o = p;
@@ -65,9 +74,9 @@ Vec3 PathTracer::transmittance(Vec3 p, Vec3 w, float dist, int shape, int channe
         if (s.boundary.type == BoundaryType::Dielectric) return Vec3(0.f);
         if (shape >= 0) tr *= beer(shapes[shape].medium.sigma_t, hit.t);
         if (is_black(tr)) return tr;
-        // Roulette on the rest of the ray once the transmittance so far is small: continue
-        // with probability m / kShadowRoulette and reweight (unbiased; weights stay <= the
-        // threshold, as for the grid-bound roulette in direct_light).
+        // Roulette on the rest of the ray once the transmittance so far is small:
+        // continue with probability m / kShadowRoulette and reweight (unbiased; weights
+        // stay <= the threshold, as for the grid-bound roulette in direct_light).
         float m = channel < 0 ? max_component(tr) : tr[channel];
         if (m < kShadowRoulette) {
             float q = m / kShadowRoulette;
@@ -81,12 +90,14 @@ Vec3 PathTracer::transmittance(Vec3 p, Vec3 w, float dist, int shape, int channe
     return Vec3(0.f);
 }
 
-Vec3 PathTracer::direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng, bool mis) const {
+Vec3 PathTracer::direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng,
+                              bool mis) const {
     const Shape& s = scene_.desc().shapes[shape];
     // A straight shadow ray never leaves a smooth dielectric boundary (DESIGN §2).
     if (s.boundary.type == BoundaryType::Dielectric) return Vec3(0.f);
     // Every shadow ray first travels at least r through this medium.
-    float sigma_min = channel < 0 ? min_component(s.medium.sigma_t) : s.medium.sigma_t[channel];
+    float sigma_min =
+        channel < 0 ? min_component(s.medium.sigma_t) : s.medium.sigma_t[channel];
     float bound = std::exp(-sigma_min * scene_.grid(shape).query(p));
     float shadow_weight = 1.f;
     if (bound < kShadowRoulette) {
@@ -95,9 +106,9 @@ Vec3 PathTracer::direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng, 
         shadow_weight = 1.f / q;
     }
 
-    // One light per event, chosen uniformly: the estimate is weighted by n_lights, and the
-    // light-sampling pdfs in the MIS weights carry the selection probability 1 / n_lights
-    // (as on emission hits in trace()).
+    // One light per event, chosen uniformly: the estimate is weighted by n_lights, and
+    // the light-sampling pdfs in the MIS weights carry the selection probability 1 /
+    // n_lights (as on emission hits in trace()).
     const auto& lights = scene_.desc().lights;
     const float n_lights = float(lights.size());
     const size_t i = std::min(lights.size() - 1, size_t(rng.uniform() * n_lights));
@@ -160,8 +171,9 @@ PathSample PathTracer::trace_impl(Vec3 o, Vec3 d, Rng& rng) const {
     const float eps = scene_.ray_epsilon();
     PathSample out;
     Vec3 L(0.f), beta(1.f);
-    // RGB media with differing channels: each path transports one channel, chosen uniformly,
-    // with weight 3 (unbiased; DESIGN §2). Grey media: all three channels at once.
+    // RGB media with differing channels: each path transports one channel, chosen
+    // uniformly, with weight 3 (unbiased; DESIGN §2). Grey media: all three channels at
+    // once.
     int channel = -1;
     if (!scene_.grey_media()) {
         channel = std::min(2, int(rng.uniform() * 3.f));
@@ -170,12 +182,14 @@ PathSample PathTracer::trace_impl(Vec3 o, Vec3 d, Rng& rng) const {
     }
     const float beta_start = max_component(beta);
     // NEE picks one light uniformly: the light-sampling pdfs in MIS weights carry 1/n.
-    const float light_select_pdf = desc.lights.empty() ? 0.f : 1.f / float(desc.lights.size());
-    int shape = -1;          // the shape whose medium holds the photon; -1 = vacuum
-    bool specular = true;    // last vertex was the camera or a specular interface
-    float phase_pdf = 0.f;   // pdf of the direction sampled at the last scattering event
-    Vec3 scatter_pos;        // where that event happened (light pdfs are measured from it)
-    float r_at_o = -1.f;     // the distance grid at o when already queried there ("st"), else < 0
+    const float light_select_pdf =
+        desc.lights.empty() ? 0.f : 1.f / float(desc.lights.size());
+    int shape = -1;         // the shape whose medium holds the photon; -1 = vacuum
+    bool specular = true;   // last vertex was the camera or a specular interface
+    float phase_pdf = 0.f;  // pdf of the direction sampled at the last scattering event
+    Vec3 scatter_pos;       // where that event happened (light pdfs are measured from it)
+    float r_at_o =
+        -1.f;  // the distance grid at o when already queried there ("st"), else < 0
     // Path Russian roulette after a scattering event or sphere step: false ends the path.
     auto survives_roulette = [&]() {
         float q = max_component(beta) / beta_start;
@@ -192,8 +206,10 @@ PathSample PathTracer::trace_impl(Vec3 o, Vec3 d, Rng& rng) const {
             Hit hit;
             if (!scene_.tracer().intersect(o, d, 0.f, kInf, &hit)) {
                 if (const Light* env = scene_.environment()) {
-                    float w = specular || !nee_ ? 1.f
-                                                : power_heuristic(phase_pdf, uniform_sphere_pdf() * light_select_pdf);
+                    float w = specular || !nee_
+                                  ? 1.f
+                                  : power_heuristic(phase_pdf, uniform_sphere_pdf() *
+                                                                   light_select_pdf);
                     L += beta * env->radiance * w;
                 }
                 break;
@@ -204,11 +220,14 @@ PathSample PathTracer::trace_impl(Vec3 o, Vec3 d, Rng& rng) const {
                 if (dot(d, hit.normal) < 0.f) {
                     // The light-sampling pdf is that of NEE at the last scattering event,
                     // so distances count from there, across any index-matched boundaries.
-                    float w = specular || !nee_ ? 1.f
-                                                : power_heuristic(phase_pdf, light_select_pdf *
-                                                                                 area_light_pdf(light, scatter_pos, d,
-                                                                                   length(p - scatter_pos),
-                                                                                   hit.normal));
+                    float w =
+                        specular || !nee_
+                            ? 1.f
+                            : power_heuristic(phase_pdf,
+                                              light_select_pdf *
+                                                  area_light_pdf(light, scatter_pos, d,
+                                                                 length(p - scatter_pos),
+                                                                 hit.normal));
                     L += beta * desc.lights[light].radiance * w;
                 }
                 break;  // emitters absorb
@@ -236,8 +255,8 @@ PathSample PathTracer::trace_impl(Vec3 o, Vec3 d, Rng& rng) const {
             continue;
         }
 
-        // Inside a medium: sample a free flight; the distance grid tells when the boundary
-        // cannot be reached, which saves the boundary ray.
+        // Inside a medium: sample a free flight; the distance grid tells when the
+        // boundary cannot be reached, which saves the boundary ray.
         const Shape& s = desc.shapes[shape];
         float t = sample_exponential(rng.uniform(), extinction(s.medium, channel));
         Hit hit;
@@ -259,9 +278,9 @@ PathSample PathTracer::trace_impl(Vec3 o, Vec3 d, Rng& rng) const {
         if (!at_boundary) {
             o = o + d * t;
             if constexpr (kSphereTracing) {
-                // Sphere tracing: if the largest sphere around o inside the medium is optically
-                // thick enough, one step replaces every scattering event inside it
-                // (docs/sphere-tracing.md).
+                // Sphere tracing: if the largest sphere around o inside the medium is
+                // optically thick enough, one step replaces every scattering event inside
+                // it (docs/sphere-tracing.md).
                 const float sigma_t = extinction(s.medium, channel);
                 const float r = scene_.grid(shape).query(o);
                 if (sigma_t * r >= st_->threshold()) {
@@ -270,34 +289,42 @@ PathSample PathTracer::trace_impl(Vec3 o, Vec3 d, Rng& rng) const {
                     const float radius = std::min(r, sigma / sigma_t);
                     const Vec3 albedo = s.medium.albedo;
                     const bool with_event = st_->wants_event(shape);
-                    // The representative event is drawn for one albedo: the carried channel's,
-                    // or, for RGB throughput with a chromatic albedo, a channel picked uniformly
-                    // whose light connection then counts 3 times in that channel only.
+                    // The representative event is drawn for one albedo: the carried
+                    // channel's, or, for RGB throughput with a chromatic albedo, a
+                    // channel picked uniformly whose light connection then counts 3 times
+                    // in that channel only.
                     float phi = albedo[channel < 0 ? 0 : channel];
                     Vec3 nee_weight(1.f);
-                    if (with_event && channel < 0 && !(albedo.x == albedo.y && albedo.x == albedo.z)) {
+                    if (with_event && channel < 0 &&
+                        !(albedo.x == albedo.y && albedo.x == albedo.z)) {
                         const int c = std::min(2, int(rng.uniform() * 3.f));
                         phi = albedo[c];
                         nee_weight = Vec3(0.f);
                         nee_weight[c] = 3.f;
                     }
-                    const WorldSphereStep step = st_->sample(o, d, radius, sigma, s.medium.g, phi, with_event, rng);
+                    const WorldSphereStep step = st_->sample(
+                        o, d, radius, sigma, s.medium.g, phi, with_event, rng);
                     Vec3 survival;
                     for (int c = 0; c < 3; ++c) {
                         survival[c] = float(survival_power(albedo[c], step.N));
-                        if (with_event) nee_weight[c] *= float(event_weight_sum(albedo[c], step.N));
+                        if (with_event)
+                            nee_weight[c] *= float(event_weight_sum(albedo[c], step.N));
                     }
-                    // NEE from the representative event, weighted by Lambda = sum_j phi^j, with
-                    // the throughput on entering the sphere. MIS needs the same vertex on both
-                    // sides: the first event (at o) is known, so it keeps pt's MIS, and its
-                    // phase-sampled light hit (only possible for N = 1) keeps its weight. For
-                    // N >= 2 the last event is unknown: its light hit gets weight 0
-                    // (phase_pdf = 0 below) and the events k >= 2 use light sampling alone.
+                    // NEE from the representative event, weighted by Lambda = sum_j
+                    // phi^j, with the throughput on entering the sphere. MIS needs the
+                    // same vertex on both sides: the first event (at o) is known, so it
+                    // keeps pt's MIS, and its phase-sampled light hit (only possible for
+                    // N = 1) keeps its weight. For N >= 2 the last event is unknown: its
+                    // light hit gets weight 0 (phase_pdf = 0 below) and the events k >= 2
+                    // use light sampling alone.
                     if (with_event && !is_black(nee_weight))
-                        L += beta * nee_weight * direct_light(step.X, step.W, shape, channel, rng, step.first_event);
+                        L += beta * nee_weight *
+                             direct_light(step.X, step.W, shape, channel, rng,
+                                          step.first_event);
                     beta *= survival;
                     if (is_black(beta)) break;
-                    phase_pdf = step.N == 1 ? hg_eval(dot(d, step.exit_dir), s.medium.g) : 0.f;
+                    phase_pdf =
+                        step.N == 1 ? hg_eval(dot(d, step.exit_dir), s.medium.g) : 0.f;
                     scatter_pos = o;
                     o = step.exit_pos;
                     d = step.exit_dir;
@@ -305,14 +332,16 @@ PathSample PathTracer::trace_impl(Vec3 o, Vec3 d, Rng& rng) const {
                     if (!survives_roulette()) break;
                     continue;
                 }
-                r_at_o = r;  // the ordinary event below stays at o: its next flight reuses r
+                r_at_o =
+                    r;  // the ordinary event below stays at o: its next flight reuses r
             }
             // Real collision: scatter.
             ++out.scatter_events;
             if (max_bounces_ >= 0 && int(out.scatter_events) > max_bounces_) break;
             beta *= s.medium.albedo;
             if (is_black(beta)) break;
-            if (nee_ && !desc.lights.empty()) L += beta * direct_light(o, d, shape, channel, rng);
+            if (nee_ && !desc.lights.empty())
+                L += beta * direct_light(o, d, shape, channel, rng);
             Vec3 d_new = hg_sample(d, s.medium.g, rng.uniform(), rng.uniform());
             phase_pdf = hg_eval(dot(d, d_new), s.medium.g);
             scatter_pos = o;

@@ -1,12 +1,13 @@
-// The ground-truth volumetric path tracer (integrator "pt"): delta tracking in homogeneous
-// media with Henyey-Greenstein scattering, index-matched and smooth dielectric boundaries,
-// next-event estimation toward one light at every scattering event (MIS with phase sampling for area and
-// environment lights). See docs/notation.md for the conventions.
+// The ground-truth volumetric path tracer (integrator "pt"): delta tracking in
+// homogeneous media with Henyey-Greenstein scattering, index-matched and smooth
+// dielectric boundaries, next-event estimation toward one light at every scattering event
+// (MIS with phase sampling for area and environment lights). See docs/notation.md for the
+// conventions.
 //
 // With a SphereTracing policy it is the sphere tracer (integrator "st", DESIGN §5,
-// docs/sphere-tracing.md): at a real collision deep enough inside a medium one learned sphere
-// step replaces the scattering events inside the largest sphere there; everything else (flights,
-// boundaries, lights, NEE, roulette) is the same code.
+// docs/sphere-tracing.md): at a real collision deep enough inside a medium one learned
+// sphere step replaces the scattering events inside the largest sphere there; everything
+// else (flights, boundaries, lights, NEE, roulette) is the same code.
 #pragma once
 
 #include <cstdint>
@@ -19,8 +20,10 @@ namespace sss {
 
 struct PathSample {
     Vec3 radiance;
-    uint32_t scatter_events = 0;  // ordinary scattering events (real collisions scattered by HG)
-    uint32_t sphere_steps = 0;    // sphere steps ("st" only), each standing for N >= 1 events
+    uint32_t scatter_events =
+        0;  // ordinary scattering events (real collisions scattered by HG)
+    uint32_t sphere_steps =
+        0;  // sphere steps ("st" only), each standing for N >= 1 events
 };
 
 class SphereTracing;
@@ -29,26 +32,31 @@ class PathTracer {
 public:
     // nee = false: no light sampling, emitters count only when paths hit them (for tests
     // of the MIS weights, and as the plain estimator).
-    // sphere_tracing: the policy of integrator "st" (not owned; must outlive the tracer), or
-    // nullptr for "pt".
-    PathTracer(const Scene& scene, int max_bounces, bool nee = true, const SphereTracing* sphere_tracing = nullptr);
+    // sphere_tracing: the policy of integrator "st" (not owned; must outlive the tracer),
+    // or nullptr for "pt".
+    PathTracer(const Scene& scene, int max_bounces, bool nee = true,
+               const SphereTracing* sphere_tracing = nullptr);
     // Radiance arriving at `o` from direction -d (a camera ray o + t d).
     PathSample trace(Vec3 o, Vec3 d, Rng& rng) const;
 
 private:
-    // The path loop; kSphereTracing = (st_ != nullptr), so "pt" compiles without the step.
+    // The path loop; kSphereTracing = (st_ != nullptr), so "pt" compiles without the
+    // step.
     template <bool kSphereTracing>
     PathSample trace_impl(Vec3 o, Vec3 d, Rng& rng) const;
-    // Phase x transmittance x emitted radiance / pdf at medium point p of shape `shape`, for a
-    // photon travelling along d before scattering, from one light chosen uniformly (weighted
-    // by the number of lights). mis = false: light sampling alone (weight 1), for a vertex
-    // whose phase-sampled continuation cannot be weighted (a sphere step's events k >= 2).
-    Vec3 direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng, bool mis = true) const;
+    // Phase x transmittance x emitted radiance / pdf at medium point p of shape `shape`,
+    // for a photon travelling along d before scattering, from one light chosen uniformly
+    // (weighted by the number of lights). mis = false: light sampling alone (weight 1),
+    // for a vertex whose phase-sampled continuation cannot be weighted (a sphere step's
+    // events k >= 2).
+    Vec3 direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng,
+                      bool mis = true) const;
     // Transmittance from p (inside shape `shape`, or -1 for vacuum) along unit w over
-    // `dist`; 0 when a dielectric boundary or an emitter is in the way. Unbiased estimate:
-    // once the transmittance of the channel(s) carried falls below kShadowRoulette at a
-    // boundary, the rest of the ray is traced by Russian roulette.
-    Vec3 transmittance(Vec3 p, Vec3 w, float dist, int shape, int channel, Rng& rng) const;
+    // `dist`; 0 when a dielectric boundary or an emitter is in the way. Unbiased
+    // estimate: once the transmittance of the channel(s) carried falls below
+    // kShadowRoulette at a boundary, the rest of the ray is traced by Russian roulette.
+    Vec3 transmittance(Vec3 p, Vec3 w, float dist, int shape, int channel,
+                       Rng& rng) const;
     // Light-sampling pdf (solid angle) of direction w from a medium point, for MIS.
     float area_light_pdf(int light, Vec3 p, Vec3 w, float t, Vec3 n) const;
 

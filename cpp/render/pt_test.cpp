@@ -33,8 +33,9 @@ SceneDesc furnace_scene(Vec3 sigma_t, float g, BoundaryType boundary) {
 }
 
 // White furnace: no absorption inside a uniform environment of radiance 1, so every pixel
-// has expectation 1. Each pixel's mean is compared with 1 using its own estimated variance:
-// the sum of z^2 over pixels and channels must pass a chi-square test at p = 1e-4.
+// has expectation 1. Each pixel's mean is compared with 1 using its own estimated
+// variance: the sum of z^2 over pixels and channels must pass a chi-square test at p =
+// 1e-4.
 void expect_furnace(const SceneDesc& d, int spp) {
     Scene scene(d, 2);
     RenderOptions opt;
@@ -59,7 +60,8 @@ void expect_furnace(const SceneDesc& d, int spp) {
     double se = std::sqrt(var_mean) / r.image.size();
     EXPECT_NEAR(mean, 1.0, 4.0 * se) << "image mean " << mean << " +- " << se;
     ASSERT_GT(n, 100);
-    EXPECT_LT(chi2, sss::test::chi2_critical(n)) << "chi2 " << chi2 << " over " << n << " pixel channels";
+    EXPECT_LT(chi2, sss::test::chi2_critical(n))
+        << "chi2 " << chi2 << " over " << n << " pixel channels";
 }
 
 }  // namespace
@@ -70,12 +72,13 @@ TEST(PathTracer, FurnaceGreyIndexMatched) {
 
 TEST(PathTracer, FurnaceChromaticIndexMatched) {
     // Different extinction per channel: paths carry one channel each (weight 3).
-    expect_furnace(furnace_scene(Vec3(1.f, 4.f, 10.f), -0.3f, BoundaryType::IndexMatched), 128);
+    expect_furnace(furnace_scene(Vec3(1.f, 4.f, 10.f), -0.3f, BoundaryType::IndexMatched),
+                   128);
 }
 
 TEST(PathTracer, FurnaceDielectricIsExactPerPath) {
-    // Behind a dielectric there is no NEE and every escaping path carries weight exactly 1:
-    // every pixel must be 1 up to float rounding, whatever the noise elsewhere.
+    // Behind a dielectric there is no NEE and every escaping path carries weight exactly
+    // 1: every pixel must be 1 up to float rounding, whatever the noise elsewhere.
     Scene scene(furnace_scene(Vec3(3.f), 0.7f, BoundaryType::Dielectric), 2);
     RenderOptions opt;
     opt.spp = 16;

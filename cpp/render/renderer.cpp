@@ -28,20 +28,23 @@ struct TileState {
 
 }  // namespace
 
-RenderResult render(const Scene& scene, const RenderOptions& opt, const ProgressFn& progress) {
+RenderResult render(const Scene& scene, const RenderOptions& opt,
+                    const ProgressFn& progress) {
     const Camera& cam = scene.desc().camera;
     const int W = cam.width, H = cam.height;
     if (opt.spp <= 0) fail("spp must be >= 1, got ", opt.spp);
     if (opt.threads < 0) fail("threads must be >= 0 (0 = all cores), got ", opt.threads);
     if (opt.integrator != "pt" && opt.integrator != "st")
-        fail(scene.desc().source, ": integrator '", opt.integrator, "' is not available (allowed: \"pt\", \"st\")");
+        fail(scene.desc().source, ": integrator '", opt.integrator,
+             "' is not available (allowed: \"pt\", \"st\")");
     std::unique_ptr<SphereTracing> sphere_tracing;
     if (opt.integrator == "st") {
         if (opt.max_bounces != -1)
-            fail("max_bounces ", opt.max_bounces, " is not supported by integrator 'st' (allowed: -1): a sphere "
+            fail("max_bounces ", opt.max_bounces,
+                 " is not supported by integrator 'st' (allowed: -1): a sphere "
                  "step stands for many scattering events at once");
-        sphere_tracing = std::make_unique<SphereTracing>(scene, opt.sphere_threshold, opt.sphere_sampler, opt.models,
-                                                         opt.nee);
+        sphere_tracing = std::make_unique<SphereTracing>(
+            scene, opt.sphere_threshold, opt.sphere_sampler, opt.models, opt.nee);
     }
 
     const int tiles_x = (W + kTile - 1) / kTile, tiles_y = (H + kTile - 1) / kTile;
@@ -86,12 +89,16 @@ RenderResult render(const Scene& scene, const RenderOptions& opt, const Progress
             try {
                 for (int y = y0, i = 0; y < y1 && complete; ++y)
                     for (int x = x0; x < x1; ++x, ++i) {
-                        if (cancel) { complete = false; break; }
+                        if (cancel) {
+                            complete = false;
+                            break;
+                        }
                         uint64_t pixel = uint64_t(y) * W + x;
                         for (int k = s0; k < s1; ++k) {
                             Rng rng(opt.seed, pixel, uint64_t(k));
                             float jx = rng.uniform(), jy = rng.uniform();
-                            PathSample ps = tracer.trace(camera.origin(), camera.direction(x + jx, y + jy), rng);
+                            PathSample ps = tracer.trace(
+                                camera.origin(), camera.direction(x + jx, y + jy), rng);
                             for (int c = 0; c < 3; ++c) {
                                 double v = ps.radiance[c];
                                 s[3 * i + c] += v;
@@ -133,7 +140,9 @@ RenderResult render(const Scene& scene, const RenderOptions& opt, const Progress
     };
 
     auto start = std::chrono::steady_clock::now();
-    int threads = opt.threads > 0 ? opt.threads : int(std::max(1u, std::thread::hardware_concurrency()));
+    int threads = opt.threads > 0
+                      ? opt.threads
+                      : int(std::max(1u, std::thread::hardware_concurrency()));
     std::vector<std::thread> pool;
     std::atomic<int> running{threads};
     std::mutex done_mutex;
@@ -174,7 +183,8 @@ RenderResult render(const Scene& scene, const RenderOptions& opt, const Progress
     r.width = W;
     r.height = H;
     r.cancelled = user_cancelled;
-    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    r.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     r.image.assign(size_t(W) * H * 3, 0.f);
     r.variance.assign(size_t(W) * H * 3, 0.f);
     r.events.assign(size_t(W) * H, 0.f);
@@ -191,7 +201,9 @@ RenderResult render(const Scene& scene, const RenderOptions& opt, const Progress
         for (int c = 0; c < 3; ++c) {
             double mean = sum[3 * p + c] / n;
             r.image[3 * p + c] = float(mean);
-            double var = n > 1 ? std::max(0.0, (sum_sq[3 * p + c] - n * mean * mean) / (n - 1)) : 0.0;
+            double var =
+                n > 1 ? std::max(0.0, (sum_sq[3 * p + c] - n * mean * mean) / (n - 1))
+                      : 0.0;
             r.variance[3 * p + c] = float(var / n);
         }
     }

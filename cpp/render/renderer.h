@@ -1,8 +1,8 @@
-// Film and multithreaded rendering. The image is rendered in passes (1, 2, 4, ... samples per
-// pixel, then spp/16 each) over 16x16 tiles; each
-// (pixel, sample) has its own random stream, and tiles merge their passes in order, so the
-// result is bit-identical for any thread count. Cancelling (progress callback returning
-// false) keeps every finished (tile, pass): each pixel is the mean of its own samples.
+// Film and multithreaded rendering. The image is rendered in passes (1, 2, 4, ... samples
+// per pixel, then spp/16 each) over 16x16 tiles; each (pixel, sample) has its own random
+// stream, and tiles merge their passes in order, so the result is bit-identical for any
+// thread count. Cancelling (progress callback returning false) keeps every finished
+// (tile, pass): each pixel is the mean of its own samples.
 #pragma once
 
 #include <cstdint>
@@ -19,23 +19,27 @@ struct RenderOptions {
     std::string integrator = "pt";  // "pt" (path tracing) or "st" (sphere tracing)
     int spp = 16;
     uint64_t seed = 0;
-    int threads = 0;        // 0 = all cores
-    int max_bounces = -1;   // "st" allows only -1 (a sphere step is many events at once)
-    bool nee = true;        // next-event estimation (light sampling with MIS)
-    // "st" only. A collision at p takes a sphere step when sigma_t * r(p) >= sphere_threshold
+    int threads = 0;       // 0 = all cores
+    int max_bounces = -1;  // "st" allows only -1 (a sphere step is many events at once)
+    bool nee = true;       // next-event estimation (light sampling with MIS)
+    // "st" only. A collision at p takes a sphere step when sigma_t * r(p) >=
+    // sphere_threshold
     // (>= 0; infinity: never, the image is then bit-identical to "pt").
     float sphere_threshold = kDefaultSphereThreshold;
-    std::string models;     // "st": the directory of lengthgen.json, pathgen.json, eventgen.json
-    SphereSampler sphere_sampler = SphereSampler::Model;  // Walk: exact walks (validation)
+    std::string
+        models;  // "st": the directory of lengthgen.json, pathgen.json, eventgen.json
+    SphereSampler sphere_sampler =
+        SphereSampler::Model;  // Walk: exact walks (validation)
 };
 
 struct RenderResult {
     int width = 0, height = 0;
     std::vector<float> image;     // (height, width, 3) mean radiance
     std::vector<float> variance;  // (height, width, 3) variance of that mean
-    std::vector<float> events;    // (height, width) mean ordinary scattering events per path
+    std::vector<float>
+        events;  // (height, width) mean ordinary scattering events per path
     std::vector<float> sphere_steps;  // (height, width) mean sphere steps per path ("st")
-    std::vector<uint32_t> samples;  // (height, width) samples taken
+    std::vector<uint32_t> samples;    // (height, width) samples taken
     double seconds = 0.0;
     bool cancelled = false;
     uint64_t total_events = 0;
@@ -47,6 +51,7 @@ struct RenderResult {
 // false to stop early.
 using ProgressFn = std::function<bool(double)>;
 
-RenderResult render(const Scene& scene, const RenderOptions& options, const ProgressFn& progress = {});
+RenderResult render(const Scene& scene, const RenderOptions& options,
+                    const ProgressFn& progress = {});
 
 }  // namespace sss

@@ -1,10 +1,9 @@
 #include "render/scene.h"
 
-#include <nlohmann/json.hpp>
-
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 
@@ -19,18 +18,23 @@ using json = nlohmann::json;
 
 using namespace json_fields;
 
-double number_in(const json& j, const Field& f, double lo, double hi, const char* allowed) {
+double number_in(const json& j, const Field& f, double lo, double hi,
+                 const char* allowed) {
     double v = number(j, f);
-    if (!(v >= lo && v <= hi)) f.error("value ", show(j), " is not allowed (allowed: ", allowed, ")");
+    if (!(v >= lo && v <= hi))
+        f.error("value ", show(j), " is not allowed (allowed: ", allowed, ")");
     return v;
 }
 
-int64_t integer_in(const json& j, const Field& f, int64_t lo, int64_t hi, const char* allowed) {
-    if (!j.is_number_integer()) f.error("expected an integer, got ", type_name(j), " ", show(j));
+int64_t integer_in(const json& j, const Field& f, int64_t lo, int64_t hi,
+                   const char* allowed) {
+    if (!j.is_number_integer())
+        f.error("expected an integer, got ", type_name(j), " ", show(j));
     if (j.is_number_unsigned() && j.get<uint64_t>() > uint64_t(INT64_MAX))
         f.error("value ", show(j), " is not allowed (allowed: ", allowed, ")");
     int64_t v = j.get<int64_t>();
-    if (v < lo || v > hi) f.error("value ", show(j), " is not allowed (allowed: ", allowed, ")");
+    if (v < lo || v > hi)
+        f.error("value ", show(j), " is not allowed (allowed: ", allowed, ")");
     return v;
 }
 
@@ -54,11 +58,13 @@ Vec3 rgb_in(const json& j, const Field& f, double lo, double hi, const char* all
 
 Vec3 nonzero_vec3(const json& j, const Field& f) {
     Vec3 v = vec3(j, f);
-    if (!(length(v) > 0.f)) f.error("value ", show(j), " is not allowed (allowed: a non-zero vector)");
+    if (!(length(v) > 0.f))
+        f.error("value ", show(j), " is not allowed (allowed: a non-zero vector)");
     return v;
 }
 
-std::string string_in(const json& j, const Field& f, std::initializer_list<const char*> allowed) {
+std::string string_in(const json& j, const Field& f,
+                      std::initializer_list<const char*> allowed) {
     if (!j.is_string()) f.error("expected a string, got ", type_name(j), " ", show(j));
     std::string s = j.get<std::string>();
     std::string list;
@@ -75,16 +81,21 @@ Camera parse_camera(const json& j, const Field& f) {
     c.origin = vec3(require(j, "origin", f), f.at("origin"));
     c.target = vec3(require(j, "target", f), f.at("target"));
     if (j.contains("up")) c.up = nonzero_vec3(j["up"], f.at("up"));
-    c.fov = float(number_in(require(j, "fov", f), f.at("fov"), 1e-3, 179.0, "degrees in [0.001, 179]"));
-    c.width = int(integer_in(require(j, "width", f), f.at("width"), 1, 16384, "1 to 16384"));
-    c.height = int(integer_in(require(j, "height", f), f.at("height"), 1, 16384, "1 to 16384"));
+    c.fov = float(number_in(require(j, "fov", f), f.at("fov"), 1e-3, 179.0,
+                            "degrees in [0.001, 179]"));
+    c.width =
+        int(integer_in(require(j, "width", f), f.at("width"), 1, 16384, "1 to 16384"));
+    c.height =
+        int(integer_in(require(j, "height", f), f.at("height"), 1, 16384, "1 to 16384"));
     if (int64_t(c.width) * c.height > (int64_t(1) << 26))
-        f.error("resolution ", c.width, "x", c.height, " is too large (at most 67,108,864 pixels)");
+        f.error("resolution ", c.width, "x", c.height,
+                " is too large (at most 67,108,864 pixels)");
     Vec3 forward = c.target - c.origin;
     if (!(length(forward) > 0.f)) f.at("target").error("target equals origin");
     if (!(length(cross(normalize(forward), normalize(c.up))) > 1e-4f))
         f.at("up").error("value [", c.up.x, ", ", c.up.y, ", ", c.up.z,
-                         "] is parallel to the viewing direction", j.contains("up") ? "" : " (up defaults to [0, 1, 0])");
+                         "] is parallel to the viewing direction",
+                         j.contains("up") ? "" : " (up defaults to [0, 1, 0])");
     return c;
 }
 
@@ -93,38 +104,47 @@ Medium parse_medium(const json& j, const Field& f) {
     Medium m;
     m.sigma_t = rgb_in(require(j, "sigma_t", f), f.at("sigma_t"), 0.0, 1e7,
                        "per-channel extinction in [0, 1e7] per scene unit");
-    m.albedo = rgb_in(require(j, "albedo", f), f.at("albedo"), 0.0, 1.0, "each channel in [0, 1]");
+    m.albedo = rgb_in(require(j, "albedo", f), f.at("albedo"), 0.0, 1.0,
+                      "each channel in [0, 1]");
     m.g = j.contains("g") ? float(number(j["g"], f.at("g"))) : 0.f;
-    if (!(std::abs(m.g) < 1.f)) f.at("g").error("value ", show(j["g"]), " is not allowed (allowed: -1 < g < 1)");
+    if (!(std::abs(m.g) < 1.f))
+        f.at("g").error("value ", show(j["g"]), " is not allowed (allowed: -1 < g < 1)");
     return m;
 }
 
 Boundary parse_boundary(const json& j, const Field& f) {
     check_keys(j, f, {"type", "ior"});
     Boundary b;
-    std::string type = string_in(require(j, "type", f), f.at("type"), {"index_matched", "dielectric"});
+    std::string type =
+        string_in(require(j, "type", f), f.at("type"), {"index_matched", "dielectric"});
     b.type = type == "dielectric" ? BoundaryType::Dielectric : BoundaryType::IndexMatched;
     if (j.contains("ior")) {
-        if (b.type != BoundaryType::Dielectric) f.at("ior").error("only a dielectric boundary has an ior");
-        b.ior = float(number_in(j["ior"], f.at("ior"), 1e-3, 10.0, "a number in [0.001, 10]"));
+        if (b.type != BoundaryType::Dielectric)
+            f.at("ior").error("only a dielectric boundary has an ior");
+        b.ior = float(
+            number_in(j["ior"], f.at("ior"), 1e-3, 10.0, "a number in [0.001, 10]"));
     }
     return b;
 }
 
 Shape parse_shape(const json& j, const Field& f, const std::string& base_dir) {
-    check_keys(j, f, {"name", "mesh", "sphere", "normalize", "transform", "medium", "boundary"});
+    check_keys(
+        j, f, {"name", "mesh", "sphere", "normalize", "transform", "medium", "boundary"});
     Shape s;
     if (j.contains("name")) {
-        if (!j["name"].is_string()) f.at("name").error("expected a string, got ", show(j["name"]));
+        if (!j["name"].is_string())
+            f.at("name").error("expected a string, got ", show(j["name"]));
         s.name = j["name"].get<std::string>();
     } else {
         s.name = f.path;
     }
     bool has_mesh = j.contains("mesh"), has_sphere = j.contains("sphere");
-    if (has_mesh == has_sphere) f.error("give exactly one of 'mesh' (a file) or 'sphere'");
+    if (has_mesh == has_sphere)
+        f.error("give exactly one of 'mesh' (a file) or 'sphere'");
     if (has_mesh) {
         const json& m = j["mesh"];
-        if (!m.is_string()) f.at("mesh").error("expected a file path string, got ", show(m));
+        if (!m.is_string())
+            f.at("mesh").error("expected a file path string, got ", show(m));
         std::filesystem::path p(m.get<std::string>());
         if (p.is_relative()) p = std::filesystem::path(base_dir) / p;
         try {
@@ -137,14 +157,17 @@ Shape parse_shape(const json& j, const Field& f, const std::string& base_dir) {
         Field fs = f.at("sphere");
         check_keys(sp, fs, {"center", "radius", "subdivisions"});
         Vec3 center = vec3(require(sp, "center", fs), fs.at("center"));
-        float radius = float(number_in(require(sp, "radius", fs), fs.at("radius"), 1e-30, 1e30, "a radius in [1e-30, 1e30]"));
+        float radius = float(number_in(require(sp, "radius", fs), fs.at("radius"), 1e-30,
+                                       1e30, "a radius in [1e-30, 1e30]"));
         int sub = sp.contains("subdivisions")
-                      ? int(integer_in(sp["subdivisions"], fs.at("subdivisions"), 0, 7, "0 to 7"))
+                      ? int(integer_in(sp["subdivisions"], fs.at("subdivisions"), 0, 7,
+                                       "0 to 7"))
                       : 5;
         s.mesh = make_icosphere(center, radius, sub);
     }
     if (j.contains("normalize")) {
-        if (!j["normalize"].is_boolean()) f.at("normalize").error("expected true or false, got ", show(j["normalize"]));
+        if (!j["normalize"].is_boolean())
+            f.at("normalize").error("expected true or false, got ", show(j["normalize"]));
         if (j["normalize"].get<bool>()) normalize_mesh(s.mesh);
     }
     if (j.contains("transform")) {
@@ -153,17 +176,20 @@ Shape parse_shape(const json& j, const Field& f, const std::string& base_dir) {
         check_keys(t, ft, {"scale", "rotate_deg", "translate"});
         Vec3 scale(1.f), rot(0.f), tr(0.f);
         if (t.contains("scale")) {
-            scale = t["scale"].is_number() ? Vec3(float(number(t["scale"], ft.at("scale"))))
-                                           : vec3(t["scale"], ft.at("scale"));
+            scale = t["scale"].is_number()
+                        ? Vec3(float(number(t["scale"], ft.at("scale"))))
+                        : vec3(t["scale"], ft.at("scale"));
             if (!(std::abs(scale.x * scale.y * scale.z) > 0.f))
-                ft.at("scale").error("value ", show(t["scale"]), " is not allowed (allowed: non-zero scale factors)");
+                ft.at("scale").error("value ", show(t["scale"]),
+                                     " is not allowed (allowed: non-zero scale factors)");
         }
         if (t.contains("rotate_deg")) rot = vec3(t["rotate_deg"], ft.at("rotate_deg"));
         if (t.contains("translate")) tr = vec3(t["translate"], ft.at("translate"));
         transform_mesh(s.mesh, scale, rot, tr);
     }
     s.medium = parse_medium(require(j, "medium", f), f.at("medium"));
-    if (j.contains("boundary")) s.boundary = parse_boundary(j["boundary"], f.at("boundary"));
+    if (j.contains("boundary"))
+        s.boundary = parse_boundary(j["boundary"], f.at("boundary"));
     return s;
 }
 
@@ -177,12 +203,15 @@ Light parse_light(const json& j, const Field& f) {
         check_keys(j, f, {"type", "position", "intensity"});
         l.type = Light::Type::Point;
         l.position = vec3(require(j, "position", f), f.at("position"));
-        l.intensity = rgb_in(require(j, "intensity", f), f.at("intensity"), 0.0, 1e30, nonneg);
+        l.intensity =
+            rgb_in(require(j, "intensity", f), f.at("intensity"), 0.0, 1e30, nonneg);
     } else if (type == "directional") {
         check_keys(j, f, {"type", "direction", "irradiance"});
         l.type = Light::Type::Directional;
-        l.direction = normalize(nonzero_vec3(require(j, "direction", f), f.at("direction")));
-        l.irradiance = rgb_in(require(j, "irradiance", f), f.at("irradiance"), 0.0, 1e30, nonneg);
+        l.direction =
+            normalize(nonzero_vec3(require(j, "direction", f), f.at("direction")));
+        l.irradiance =
+            rgb_in(require(j, "irradiance", f), f.at("irradiance"), 0.0, 1e30, nonneg);
     } else if (type == "area") {
         check_keys(j, f, {"type", "corner", "edge1", "edge2", "radiance"});
         l.type = Light::Type::Area;
@@ -190,29 +219,41 @@ Light parse_light(const json& j, const Field& f) {
         l.edge1 = vec3(require(j, "edge1", f), f.at("edge1"));
         l.edge2 = vec3(require(j, "edge2", f), f.at("edge2"));
         if (!(length(cross(l.edge1, l.edge2)) > 0.f))
-            f.error("edge1 and edge2 span no area (allowed: two non-parallel, non-zero edges)");
-        l.radiance = rgb_in(require(j, "radiance", f), f.at("radiance"), 0.0, 1e30, nonneg);
+            f.error(
+                "edge1 and edge2 span no area (allowed: two non-parallel, non-zero "
+                "edges)");
+        l.radiance =
+            rgb_in(require(j, "radiance", f), f.at("radiance"), 0.0, 1e30, nonneg);
     } else {
         check_keys(j, f, {"type", "radiance"});
         l.type = Light::Type::Environment;
-        l.radiance = rgb_in(require(j, "radiance", f), f.at("radiance"), 0.0, 1e30, nonneg);
+        l.radiance =
+            rgb_in(require(j, "radiance", f), f.at("radiance"), 0.0, 1e30, nonneg);
     }
     return l;
 }
 
 RenderSettings parse_render(const json& j, const Field& f, const std::string& base_dir) {
-    check_keys(j, f, {"integrator", "spp", "seed", "max_bounces", "grid_resolution", "sphere_threshold", "models"});
+    check_keys(j, f,
+               {"integrator", "spp", "seed", "max_bounces", "grid_resolution",
+                "sphere_threshold", "models"});
     RenderSettings r;
-    if (j.contains("integrator")) r.integrator = string_in(j["integrator"], f.at("integrator"), {"pt", "st"});
-    if (j.contains("spp")) r.spp = int(integer_in(j["spp"], f.at("spp"), 1, 1 << 24, "1 to 16,777,216"));
+    if (j.contains("integrator"))
+        r.integrator = string_in(j["integrator"], f.at("integrator"), {"pt", "st"});
+    if (j.contains("spp"))
+        r.spp = int(integer_in(j["spp"], f.at("spp"), 1, 1 << 24, "1 to 16,777,216"));
     if (j.contains("seed"))
-        r.seed = uint64_t(integer_in(j["seed"], f.at("seed"), 0, INT64_MAX, "an integer in [0, 2^63 - 1]"));
+        r.seed = uint64_t(integer_in(j["seed"], f.at("seed"), 0, INT64_MAX,
+                                     "an integer in [0, 2^63 - 1]"));
     if (j.contains("max_bounces"))
-        r.max_bounces = int(integer_in(j["max_bounces"], f.at("max_bounces"), -1, INT32_MAX, "-1 (no limit) or >= 0"));
+        r.max_bounces = int(integer_in(j["max_bounces"], f.at("max_bounces"), -1,
+                                       INT32_MAX, "-1 (no limit) or >= 0"));
     if (j.contains("grid_resolution"))
-        r.grid_resolution = int(integer_in(j["grid_resolution"], f.at("grid_resolution"), 2, 512, "2 to 512"));
+        r.grid_resolution = int(integer_in(j["grid_resolution"], f.at("grid_resolution"),
+                                           2, 512, "2 to 512"));
     if (j.contains("sphere_threshold"))
-        r.sphere_threshold = float(number_in(j["sphere_threshold"], f.at("sphere_threshold"), 0.0, 1e30, "0 to 1e30"));
+        r.sphere_threshold = float(number_in(
+            j["sphere_threshold"], f.at("sphere_threshold"), 0.0, 1e30, "0 to 1e30"));
     if (j.contains("models")) {
         const json& m = j["models"];
         if (!m.is_string() || m.get<std::string>().empty())
@@ -237,9 +278,12 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
     SceneDesc d;
     d.source = source;
     Field f{d.source, ""};
-    if (!root.is_object()) fail(source, ": the scene must be a JSON object, got ", show(root));
-    check_keys(root, Field{d.source, "(top level)"}, {"camera", "shapes", "lights", "render"});
-    d.camera = parse_camera(require(root, "camera", Field{d.source, "(top level)"}), f.at("camera"));
+    if (!root.is_object())
+        fail(source, ": the scene must be a JSON object, got ", show(root));
+    check_keys(root, Field{d.source, "(top level)"},
+               {"camera", "shapes", "lights", "render"});
+    d.camera = parse_camera(require(root, "camera", Field{d.source, "(top level)"}),
+                            f.at("camera"));
     const json& shapes = require(root, "shapes", Field{d.source, "(top level)"});
     if (!shapes.is_array() || shapes.empty())
         f.at("shapes").error("expected a non-empty array of shapes, got ", show(shapes));
@@ -247,7 +291,8 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
         d.shapes.push_back(parse_shape(shapes[i], f.at("shapes").at(i), base_dir));
     if (root.contains("lights")) {
         const json& lights = root["lights"];
-        if (!lights.is_array()) f.at("lights").error("expected an array of lights, got ", show(lights));
+        if (!lights.is_array())
+            f.at("lights").error("expected an array of lights, got ", show(lights));
         int environments = 0;
         for (size_t i = 0; i < lights.size(); ++i) {
             d.lights.push_back(parse_light(lights[i], f.at("lights").at(i)));
@@ -255,7 +300,8 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
                 f.at("lights").at(i).error("a scene has at most one environment light");
         }
     }
-    if (root.contains("render")) d.render = parse_render(root["render"], f.at("render"), base_dir);
+    if (root.contains("render"))
+        d.render = parse_render(root["render"], f.at("render"), base_dir);
     return d;
 }
 
@@ -271,19 +317,22 @@ SceneDesc load_scene_file(const std::string& path) {
     return parse_scene(ss.str(), base.empty() ? "." : base, path);
 }
 
-Scene::Scene(SceneDesc desc, int threads) : desc_(std::move(desc)), tracer_(std::make_unique<RayTracer>()) {
+Scene::Scene(SceneDesc desc, int threads)
+    : desc_(std::move(desc)), tracer_(std::make_unique<RayTracer>()) {
     Bounds3 all;
     for (const Shape& s : desc_.shapes) {
         tracer_->add_mesh(s.mesh);
         for (const Vec3& p : s.mesh.positions) all.extend(p);
-        grey_ = grey_ && s.medium.sigma_t.x == s.medium.sigma_t.y && s.medium.sigma_t.x == s.medium.sigma_t.z;
+        grey_ = grey_ && s.medium.sigma_t.x == s.medium.sigma_t.y &&
+                s.medium.sigma_t.x == s.medium.sigma_t.z;
     }
     for (size_t i = 0; i < desc_.lights.size(); ++i) {
         const Light& l = desc_.lights[i];
         if (l.type == Light::Type::Environment) environment_ = &desc_.lights[i];
         if (l.type != Light::Type::Area) continue;
         TriangleMesh quad;
-        quad.positions = {l.corner, l.corner + l.edge1, l.corner + l.edge1 + l.edge2, l.corner + l.edge2};
+        quad.positions = {l.corner, l.corner + l.edge1, l.corner + l.edge1 + l.edge2,
+                          l.corner + l.edge2};
         quad.triangles = {{0, 1, 2}, {0, 2, 3}};
         tracer_->add_mesh(quad);
         area_lights_.push_back(int(i));
@@ -291,12 +340,15 @@ Scene::Scene(SceneDesc desc, int threads) : desc_(std::move(desc)), tracer_(std:
     tracer_->commit();
     float scale = std::max(max_component(abs(all.lo)), max_component(abs(all.hi)));
     ray_epsilon_ = 1e-6f * (1.f + scale);
-    for (const Shape& s : desc_.shapes) grids_.push_back(DistanceGrid::build(s.mesh, desc_.render.grid_resolution, threads));
+    for (const Shape& s : desc_.shapes)
+        grids_.push_back(
+            DistanceGrid::build(s.mesh, desc_.render.grid_resolution, threads));
     for (size_t i = 0; i < desc_.shapes.size(); ++i) {
         Vec3 o = desc_.camera.origin;
         if (point_inside_mesh(desc_.shapes[i].mesh, o))
-            fail(desc_.source, ": camera.origin: [", o.x, ", ", o.y, ", ", o.z, "] lies inside shape '",
-                 desc_.shapes[i].name, "' (allowed: a camera outside every shape)");
+            fail(desc_.source, ": camera.origin: [", o.x, ", ", o.y, ", ", o.z,
+                 "] lies inside shape '", desc_.shapes[i].name,
+                 "' (allowed: a camera outside every shape)");
     }
 }
 

@@ -45,25 +45,27 @@ struct Camera {
 struct Light {
     enum class Type { Point, Directional, Area, Environment };
     Type type = Type::Point;
-    Vec3 position, intensity;      // point: W/sr per channel
-    Vec3 direction, irradiance;    // directional: unit travel direction, irradiance
-    Vec3 corner, edge1, edge2;     // area: quad corner + s*edge1 + t*edge2, emits along
-    Vec3 radiance;                 //   normalize(edge1 x edge2); environment: constant radiance
+    Vec3 position, intensity;    // point: W/sr per channel
+    Vec3 direction, irradiance;  // directional: unit travel direction, irradiance
+    Vec3 corner, edge1, edge2;   // area: quad corner + s*edge1 + t*edge2, emits along
+    Vec3 radiance;  //   normalize(edge1 x edge2); environment: constant radiance
 };
 
-// Default sphere_threshold tau of integrator "st": a collision at p takes a sphere step when
-// sigma_t * r(p) >= tau. Chosen by measurement (render time against image error on the sphere
-// and bunny scenes): docs/sphere-tracing.md, "Choosing the threshold".
+// Default sphere_threshold tau of integrator "st": a collision at p takes a sphere step
+// when sigma_t * r(p) >= tau. Chosen by measurement (render time against image error on
+// the sphere and bunny scenes): docs/sphere-tracing.md, "Choosing the threshold".
 constexpr float kDefaultSphereThreshold = 6.f;
 
 struct RenderSettings {
     std::string integrator = "pt";
     int spp = 16;
     uint64_t seed = 0;
-    int max_bounces = -1;        // scattering events per path; -1 = no limit
-    int grid_resolution = 64;    // distance-grid cells along a shape's largest side
-    float sphere_threshold = kDefaultSphereThreshold;  // "st": optical radius of the smallest step
-    std::string models;          // "st": model directory (resolved against the scene file's); "" = unset
+    int max_bounces = -1;      // scattering events per path; -1 = no limit
+    int grid_resolution = 64;  // distance-grid cells along a shape's largest side
+    float sphere_threshold =
+        kDefaultSphereThreshold;  // "st": optical radius of the smallest step
+    std::string
+        models;  // "st": model directory (resolved against the scene file's); "" = unset
 };
 
 struct SceneDesc {

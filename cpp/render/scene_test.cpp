@@ -62,19 +62,24 @@ INSTANTIATE_TEST_SUITE_P(
     Cases, SceneParseErrors,
     ::testing::Values(
         BadCase{"\"fov\": 30", "\"fov\": 30, \"zoom\": 2", "camera.zoom", "unknown key"},
-        BadCase{"\"albedo\": 0.9", "\"albedo\": [0.5, 1.2, 0.5]", "shapes[0].medium.albedo", "[0, 1]"},
-        BadCase{"\"sigma_t\": [1, 2, 3]", "\"sigma_t\": [1, -2, 3]", "shapes[0].medium.sigma_t", "[1,-2,3]"},
+        BadCase{"\"albedo\": 0.9", "\"albedo\": [0.5, 1.2, 0.5]",
+                "shapes[0].medium.albedo", "[0, 1]"},
+        BadCase{"\"sigma_t\": [1, 2, 3]", "\"sigma_t\": [1, -2, 3]",
+                "shapes[0].medium.sigma_t", "[1,-2,3]"},
         BadCase{"\"g\": 0.3", "\"g\": 1.0", "shapes[0].medium.g", "-1 < g < 1"},
         BadCase{"\"spp\": 4", "\"spp\": 0", "render.spp", "1 to"},
         BadCase{"\"width\": 8", "\"width\": 100000", "camera.width", "1 to 16384"},
         BadCase{"\"width\": 8", "\"width\": 8.5", "camera.width", "integer"},
-        BadCase{"\"radius\": 1", "\"radius\": \"big\"", "sphere.radius", "expected a number"},
+        BadCase{"\"radius\": 1", "\"radius\": \"big\"", "sphere.radius",
+                "expected a number"},
         BadCase{"\"radius\": 1", "\"radius\": 1e999", "malformed JSON", "1e999"},
-        BadCase{"\"type\": \"point\"", "\"type\": \"spot\"", "lights[0].type", "\"point\""},
+        BadCase{"\"type\": \"point\"", "\"type\": \"spot\"", "lights[0].type",
+                "\"point\""},
         BadCase{"\"seed\": 9", "\"seed\": 9,", "malformed JSON", "parse"},
-        BadCase{"\"target\": [0, 0, 0]", "\"target\": [0, 0, 4]", "camera.target", "equals origin"},
-        BadCase{"\"sphere\": {\"center\": [0, 0, 0], \"radius\": 1}", "\"mesh\": \"no_such.obj\"",
-                "shapes[0].mesh", "does not exist"}));
+        BadCase{"\"target\": [0, 0, 0]", "\"target\": [0, 0, 4]", "camera.target",
+                "equals origin"},
+        BadCase{"\"sphere\": {\"center\": [0, 0, 0], \"radius\": 1}",
+                "\"mesh\": \"no_such.obj\"", "shapes[0].mesh", "does not exist"}));
 
 TEST(SceneBuild, RefusesCameraInsideShape) {
     std::string text = kGood;
@@ -84,6 +89,7 @@ TEST(SceneBuild, RefusesCameraInsideShape) {
         Scene s(parse_scene(text, ".", "test.json"), 1);
         FAIL() << "camera inside a shape was accepted";
     } catch (const Error& e) {
-        EXPECT_NE(std::string(e.what()).find("inside shape"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("inside shape"), std::string::npos)
+            << e.what();
     }
 }

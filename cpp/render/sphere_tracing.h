@@ -1,7 +1,7 @@
-// The sphere-step policy of integrator "st" (DESIGN §5, docs/sphere-tracing.md): when and how
-// large a sphere step is, and one step sampled and mapped into the world. The path logic
-// around it (throughput, NEE weights, MIS state, roulette) is PathTracer's: "st" is the path
-// tracer with this policy switched on.
+// The sphere-step policy of integrator "st" (DESIGN §5, docs/sphere-tracing.md): when and
+// how large a sphere step is, and one step sampled and mapped into the world. The path
+// logic around it (throughput, NEE weights, MIS state, roulette) is PathTracer's: "st" is
+// the path tracer with this policy switched on.
 #pragma once
 
 #include <cstdint>
@@ -16,35 +16,37 @@ namespace sss {
 
 class ScatteringModel;
 
-// The largest optical radius of a step when exact walks stand in for the models (the same as
-// the models' training range, DESIGN §3).
+// The largest optical radius of a step when exact walks stand in for the models (the same
+// as the models' training range, DESIGN §3).
 constexpr float kWalkSigmaMax = 200.f;
-// A scene albedo this close outside EventGen's training range of phi is clamped into it for
-// EventGen (only the choice of the representative event sees the clamp; the weights phi^N and
-// Lambda use the true albedo). Further outside is an error.
+// A scene albedo this close outside EventGen's training range of phi is clamped into it
+// for EventGen (only the choice of the representative event sees the clamp; the weights
+// phi^N and Lambda use the true albedo). Further outside is an error.
 constexpr float kPhiClampTolerance = 1e-3f;
 
-// Where the steps come from: the learned models, or exact sphere walks (cpp/media; as slow as
-// path tracing, for validating the integrator without model error).
+// Where the steps come from: the learned models, or exact sphere walks (cpp/media; as
+// slow as path tracing, for validating the integrator without model error).
 enum class SphereSampler { Model, Walk };
 
 // One step in world space.
 struct WorldSphereStep {
-    int64_t N = 1;   // scattering events the step stands for (>= 1)
-    Vec3 exit_pos;   // p + r' x, on the sphere
-    Vec3 exit_dir;   // unit travel direction after the exit
-    Vec3 X, W;       // representative event and the unit direction arriving at it (with_event)
-    bool first_event = true;  // the representative event is the first one, at p (X = p, W = w_in)
+    int64_t N = 1;  // scattering events the step stands for (>= 1)
+    Vec3 exit_pos;  // p + r' x, on the sphere
+    Vec3 exit_dir;  // unit travel direction after the exit
+    Vec3 X, W;  // representative event and the unit direction arriving at it (with_event)
+    bool first_event =
+        true;  // the representative event is the first one, at p (X = p, W = w_in)
 };
 
 class SphereTracing {
 public:
-    // Loads the models from `models` (not for the walks, nor when threshold is infinite: no
-    // step can happen) and checks every medium of the scene against their training ranges:
-    // g, sigma from max(threshold, lower end) to the upper end, and (with NEE, for media that
-    // get NEE) every channel's albedo. Throws sss::Error naming the shape, the value and the
-    // range.
-    SphereTracing(const Scene& scene, float threshold, SphereSampler sampler, const std::string& models, bool nee);
+    // Loads the models from `models` (not for the walks, nor when threshold is infinite:
+    // no step can happen) and checks every medium of the scene against their training
+    // ranges: g, sigma from max(threshold, lower end) to the upper end, and (with NEE,
+    // for media that get NEE) every channel's albedo. Throws sss::Error naming the shape,
+    // the value and the range.
+    SphereTracing(const Scene& scene, float threshold, SphereSampler sampler,
+                  const std::string& models, bool nee);
     ~SphereTracing();
     SphereTracing(const SphereTracing&) = delete;
     SphereTracing& operator=(const SphereTracing&) = delete;
@@ -52,17 +54,17 @@ public:
     float threshold() const { return threshold_; }
     // Steps are shrunk so that sigma = sigma_t * r' <= sigma_max.
     float sigma_max() const { return sigma_max_; }
-    // Whether a step in `shape` samples its representative event (NEE on, lights present, an
-    // index-matched boundary: a dielectric-bounded medium gets no NEE, as in pt).
+    // Whether a step in `shape` samples its representative event (NEE on, lights present,
+    // an index-matched boundary: a dielectric-bounded medium gets no NEE, as in pt).
     bool wants_event(int shape) const;
     // The albedo EventGen is asked about for scene albedo phi (clamped into its range).
     float event_phi(float phi) const;
 
-    // One step of radius `radius` and optical radius `sigma` at p, entered along unit w_in, for
-    // anisotropy g and (for the event) albedo phi. Consumes rng: the sampler's numbers, then one
-    // for the turn psi about w_in.
-    WorldSphereStep sample(Vec3 p, Vec3 w_in, float radius, float sigma, float g, float phi, bool with_event,
-                           Rng& rng) const;
+    // One step of radius `radius` and optical radius `sigma` at p, entered along unit
+    // w_in, for anisotropy g and (for the event) albedo phi. Consumes rng: the sampler's
+    // numbers, then one for the turn psi about w_in.
+    WorldSphereStep sample(Vec3 p, Vec3 w_in, float radius, float sigma, float g,
+                           float phi, bool with_event, Rng& rng) const;
 
 private:
     const Scene& scene_;

@@ -7,9 +7,9 @@
 
 #include "core/check.h"
 #include "render/renderer.h"
+#include "testing/errors.h"
 #include "testing/model_dir.h"
 #include "testing/stats.h"
-#include "testing/errors.h"
 
 using namespace sss;
 
@@ -18,7 +18,8 @@ namespace {
 using test::error_of;
 
 // A sphere of radius 1 in a constant environment (optionally with a point light).
-SceneDesc sphere_scene(Vec3 sigma_t, Vec3 albedo, float g, BoundaryType boundary, bool point_light = false) {
+SceneDesc sphere_scene(Vec3 sigma_t, Vec3 albedo, float g, BoundaryType boundary,
+                       bool point_light = false) {
     SceneDesc d;
     d.source = "st-test";
     d.camera.origin = {0, 0, 3.5f};
@@ -58,8 +59,9 @@ RenderOptions st_options(const std::string& models, float threshold) {
 }  // namespace
 
 TEST(SphereTracer, FurnaceWithoutNeeIsExactPerPathForAnyModel) {
-    // Albedo 1 in a uniform environment of radiance 1, no NEE: every path keeps weight 1 and
-    // escapes, whatever a (here random) model says about N and the exit. Every pixel is 1.
+    // Albedo 1 in a uniform environment of radiance 1, no NEE: every path keeps weight 1
+    // and escapes, whatever a (here random) model says about N and the exit. Every pixel
+    // is 1.
     test::ModelDir models;
     models.write_random(2);
     for (BoundaryType b : {BoundaryType::IndexMatched, BoundaryType::Dielectric}) {
@@ -74,13 +76,14 @@ TEST(SphereTracer, FurnaceWithoutNeeIsExactPerPathForAnyModel) {
 }
 
 TEST(SphereTracer, FurnaceWithNeeAndExactWalksIsUnbiased) {
-    // With exact sphere walks in place of the networks, st with NEE (Lambda-weighted light
-    // connections from the representative event, MIS for the first event only) must give the
-    // furnace's 1 everywhere up to noise. The NEE weights (Lambda = N here) make single samples
-    // heavy-tailed, so pixel variances from few samples are unreliable: the test compares
-    // 4x4-pixel block means (chi-square) and the mean over the sphere.
+    // With exact sphere walks in place of the networks, st with NEE (Lambda-weighted
+    // light connections from the representative event, MIS for the first event only) must
+    // give the furnace's 1 everywhere up to noise. The NEE weights (Lambda = N here) make
+    // single samples heavy-tailed, so pixel variances from few samples are unreliable:
+    // the test compares 4x4-pixel block means (chi-square) and the mean over the sphere.
     for (Vec3 sigma_t : {Vec3(6.f), Vec3(2.f, 6.f, 12.f)}) {
-        Scene scene(sphere_scene(sigma_t, Vec3(1.f), 0.5f, BoundaryType::IndexMatched), 2);
+        Scene scene(sphere_scene(sigma_t, Vec3(1.f), 0.5f, BoundaryType::IndexMatched),
+                    2);
         RenderOptions opt = st_options("", 1.f);
         opt.sphere_sampler = SphereSampler::Walk;
         opt.spp = 128;
@@ -110,17 +113,20 @@ TEST(SphereTracer, FurnaceWithNeeAndExactWalksIsUnbiased) {
                     ++n;
                 }
         ASSERT_GT(n, 20);
-        EXPECT_LT(chi2, test::chi2_critical(n)) << "chi2 " << chi2 << " over " << n << " blocks";
+        EXPECT_LT(chi2, test::chi2_critical(n))
+            << "chi2 " << chi2 << " over " << n << " blocks";
         EXPECT_NEAR(sum / pixels, 1.0, 4.0 * std::sqrt(var) / pixels);
         EXPECT_GT(r.total_sphere_steps, r.total_paths / 10);
     }
 }
 
 TEST(SphereTracer, InfiniteThresholdGivesPtBitForBit) {
-    // tau = inf runs st's code (a grid query at every collision) but never steps: the image,
-    // its variance and the event counts are pt's exactly. No models are needed.
+    // tau = inf runs st's code (a grid query at every collision) but never steps: the
+    // image, its variance and the event counts are pt's exactly. No models are needed.
     for (BoundaryType b : {BoundaryType::IndexMatched, BoundaryType::Dielectric}) {
-        Scene scene(sphere_scene(Vec3(3.f, 8.f, 20.f), Vec3(0.9f, 0.8f, 0.95f), 0.4f, b, true), 2);
+        Scene scene(
+            sphere_scene(Vec3(3.f, 8.f, 20.f), Vec3(0.9f, 0.8f, 0.95f), 0.4f, b, true),
+            2);
         RenderOptions pt;
         pt.spp = 8;
         pt.threads = 2;
@@ -137,7 +143,9 @@ TEST(SphereTracer, InfiniteThresholdGivesPtBitForBit) {
 TEST(SphereTracer, IdenticalForAnyThreadCount) {
     test::ModelDir models;
     models.write_random(3);
-    Scene scene(sphere_scene(Vec3(15.f), Vec3(0.99f, 0.9f, 0.8f), 0.3f, BoundaryType::IndexMatched, true), 1);
+    Scene scene(sphere_scene(Vec3(15.f), Vec3(0.99f, 0.9f, 0.8f), 0.3f,
+                             BoundaryType::IndexMatched, true),
+                1);
     RenderOptions opt = st_options(models.path(), 2.f);
     opt.spp = 4;
     opt.threads = 1;
@@ -156,7 +164,8 @@ TEST(SphereTracer, RefusesWhatTheModelsCannotDo) {
         test::set_training_range(d, "g", -0.5, 0.5);
         test::set_training_range(d, "phi", 0.0, 0.9);
     });
-    SceneDesc desc = sphere_scene(Vec3(10.f), Vec3(0.8f), 0.3f, BoundaryType::IndexMatched);
+    SceneDesc desc =
+        sphere_scene(Vec3(10.f), Vec3(0.8f), 0.3f, BoundaryType::IndexMatched);
     auto err = [&](SceneDesc d, RenderOptions opt) {
         opt.spp = 1;
         Scene scene(std::move(d), 1);
@@ -165,11 +174,16 @@ TEST(SphereTracer, RefusesWhatTheModelsCannotDo) {
     // Fine as it is.
     EXPECT_EQ(err(desc, st_options(models.path(), 2.f)), "");
 
-    EXPECT_HAS(err(desc, st_options("", 2.f)), "needs the directory of the sphere-step models");
-    EXPECT_HAS(err(desc, st_options(models.path() + "/nowhere", 2.f)), "nowhere: not a directory");
-    EXPECT_HAS(err(desc, st_options(models.path(), -1.f)), "sphere_threshold must be >= 0");
-    EXPECT_HAS(err(desc, st_options(models.path(), std::nanf(""))), "sphere_threshold must be >= 0");
-    EXPECT_HAS(err(desc, st_options(models.path(), 0.25f)), "below the smallest optical radius");
+    EXPECT_HAS(err(desc, st_options("", 2.f)),
+               "needs the directory of the sphere-step models");
+    EXPECT_HAS(err(desc, st_options(models.path() + "/nowhere", 2.f)),
+               "nowhere: not a directory");
+    EXPECT_HAS(err(desc, st_options(models.path(), -1.f)),
+               "sphere_threshold must be >= 0");
+    EXPECT_HAS(err(desc, st_options(models.path(), std::nanf(""))),
+               "sphere_threshold must be >= 0");
+    EXPECT_HAS(err(desc, st_options(models.path(), 0.25f)),
+               "below the smallest optical radius");
 
     SceneDesc g = desc;
     g.shapes[0].medium.g = 0.7f;
@@ -179,11 +193,13 @@ TEST(SphereTracer, RefusesWhatTheModelsCannotDo) {
 
     SceneDesc phi = desc;
     phi.shapes[0].medium.albedo = Vec3(0.8f, 0.95f, 0.8f);
-    EXPECT_HAS(err(phi, st_options(models.path(), 2.f)), "albedo 0.95 is outside EventGen's training range");
+    EXPECT_HAS(err(phi, st_options(models.path(), 2.f)),
+               "albedo 0.95 is outside EventGen's training range");
     RenderOptions no_nee = st_options(models.path(), 2.f);
     no_nee.nee = false;  // EventGen is not used: any albedo
     EXPECT_EQ(err(phi, no_nee), "");
-    phi.shapes[0].boundary.type = BoundaryType::Dielectric;  // no NEE from inside: EventGen unused
+    phi.shapes[0].boundary.type =
+        BoundaryType::Dielectric;  // no NEE from inside: EventGen unused
     EXPECT_EQ(err(phi, st_options(models.path(), 2.f)), "");
     phi.shapes[0].boundary.type = BoundaryType::IndexMatched;
     phi.shapes[0].medium.albedo = Vec3(0.9005f);  // within kPhiClampTolerance: clamped
@@ -195,5 +211,6 @@ TEST(SphereTracer, RefusesWhatTheModelsCannotDo) {
 
     test::ModelDir incomplete("incomplete");
     incomplete.write(test::random_decoder("LengthGen", 1));
-    EXPECT_HAS(err(desc, st_options(incomplete.path(), 2.f)), "cannot open the model file");
+    EXPECT_HAS(err(desc, st_options(incomplete.path(), 2.f)),
+               "cannot open the model file");
 }

@@ -6,8 +6,8 @@
 namespace sss {
 
 // cos_i: cosine between the incident travel direction reversed and the normal on the
-// incident side (> 0). eta: n_transmitted / n_incident. Returns the reflectance R in [0, 1]
-// and writes the transmitted cosine (> 0); R = 1 under total internal reflection.
+// incident side (> 0). eta: n_transmitted / n_incident. Returns the reflectance R in [0,
+// 1] and writes the transmitted cosine (> 0); R = 1 under total internal reflection.
 inline float fresnel_dielectric(float cos_i, float eta, float* cos_t) {
     float sin2_t = (1.f - cos_i * cos_i) / (eta * eta);
     if (sin2_t >= 1.f) {

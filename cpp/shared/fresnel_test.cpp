@@ -7,7 +7,8 @@ using namespace sss;
 TEST(Fresnel, NormalIncidence) {
     float ct;
     float eta = 1.5f;
-    EXPECT_NEAR(fresnel_dielectric(1.f, eta, &ct), (eta - 1) * (eta - 1) / ((eta + 1) * (eta + 1)), 1e-6f);
+    EXPECT_NEAR(fresnel_dielectric(1.f, eta, &ct),
+                (eta - 1) * (eta - 1) / ((eta + 1) * (eta + 1)), 1e-6f);
     EXPECT_NEAR(ct, 1.f, 1e-6f);
 }
 

@@ -1,7 +1,7 @@
-// Henyey-Greenstein phase function. Direction convention (docs/notation.md): `cos_theta` is
-// the cosine between the direction the photon travels *before* scattering and the one it
-// travels *after*; g > 0 scatters forward. The phase function is normalised over the sphere:
-// integral of hg_eval over all directions = 1.
+// Henyey-Greenstein phase function. Direction convention (docs/notation.md): `cos_theta`
+// is the cosine between the direction the photon travels *before* scattering and the one
+// it travels *after*; g > 0 scatters forward. The phase function is normalised over the
+// sphere: integral of hg_eval over all directions = 1.
 #pragma once
 
 #include <cmath>
@@ -13,7 +13,8 @@ namespace sss {
 
 constexpr float kInvFourPi = 0.07957747154594767f;
 constexpr float kPi = 3.14159265358979323846f;
-// Below this |g| the phase function is sampled as isotropic (the inversion is ill-conditioned).
+// Below this |g| the phase function is sampled as isotropic (the inversion is
+// ill-conditioned).
 constexpr float kHgIsotropicG = 1e-3f;
 
 inline float hg_eval(float cos_theta, float g) {
@@ -29,7 +30,8 @@ inline float hg_sample_cos(float u, float g) {
     return std::clamp(c, -1.f, 1.f);
 }
 
-// New travel direction for a photon travelling along unit `wi`; returns it, pdf = hg_eval.
+// New travel direction for a photon travelling along unit `wi`; returns it, pdf =
+// hg_eval.
 inline Vec3 hg_sample(Vec3 wi, float g, float u1, float u2) {
     float c = hg_sample_cos(u1, g);
     float s = std::sqrt(std::max(0.f, 1.f - c * c));

@@ -37,7 +37,8 @@ TEST_P(HgTest, SamplingMatchesDensityChi2) {
     for (int b = 0; b < bins; ++b) {
         // Expected count: 2 pi * integral of hg over the bin (fine midpoint rule).
         double lo = -1.0 + 2.0 * b / bins, hi = lo + 2.0 / bins, p = 0;
-        for (int k = 0; k < 100; ++k) p += hg_eval(float(lo + (hi - lo) * (k + 0.5) / 100), g);
+        for (int k = 0; k < 100; ++k)
+            p += hg_eval(float(lo + (hi - lo) * (k + 0.5) / 100), g);
         double expected = n * 2.0 * kPi * p * (hi - lo) / 100;
         if (expected < 5) continue;
         chi2 += (observed[b] - expected) * (observed[b] - expected) / expected;

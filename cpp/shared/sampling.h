@@ -8,8 +8,11 @@
 
 namespace sss {
 
-// Free-flight distance in a homogeneous medium: t = -ln(1 - u) / sigma_t, pdf sigma_t e^{-sigma_t t}.
-inline float sample_exponential(float u, float sigma_t) { return -std::log1p(-u) / sigma_t; }
+// Free-flight distance in a homogeneous medium: t = -ln(1 - u) / sigma_t, pdf sigma_t
+// e^{-sigma_t t}.
+inline float sample_exponential(float u, float sigma_t) {
+    return -std::log1p(-u) / sigma_t;
+}
 
 inline Vec3 sample_uniform_sphere(float u1, float u2) {
     float z = 1.f - 2.f * u1;

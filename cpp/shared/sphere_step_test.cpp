@@ -25,7 +25,8 @@ TEST(SphereStep, FrameIsRightHandedWithZAlongTheDirection) {
     }
     // u = 0 is Frame::from_z; u = 1/4 turns it by 90 degrees about w.
     Vec3 w = normalize(Vec3(0.3f, -0.5f, 0.8f));
-    Frame f0 = Frame::from_z(w), f = sphere_step_frame(w, 0.f), q = sphere_step_frame(w, 0.25f);
+    Frame f0 = Frame::from_z(w), f = sphere_step_frame(w, 0.f),
+          q = sphere_step_frame(w, 0.25f);
     EXPECT_EQ(f.s, f0.s);
     EXPECT_NEAR(length(q.s - f0.t), 0.f, 1e-6f);
     EXPECT_NEAR(length(q.t + f0.s), 0.f, 1e-6f);
@@ -45,7 +46,8 @@ TEST(SphereStep, ExitDirectionHasTheDocumentedComponents) {
         EXPECT_NEAR(length(w), 1.f, 1e-5f);
         EXPECT_NEAR(w.y, alpha, 1e-6f);
         EXPECT_NEAR(dot(w, Vec3(c, 0.f, -s)), beta, 1e-5f);
-        EXPECT_NEAR(dot(w, x), std::sqrt(std::max(0.f, 1.f - alpha * alpha - beta * beta)), 1e-5f);
+        EXPECT_NEAR(dot(w, x),
+                    std::sqrt(std::max(0.f, 1.f - alpha * alpha - beta * beta)), 1e-5f);
     }
     // No tangential part: the photon leaves along the exit normal (the N = 1 case).
     Vec3 x = sphere_exit_point(0.6f);
@@ -60,9 +62,11 @@ TEST(SphereStep, WeightsMatchTheirSums) {
                 power *= phi;
                 sum += power;
             }
-            EXPECT_NEAR(survival_power(phi, n), double(power), 1e-12 * std::max(1.0, double(power)))
+            EXPECT_NEAR(survival_power(phi, n), double(power),
+                        1e-12 * std::max(1.0, double(power)))
                 << phi << " " << n;
-            EXPECT_NEAR(event_weight_sum(phi, n), double(sum), 1e-9 * std::max(1.0, double(sum)))
+            EXPECT_NEAR(event_weight_sum(phi, n), double(sum),
+                        1e-9 * std::max(1.0, double(sum)))
                 << phi << " " << n;
         }
     }

@@ -23,4 +23,5 @@ inline std::string error_of(const std::function<void()>& f) {
 }  // namespace sss::test
 
 // The message contains `part`.
-#define EXPECT_HAS(msg, part) EXPECT_NE((msg).find(part), std::string::npos) << "message: " << (msg)
+#define EXPECT_HAS(msg, part) \
+    EXPECT_NE((msg).find(part), std::string::npos) << "message: " << (msg)

@@ -1,6 +1,6 @@
-// A temporary directory of model files (lengthgen.json, pathgen.json, eventgen.json), removed
-// when the object goes out of scope. Named after the running test (plus a suffix, so that one
-// test can have several).
+// A temporary directory of model files (lengthgen.json, pathgen.json, eventgen.json),
+// removed when the object goes out of scope. Named after the running test (plus a suffix,
+// so that one test can have several).
 #pragma once
 
 #include <gtest/gtest.h>
@@ -19,14 +19,17 @@ public:
     explicit ModelDir(const std::string& suffix = "") {
         const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
         path_ = std::filesystem::temp_directory_path() /
-                (std::string("sss_modeldir_") + info->test_suite_name() + "_" + info->name() + suffix);
+                (std::string("sss_modeldir_") + info->test_suite_name() + "_" +
+                 info->name() + suffix);
         std::filesystem::create_directories(path_);
     }
     ~ModelDir() { std::filesystem::remove_all(path_); }
     ModelDir(const ModelDir&) = delete;
     ModelDir& operator=(const ModelDir&) = delete;
 
-    void write(const std::string& file, const std::string& text) { std::ofstream(path_ / file) << text; }
+    void write(const std::string& file, const std::string& text) {
+        std::ofstream(path_ / file) << text;
+    }
     void write(const Decoder& d) {
         std::string file = d.name;
         for (char& c : file) c = char(std::tolower(c));
@@ -52,7 +55,8 @@ private:
 };
 
 // Sets training range `param` of decoder d to [lo, hi].
-inline void set_training_range(Decoder& d, const std::string& param, double lo, double hi) {
+inline void set_training_range(Decoder& d, const std::string& param, double lo,
+                               double hi) {
     for (auto& [name, range] : d.training_ranges)
         if (name == param) range = {lo, hi};
 }

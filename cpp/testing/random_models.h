@@ -21,7 +21,8 @@ struct DecoderShape {
 
 inline DecoderShape table1_shape(const std::string& name) {
     if (name == "LengthGen") return {"LengthGen", {"sigma", "g"}, {"N"}, 2, 8, 2};
-    if (name == "PathGen") return {"PathGen", {"sigma", "g", "N"}, {"cos_theta", "alpha", "beta"}, 5, 16, 2};
+    if (name == "PathGen")
+        return {"PathGen", {"sigma", "g", "N"}, {"cos_theta", "alpha", "beta"}, 5, 16, 2};
     if (name == "EventGen")
         return {"EventGen",
                 {"sigma", "g", "phi", "N", "cos_theta", "alpha", "beta"},
@@ -53,17 +54,18 @@ inline Encoding plausible_encoding(const std::string& var) {
     return e;
 }
 
-// Weights uniform in +-weight_scale * sqrt(3 / in) (unit variance per output for unit inputs);
-// the last layer's log-variance biases at `logvar_bias`, the mean biases at 0 except ln 10 for
-// N (so that N is around 10).
-inline Decoder random_decoder(const DecoderShape& shape, uint64_t seed, float weight_scale = 1.f,
-                              float logvar_bias = -2.f) {
+// Weights uniform in +-weight_scale * sqrt(3 / in) (unit variance per output for unit
+// inputs); the last layer's log-variance biases at `logvar_bias`, the mean biases at 0
+// except ln 10 for N (so that N is around 10).
+inline Decoder random_decoder(const DecoderShape& shape, uint64_t seed,
+                              float weight_scale = 1.f, float logvar_bias = -2.f) {
     Rng rng(0xdec0de, seed);
     auto uni = [&](float a) { return a * (2.f * rng.uniform() - 1.f); };
     Decoder d;
     d.source = std::string("random ") + shape.name;
     d.name = shape.name;
-    for (const char* c : shape.conditions) d.conditions.push_back({c, plausible_encoding(c)});
+    for (const char* c : shape.conditions)
+        d.conditions.push_back({c, plausible_encoding(c)});
     for (const char* o : shape.outputs) d.outputs.push_back({o, plausible_encoding(o)});
     d.latent_dim = shape.latent_dim;
     d.input_width = (d.num_conditions() + d.latent_dim + 3) / 4 * 4;
@@ -79,20 +81,22 @@ inline Decoder random_decoder(const DecoderShape& shape, uint64_t seed, float we
         for (int o = 0; o < L.out; ++o) L.bias.push_back(uni(0.5f));
         if (last) {
             for (int o = 0; o < d.num_outputs(); ++o) {
-                L.bias[o] = d.outputs[o].name == "N" ? 0.5f * std::log(10.f) : 0.f;  // e = ln(N) / 2
+                L.bias[o] = d.outputs[o].name == "N" ? 0.5f * std::log(10.f)
+                                                     : 0.f;  // e = ln(N) / 2
                 L.bias[d.num_outputs() + o] = logvar_bias;
             }
         }
         d.layers.push_back(std::move(L));
         in = shape.width;
     }
-    d.training_ranges = {{"sigma", {0.0, 200.0}}, {"g", {-0.95, 0.95}}, {"phi", {0.0, 1.0}}};
+    d.training_ranges = {
+        {"sigma", {0.0, 200.0}}, {"g", {-0.95, 0.95}}, {"phi", {0.0, 1.0}}};
     d.training_json = "{\"samples\": 0, \"note\": \"random weights for tests\"}";
     return d;
 }
 
-inline Decoder random_decoder(const std::string& name, uint64_t seed, float weight_scale = 1.f,
-                              float logvar_bias = -2.f) {
+inline Decoder random_decoder(const std::string& name, uint64_t seed,
+                              float weight_scale = 1.f, float logvar_bias = -2.f) {
     return random_decoder(table1_shape(name), seed, weight_scale, logvar_bias);
 }
 

@@ -14,7 +14,8 @@ public:
     TempFile(const std::string& name, const std::string& content) {
         const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
         path_ = (std::filesystem::temp_directory_path() /
-                 (std::string("sss_") + info->test_suite_name() + "_" + info->name() + "_" + name))
+                 (std::string("sss_") + info->test_suite_name() + "_" + info->name() +
+                  "_" + name))
                     .string();
         std::ofstream(path_) << content;
     }
