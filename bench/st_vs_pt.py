@@ -26,7 +26,8 @@ time per path, a + b * events, over all its `pt` renders gives the cost b of one
 time of each `st` render above a + b * events, divided by its steps, is the cost of a step.
 
     PYTHONPATH=python python bench/st_vs_pt.py            # full run, ~20 min on 2 cores
-    PYTHONPATH=python python bench/st_vs_pt.py --quick    # smoke run, seconds
+    PYTHONPATH=python python bench/st_vs_pt.py --quick    # smoke run, ~30 s
+    PYTHONPATH=python python bench/st_vs_pt.py --table bench/results/st_vs_pt.json  # tables only
 
 Writes bench/results/st_vs_pt.json (rewritten after each scene) and, with matplotlib,
 st_vs_pt.png (speed-up, complexity, errors), st_vs_pt_steps.png (heat maps) and
@@ -54,9 +55,9 @@ REPO = HERE.parent
 sys.path.insert(0, str(REPO / "tests"))  # mitsuba_util: the Mitsuba translation shared with the tests
 sys.path.insert(0, str(HERE))  # st_threshold: srgb / rmse_srgb
 
-import sssphere  # noqa: E402
-from sssphere.render import DEFAULT_SPHERE_THRESHOLD as DEFAULT_TAU  # noqa: E402
-from st_threshold import rmse_srgb, srgb  # noqa: E402
+import sssphere
+from sssphere.render import DEFAULT_SPHERE_THRESHOLD as DEFAULT_TAU
+from st_threshold import rmse_srgb, srgb
 
 SHAPES = {"bunny": "scenes/bunny.json", "thin_torus": "scenes/thin_torus.json"}
 BOUNDARIES = ("dielectric", "index_matched")
@@ -96,28 +97,49 @@ def srgb_slope(x: np.ndarray) -> np.ndarray:
     return np.where((x <= 0) | (x >= 1), 0.0, y)
 
 
+def noise_error(variance, ref_image) -> dict:
+    """Expected error from noise alone, given a per-pixel variance of the mean (sRGB by the
+    delta method, with the slope taken at the reference)."""
+    var = np.asarray(variance, dtype=np.float64)
+    img = np.asarray(ref_image, dtype=np.float64)
+    return {"rmse_srgb": float(np.sqrt(np.nanmean(srgb_slope(img) ** 2 * var))),
+            "rel_mse": float(np.nanmean(var / (img ** 2 + REL_EPS)))}
+
+
 def reference_error(ref) -> dict:
     """Expected error of the reference itself from its per-pixel variance of the mean."""
-    var = ref.variance.astype(np.float64)
-    img = ref.image.astype(np.float64)
-    return {"rmse_srgb": float(np.sqrt(np.mean(srgb_slope(img) ** 2 * var))),
-            "rel_mse": float(np.mean(var / (img ** 2 + REL_EPS)))}
+    return noise_error(ref.variance, ref.image)
 
 
 def errors(r, ref, ref_err: dict) -> dict:
     a, b = r.image.astype(np.float64), ref.image.astype(np.float64)
+    # Pixels with a non-finite value in either image (a NaN sample) are left out and counted.
+    bad = ~(np.isfinite(a).all(axis=2) & np.isfinite(b).all(axis=2))
+    if bad.any():
+        a, b = a[~bad][None], b[~bad][None]
+        r = argparse.Namespace(image=a, variance=r.variance[~bad][None])
+        ref = argparse.Namespace(image=b, variance=ref.variance[~bad][None])
+        ref_err = reference_error(ref)
     n = a.shape[0] * a.shape[1]
     mean, mean_ref = a.mean(axis=(0, 1)), b.mean(axis=(0, 1))
     sigma = np.sqrt(r.variance.astype(np.float64).sum(axis=(0, 1))
                     + ref.variance.astype(np.float64).sum(axis=(0, 1))) / n
     rmse, rmse_ref = rmse_srgb(a, b), ref_err["rmse_srgb"]
     rel, rel_ref = rel_mse(a, b), ref_err["rel_mse"]
+    own = noise_error(r.variance, b)
     return {
         "rmse_srgb": rmse,
         # E[(x - ref)^2] = (x - truth)^2 + var(ref): remove the reference's expected share.
         "rmse_srgb_ref_corrected": float(math.sqrt(max(rmse ** 2 - rmse_ref ** 2, 0.0))),
         "rel_mse": rel,
         "rel_mse_ref_corrected": max(rel - rel_ref, 0.0),
+        # Both renders' expected noise removed: what is left estimates the systematic error
+        # (bias, model error); noisy itself where the noise dominates.
+        "rmse_srgb_noise_removed": float(math.sqrt(max(
+            rmse ** 2 - rmse_ref ** 2 - own["rmse_srgb"] ** 2, 0.0))),
+        "rel_mse_noise_removed": max(rel - rel_ref - own["rel_mse"], 0.0),
+        "own_noise": own,
+        "non_finite_pixels_left_out": int(bad.sum()),
         "bias": ((mean - mean_ref) / mean_ref).tolist(),
         "bias_sigma": (sigma / mean_ref).tolist(),
     }
@@ -131,9 +153,21 @@ def render(scene, integrator, spp, seed, args, **kw):
 
 
 def summary(r, spp) -> dict:
+    img = r.image.astype(np.float64)
     return {"spp": int(spp), "seconds": r.seconds, "events_per_path": r.mean_events_per_path,
             "sphere_steps_per_path": r.mean_sphere_steps_per_path,
-            "image_mean": r.image.astype(np.float64).mean(axis=(0, 1)).tolist()}
+            "non_finite_pixels": int((~np.isfinite(img).all(axis=2)).sum()),
+            "image_mean": np.nanmean(img, axis=(0, 1)).tolist()}
+
+
+def timed(scene, integrator, spp, seed, args, **kw):
+    """A render whose time, if under a second, is the best of three identical renders (the
+    image is the same: renders are deterministic); short renders are otherwise too noisy."""
+    r = render(scene, integrator, spp, seed, args, **kw)
+    if r.seconds < 1.0:
+        r.seconds = min([r.seconds] + [render(scene, integrator, spp, seed, args, **kw).seconds
+                                       for _ in range(2)])
+    return r
 
 
 def reference(scene, key, spp, args):
@@ -155,8 +189,8 @@ def run_scene(shape, boundary, scale, args, maps) -> dict:
     sd = scene_dict(shape, boundary, sigma, args.resolution)
     scene = sssphere.load_scene(sd, threads=args.threads)
     S = args.spp
-    pt = render(scene, "pt", S, 1, args)
-    st = render(scene, "st", S, 1, args)
+    pt = timed(scene, "pt", S, 1, args)
+    st = timed(scene, "st", S, 1, args)
     # Reference: the largest power of two <= ref_spp whose projected time fits the budget.
     per_spp = pt.seconds / S
     ref_spp = args.ref_spp
@@ -165,7 +199,7 @@ def run_scene(shape, boundary, scale, args, maps) -> dict:
     key = f"{shape}_{boundary}_s{sigma:g}_{args.resolution}px_{ref_spp}spp"
     ref = reference(scene, key, ref_spp, args)
     ref_err = reference_error(ref)
-    nonee = render(scene, "pt", S, 2, args, nee=False)
+    nonee = timed(scene, "pt", S, 2, args, nee=False)
     # Equal time: pt's time at S spp; the others' spp scaled by their cost per sample.
     st_spp = max(1, round(S * pt.seconds / st.seconds))
     st_eq = render(scene, "st", st_spp, 3, args)
@@ -173,6 +207,11 @@ def run_scene(shape, boundary, scale, args, maps) -> dict:
     nonee_eq = nonee if abs(nonee_spp - S) <= 0.1 * S else render(scene, "pt", nonee_spp, 4, args, nee=False)
     if abs(nonee_spp - S) <= 0.1 * S:
         nonee_spp = S
+    # The densest bunny: st at the reference's spp too, to see its error near convergence.
+    st_conv = None
+    if shape == "bunny" and scale == max(args.scales):
+        c = render(scene, "st", ref_spp, 6, args)
+        st_conv = {**summary(c, ref_spp), **errors(c, ref, ref_err)}
     maps[(shape, boundary, scale)] = {
         "pt": pt.events, "st": st.events + st.sphere_steps, "st_steps": st.sphere_steps,
         "ref": ref.image, "pt_img": pt.image, "st_eq_img": st_eq.image, "nonee_eq_img": nonee_eq.image}
@@ -187,15 +226,17 @@ def run_scene(shape, boundary, scale, args, maps) -> dict:
         "equal_spp_errors": {"pt": errors(pt, ref, ref_err), "st": errors(st, ref, ref_err)},
         "reference": {"spp": ref_spp, "seconds": ref.seconds, "cached": ref.cached,
                       "own_error": ref_err,
-                      "image_mean": ref.image.astype(np.float64).mean(axis=(0, 1)).tolist()},
+                      "non_finite_pixels": int((~np.isfinite(ref.image).all(axis=2)).sum()),
+                      "image_mean": np.nanmean(ref.image.astype(np.float64), axis=(0, 1)).tolist()},
         "equal_time": {
             "pt_nee": {**summary(pt, S), **errors(pt, ref, ref_err)},
             "pt_no_nee": {**summary(nonee_eq, nonee_spp), **errors(nonee_eq, ref, ref_err)},
             "st": {**summary(st_eq, st_spp), **errors(st_eq, ref, ref_err)},
         },
         "pt_no_nee_equal_spp": summary(nonee, S),
+        "st_at_reference_spp": st_conv,
         "ns_per_path": {"pt": 1e9 * pt.seconds / (paths * S), "st": 1e9 * st.seconds / (paths * S),
-                        "ref": 1e9 * ref.seconds / (paths * ref_spp) if not ref.cached else None,
+                        "ref": 1e9 * ref.seconds / (paths * ref_spp),
                         "st_eq": 1e9 * st_eq.seconds / (paths * st_spp)},
         "st_eq_events_per_path": st_eq.mean_events_per_path,
         "st_eq_steps_per_path": st_eq.mean_sphere_steps_per_path,
@@ -256,7 +297,8 @@ def mitsuba_case(shape, boundary, scale, args, mu, mi, warm, st_row) -> dict:
             "spp": args.mitsuba_spp, "mitsuba_seconds": mi_s, "st_seconds": st.seconds,
             "pt_seconds": pt.seconds,
             "ratio_mitsuba_over_st": mi_s / st.seconds, "ratio_mitsuba_over_pt": mi_s / pt.seconds,
-            "mitsuba_mean_vs_reference": (img.mean(axis=(0, 1)) / ref_mean - 1).tolist(),
+            "mitsuba_mean_vs_reference": (np.nanmean(img, axis=(0, 1)) / ref_mean - 1).tolist(),
+            "pt_mean_vs_reference": (pt.image.mean(axis=(0, 1)) / ref_mean - 1).tolist(),
             "st_mean_vs_reference": (st.image.mean(axis=(0, 1)) / ref_mean - 1).tolist()}
 
 
@@ -289,7 +331,7 @@ def plot(results, maps, outdir: Path):
         for k, (name, m) in enumerate((("st", "st"), ("pt_nee", "pt"), ("pt_no_nee", "pt no NEE"))):
             if fam == ("bunny", "dielectric") or fam == ("bunny", "index_matched"):
                 ax[2 if fam[1] == "dielectric" else 3].loglog(
-                    s, [r["equal_time"][name]["rmse_srgb"] for r in fr], "o-s^"[k] + "-", label=m)
+                    s, [r["equal_time"][name]["rmse_srgb"] for r in fr], "os^"[k] + "-", label=m)
     ax[0].axhline(1, color="grey", lw=0.6)
     ax[0].axhline(16, color="red", lw=0.6, ls=":")
     ax[0].set(xlabel="sigma_t per unit", ylabel="time pt / time st", title="speed-up at equal spp")
@@ -346,7 +388,7 @@ def plot(results, maps, outdir: Path):
             m = maps[k]
             for j, (name, t) in enumerate((("ref", "pt reference"), ("pt_img", "pt, NEE"),
                                            ("nonee_eq_img", "pt, no NEE"), ("st_eq_img", "st"))):
-                ax[i, j].imshow(srgb(m[name]))
+                ax[i, j].imshow(srgb(np.nan_to_num(m[name])))
                 ax[i, j].set_title(f"bunny {k[1]}, sigma_t {BASE_SIGMA * k[2]:g}: {t}", fontsize=8)
                 ax[i, j].axis("off")
         fig.tight_layout()
@@ -354,6 +396,53 @@ def plot(results, maps, outdir: Path):
         plt.close(fig)
         written.append(outdir / "st_vs_pt_images.png")
     return written
+
+
+def tables(results) -> str:
+    """The README's markdown tables from a results dict."""
+    out = ["| object | boundary | σt | pt s | st s | speed-up | pt events/path | st events + steps/path "
+           "| sRGB RMSE st / pt / pt no NEE | rel. MSE st / pt / pt no NEE | st bias of mean | ref spp, own RMSE |",
+           "|---|---|---:|---:|---:|---:|---:|---:|---|---|---|---|"]
+    for r in results["scenes"]:
+        et = r["equal_time"]
+        b = np.array(et["st"]["bias"])
+        k = int(np.argmax(np.abs(b)))
+        out.append(
+            f"| {r['shape']} | {r['boundary'].replace('_', '-')} | {r['sigma_t']:g} | {r['pt']['seconds']:.2f} "
+            f"| {r['st']['seconds']:.2f} | ×{r['speedup']:.2f} | {r['pt_events_per_path']:.1f} "
+            f"| {r['st']['events_per_path']:.1f} + {r['st']['sphere_steps_per_path']:.2f} "
+            f"| {et['st']['rmse_srgb']:.4f} / {et['pt_nee']['rmse_srgb']:.4f} / {et['pt_no_nee']['rmse_srgb']:.4f} "
+            f"| {et['st']['rel_mse']:.2e} / {et['pt_nee']['rel_mse']:.2e} / {et['pt_no_nee']['rel_mse']:.2e} "
+            f"| {100 * b[k]:+.1f} ± {100 * et['st']['bias_sigma'][k]:.1f} % "
+            f"| {r['reference']['spp']}, {r['reference']['own_error']['rmse_srgb']:.4f} |")
+    conv = [r for r in results["scenes"] if r.get("st_at_reference_spp")]
+    if conv:
+        out += ["", "| densest bunny | st spp | st s | sRGB RMSE vs ref | noise removed | rel. MSE | "
+                "noise removed | bias of mean (per channel) |", "|---|---:|---:|---:|---:|---:|---:|---|"]
+        for r in conv:
+            c = r["st_at_reference_spp"]
+            out.append(f"| {r['boundary'].replace('_', '-')}, σt {r['sigma_t']:g} | {c['spp']} | {c['seconds']:.1f} "
+                       f"| {c['rmse_srgb']:.4f} | {c['rmse_srgb_noise_removed']:.4f} | {c['rel_mse']:.2e} "
+                       f"| {c['rel_mse_noise_removed']:.2e} | "
+                       + ", ".join(f"{100 * x:+.1f} ± {100 * y:.1f} %" for x, y in zip(c["bias"], c["bias_sigma"]))
+                       + " |")
+    if results.get("mitsuba"):
+        out += ["", "| Mitsuba case | spp | Mitsuba s | st s | pt s | Mitsuba / st | Mitsuba / pt | "
+                "Mitsuba mean vs ref (G) |", "|---|---:|---:|---:|---:|---:|---:|---:|"]
+        for c in results["mitsuba"]:
+            out.append(f"| bunny {c['boundary'].replace('_', '-')}, σt {c['sigma_t']:g} | {c['spp']} "
+                       f"| {c['mitsuba_seconds']:.2f} | {c['st_seconds']:.2f} | {c['pt_seconds']:.2f} "
+                       f"| {c['ratio_mitsuba_over_st']:.2f} | {c['ratio_mitsuba_over_pt']:.2f} "
+                       + (f"| {100 * c['mitsuba_mean_vs_reference'][1]:+.1f} % |" if c["mitsuba_mean_vs_reference"] else "| – |"))
+    if results.get("step_cost"):
+        out += ["", "| family | pt ns/event | pt ns/path fixed | st ns/step (median) | step in pt events |",
+                "|---|---:|---:|---:|---:|"]
+        for k, v in results["step_cost"].items():
+            ns = v["st_ns_per_step"]
+            ev = v["step_in_pt_events"]
+            out.append(f"| {k.replace('_', '-')} | {v['pt_ns_per_event']:.1f} | {v['pt_ns_per_path_fixed']:.0f} "
+                       f"| {'–' if ns is None else f'{ns:.0f}'} | {'–' if ev is None else f'{ev:.1f}'} |")
+    return "\n".join(out)
 
 
 def main(argv=None) -> int:
@@ -374,7 +463,12 @@ def main(argv=None) -> int:
     p.add_argument("--quick", action="store_true", help="16x16, 2 spp, reference 16 spp: a smoke run")
     p.add_argument("--cache", default=str(HERE / "results" / "cache"))
     p.add_argument("--output", type=Path, default=HERE / "results" / "st_vs_pt.json")
+    p.add_argument("--table", type=Path, default=None,
+                   help="print the markdown tables of an existing results JSON and exit")
     args = p.parse_args(argv)
+    if args.table:
+        print(tables(json.loads(args.table.read_text())))
+        return 0
     q = args.quick
     args.resolution = args.resolution or (16 if q else 64)
     args.spp = args.spp or (2 if q else 32)
@@ -458,6 +552,7 @@ def main(argv=None) -> int:
         print(f"step cost {k}: pt {v['pt_ns_per_event']:.1f} ns/event (+{v['pt_ns_per_path_fixed']:.0f} "
               f"ns/path), st step {v['st_ns_per_step'] if v['st_ns_per_step'] is None else round(v['st_ns_per_step'])} ns"
               f" = {v['step_in_pt_events'] if v['step_in_pt_events'] is None else round(v['step_in_pt_events'], 1)} events")
+    print(tables(results))
     print(f"wrote {args.output}")
     for f in plot(results, maps, args.output.parent):
         print(f"wrote {f}")
