@@ -55,9 +55,9 @@ REPO = HERE.parent
 sys.path.insert(0, str(REPO / "tests"))  # mitsuba_util: the Mitsuba translation shared with the tests
 sys.path.insert(0, str(HERE))  # st_threshold: srgb / rmse_srgb
 
-import sssphere
-from sssphere.render import DEFAULT_SPHERE_THRESHOLD as DEFAULT_TAU
-from st_threshold import rmse_srgb, srgb
+import sssphere  # noqa: E402
+from sssphere.render import DEFAULT_SPHERE_THRESHOLD as DEFAULT_TAU  # noqa: E402
+from st_threshold import rmse_srgb, srgb  # noqa: E402
 
 SHAPES = {"bunny": "scenes/bunny.json", "thin_torus": "scenes/thin_torus.json"}
 BOUNDARIES = ("dielectric", "index_matched")
@@ -433,7 +433,8 @@ def tables(results) -> str:
             out.append(f"| bunny {c['boundary'].replace('_', '-')}, σt {c['sigma_t']:g} | {c['spp']} "
                        f"| {c['mitsuba_seconds']:.2f} | {c['st_seconds']:.2f} | {c['pt_seconds']:.2f} "
                        f"| {c['ratio_mitsuba_over_st']:.2f} | {c['ratio_mitsuba_over_pt']:.2f} "
-                       + (f"| {100 * c['mitsuba_mean_vs_reference'][1]:+.1f} % |" if c["mitsuba_mean_vs_reference"] else "| – |"))
+                       + (f"| {100 * c['mitsuba_mean_vs_reference'][1]:+.1f} % |"
+                          if c["mitsuba_mean_vs_reference"] else "| – |"))
     if results.get("step_cost"):
         out += ["", "| family | pt ns/event | pt ns/path fixed | st ns/step (median) | step in pt events |",
                 "|---|---:|---:|---:|---:|"]
@@ -550,8 +551,8 @@ def main(argv=None) -> int:
     save()
     for k, v in results["step_cost"].items():
         print(f"step cost {k}: pt {v['pt_ns_per_event']:.1f} ns/event (+{v['pt_ns_per_path_fixed']:.0f} "
-              f"ns/path), st step {v['st_ns_per_step'] if v['st_ns_per_step'] is None else round(v['st_ns_per_step'])} ns"
-              f" = {v['step_in_pt_events'] if v['step_in_pt_events'] is None else round(v['step_in_pt_events'], 1)} events")
+              f"ns/path), st step {None if v['st_ns_per_step'] is None else round(v['st_ns_per_step'])} ns"
+              f" = {None if v['step_in_pt_events'] is None else round(v['step_in_pt_events'], 1)} events")
     print(tables(results))
     print(f"wrote {args.output}")
     for f in plot(results, maps, args.output.parent):
