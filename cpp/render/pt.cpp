@@ -79,9 +79,9 @@ Vec3 PathTracer::transmittance(Vec3 p, Vec3 w, float dist, int shape, int channe
         // stay <= the threshold, as for the grid-bound roulette in direct_light).
         float m = channel < 0 ? max_component(tr) : tr[channel];
         if (m < kShadowRoulette) {
-            float q = m / kShadowRoulette;
-            if (rng.uniform() >= q) return Vec3(0.f);
-            tr /= q;
+            float w = roulette_weight(m / kShadowRoulette, rng.uniform());
+            if (w == 0.f) return Vec3(0.f);
+            tr *= w;
         }
         shape = dot(w, hit.normal) < 0.f ? int(hit.mesh) : -1;
         o = offset(o + w * hit.t, hit.normal, w, scene_.ray_epsilon());
@@ -101,9 +101,8 @@ Vec3 PathTracer::direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng,
     float bound = std::exp(-sigma_min * scene_.grid(shape).query(p));
     float shadow_weight = 1.f;
     if (bound < kShadowRoulette) {
-        float q = bound / kShadowRoulette;
-        if (rng.uniform() >= q) return Vec3(0.f);
-        shadow_weight = 1.f / q;
+        shadow_weight = roulette_weight(bound / kShadowRoulette, rng.uniform());
+        if (shadow_weight == 0.f) return Vec3(0.f);
     }
 
     // One light per event, chosen uniformly: the estimate is weighted by n_lights, and

@@ -22,6 +22,16 @@ inline Vec3 sample_uniform_sphere(float u1, float u2) {
 }
 constexpr float uniform_sphere_pdf() { return kInvFourPi; }
 
+// Russian roulette with survival probability q, decided by u in [0, 1): the weight 1/q if
+// the sample survives, 0 if not. u can be exactly 0, so a survivor of a tiny q would get
+// a weight that overflows to inf (and 0 * inf = NaN downstream): below kMinRouletteQ the
+// sample is always dropped, a bias below 1e-20 of the quantity played for.
+constexpr float kMinRouletteQ = 1e-20f;
+inline float roulette_weight(float q, float u) {
+    if (q >= 1.f) return 1.f;
+    return q >= kMinRouletteQ && u < q ? 1.f / q : 0.f;
+}
+
 // Power heuristic (beta = 2) for two strategies with one sample each.
 inline float power_heuristic(float pdf_a, float pdf_b) {
     float a = pdf_a * pdf_a, b = pdf_b * pdf_b;
