@@ -3,6 +3,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <iostream>
 #include <string>
 
@@ -26,7 +27,8 @@ void usage() {
            "  render.sphere_threshold, else "
         << sss::kDefaultSphereThreshold
         << "; inf: never); DIR holds lengthgen.json, pathgen.json,\n"
-           "  eventgen.json (default: the scene's render.models)\n";
+           "  eventgen.json (default: the scene's render.models, else the source tree's "
+           "models/)\n";
 }
 
 float parse_threshold(const char* text) {
@@ -104,6 +106,11 @@ int main(int argc, char** argv) {
         opt.sphere_threshold =
             threshold >= 0.f ? threshold : desc.render.sphere_threshold;
         opt.models = models.empty() ? desc.render.models : models;
+#ifdef SSSPHERE_SOURCE_MODELS
+        // Last resort: the shipped models of the source tree this binary was built from.
+        if (opt.models.empty() && std::filesystem::is_directory(SSSPHERE_SOURCE_MODELS))
+            opt.models = SSSPHERE_SOURCE_MODELS;
+#endif
         sss::Scene scene(std::move(desc), opt.threads);
 
         std::signal(SIGINT, on_sigint);
