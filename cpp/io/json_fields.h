@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstdint>
 #include <initializer_list>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -83,6 +84,19 @@ inline double number(const json& j, const Field& f) {
     if (!j.is_number()) f.error("expected a number, got ", type_name(j), " ", show(j));
     double v = j.get<double>();
     if (!std::isfinite(v)) f.error("value ", show(j), " is not a finite number");
+    return v;
+}
+
+// An integer in [lo, hi]; `allowed` describes the range for the message.
+inline int64_t integer_in(const json& j, const Field& f, int64_t lo, int64_t hi,
+                          const char* allowed) {
+    if (!j.is_number_integer())
+        f.error("expected an integer, got ", type_name(j), " ", show(j));
+    if (j.is_number_unsigned() && j.get<uint64_t>() > uint64_t(INT64_MAX))
+        f.error("value ", show(j), " is not allowed (allowed: ", allowed, ")");
+    int64_t v = j.get<int64_t>();
+    if (v < lo || v > hi)
+        f.error("value ", show(j), " is not allowed (allowed: ", allowed, ")");
     return v;
 }
 

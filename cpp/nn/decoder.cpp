@@ -38,18 +38,6 @@ float float32(const json& j, const Field& f) {
     return x;
 }
 
-int64_t integer_in(const json& j, const Field& f, int64_t lo, int64_t hi,
-                   const char* allowed) {
-    if (!j.is_number_integer())
-        f.error("expected an integer, got ", type_name(j), " ", show(j));
-    if (j.is_number_unsigned() && j.get<uint64_t>() > uint64_t(INT64_MAX))
-        f.error("value ", show(j), " is not allowed (allowed: ", allowed, ")");
-    int64_t v = j.get<int64_t>();
-    if (v < lo || v > hi)
-        f.error("value ", show(j), " is not allowed (allowed: ", allowed, ")");
-    return v;
-}
-
 std::string string_of(const json& j, const Field& f) {
     if (!j.is_string()) f.error("expected a string, got ", type_name(j), " ", show(j));
     return j.get<std::string>();

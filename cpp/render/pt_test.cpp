@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "render/renderer.h"
+#include "testing/scenes.h"
 #include "testing/stats.h"
 
 using namespace sss;
@@ -12,23 +13,8 @@ using namespace sss;
 namespace {
 
 SceneDesc furnace_scene(Vec3 sigma_t, float g, BoundaryType boundary) {
-    SceneDesc d;
+    SceneDesc d = test::sphere_in_environment(sigma_t, Vec3(1.f), g, boundary);
     d.source = "furnace";
-    d.camera.origin = {0, 0, 3.5f};
-    d.camera.target = {0, 0, 0};
-    d.camera.fov = 40.f;
-    d.camera.width = d.camera.height = 16;
-    Shape s;
-    s.name = "sphere";
-    s.mesh = make_icosphere({0, 0, 0}, 1.f, 3);
-    s.medium = {sigma_t, Vec3(1.f), g};
-    s.boundary.type = boundary;
-    d.shapes.push_back(s);
-    Light env;
-    env.type = Light::Type::Environment;
-    env.radiance = Vec3(1.f);
-    d.lights.push_back(env);
-    d.render.grid_resolution = 16;
     return d;
 }
 

@@ -26,18 +26,6 @@ double number_in(const json& j, const Field& f, double lo, double hi,
     return v;
 }
 
-int64_t integer_in(const json& j, const Field& f, int64_t lo, int64_t hi,
-                   const char* allowed) {
-    if (!j.is_number_integer())
-        f.error("expected an integer, got ", type_name(j), " ", show(j));
-    if (j.is_number_unsigned() && j.get<uint64_t>() > uint64_t(INT64_MAX))
-        f.error("value ", show(j), " is not allowed (allowed: ", allowed, ")");
-    int64_t v = j.get<int64_t>();
-    if (v < lo || v > hi)
-        f.error("value ", show(j), " is not allowed (allowed: ", allowed, ")");
-    return v;
-}
-
 Vec3 vec3(const json& j, const Field& f) {
     if (!j.is_array() || j.size() != 3)
         f.error("expected an array of 3 numbers, got ", show(j));

@@ -9,6 +9,7 @@
 #include "render/renderer.h"
 #include "testing/errors.h"
 #include "testing/model_dir.h"
+#include "testing/scenes.h"
 #include "testing/stats.h"
 
 using namespace sss;
@@ -20,30 +21,8 @@ using test::error_of;
 // A sphere of radius 1 in a constant environment (optionally with a point light).
 SceneDesc sphere_scene(Vec3 sigma_t, Vec3 albedo, float g, BoundaryType boundary,
                        bool point_light = false) {
-    SceneDesc d;
+    SceneDesc d = test::sphere_in_environment(sigma_t, albedo, g, boundary, point_light);
     d.source = "st-test";
-    d.camera.origin = {0, 0, 3.5f};
-    d.camera.target = {0, 0, 0};
-    d.camera.fov = 40.f;
-    d.camera.width = d.camera.height = 16;
-    Shape s;
-    s.name = "sphere";
-    s.mesh = make_icosphere({0, 0, 0}, 1.f, 3);
-    s.medium = {sigma_t, albedo, g};
-    s.boundary.type = boundary;
-    d.shapes.push_back(s);
-    Light env;
-    env.type = Light::Type::Environment;
-    env.radiance = Vec3(1.f);
-    d.lights.push_back(env);
-    if (point_light) {
-        Light p;
-        p.type = Light::Type::Point;
-        p.position = {2.f, 2.f, 2.f};
-        p.intensity = Vec3(5.f);
-        d.lights.push_back(p);
-    }
-    d.render.grid_resolution = 16;
     return d;
 }
 
