@@ -45,24 +45,26 @@ class ProgressBar:
             sys.stderr.write("\n")
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
-    return value
+def _checked(convert, ok, requirement: str):
+    """An argparse type: convert(text), then ok(value) or an error saying the requirement."""
+    what = "an integer" if convert is int else "a number"
+
+    def parse(text: str):
+        try:
+            value = convert(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+        if not ok(value):
+            raise argparse.ArgumentTypeError(f"must be {requirement}, got {text}")
+        return value
+
+    return parse
 
 
-def _non_negative_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
-    return value
+_positive_int = _checked(int, lambda v: v >= 1, ">= 1")
+_non_negative_int = _checked(int, lambda v: v >= 0, ">= 0")
+_threshold = _checked(float, lambda v: v >= 0, "a number >= 0 (inf: no sphere steps)")
+_positive_float = _checked(float, lambda v: 0 < v < float("inf"), "a positive number")
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
@@ -123,26 +125,6 @@ def _cmd_datagen(args: argparse.Namespace) -> int:
           f"walks/s; mean N {data['N'].mean() if n else 0:.1f}, "
           f"P(N = 1) {np.mean(data['N'] == 1) if n else 0:.3f})", file=sys.stderr)
     return 130 if interrupted else 0
-
-
-def _threshold(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not value >= 0:
-        raise argparse.ArgumentTypeError(f"must be a number >= 0 (inf: no sphere steps), got {text}")
-    return value
-
-
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not value > 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
-    return value
 
 
 def _learn_modules():
