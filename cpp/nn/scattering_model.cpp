@@ -83,33 +83,41 @@ bool iequals(const std::string& a, const std::string& b) {
                       [](char x, char y) { return std::tolower(x) == std::tolower(y); });
 }
 
-// The two evaluators behind one interface: Box-Muller on `lanes` lanes and
-// u = mean + exp(logvar / 2) eps for `count` inputs of one decoder.
+// The two evaluators behind one interface, on paths in lanes (rows of kLanes floats, one
+// per variable; SimdDecoder::sample_lanes): Box-Muller on `lanes` lanes,
+// u = mean + exp(logvar / 2) eps for the first `count` paths, and an encoding or its
+// inverse.
+constexpr int kLanes = SimdDecoder::kLanes;
+
 struct ScalarOps {
+    static constexpr DecoderImpl kImpl = DecoderImpl::Scalar;
     void box_muller(const float* xr, const float* xa, float* c, float* s,
                     int lanes) const {
-        sss::box_muller(xr, xa, c, s, lanes, DecoderImpl::Scalar);
+        sss::box_muller(xr, xa, c, s, lanes, kImpl);
     }
-    void sample(const Decoder& d, const SimdDecoder&, int count, const float* x,
-                const float* eps, float* u) const {
+    void sample(const Decoder& d, const SimdDecoder&, const float* x, const float* eps,
+                float* u, int count) const {
         const int n = d.num_outputs();
-        float mean[kMaxStepWidth], logvar[kMaxStepWidth];
+        float xk[kMaxStepWidth], mean[kMaxStepWidth], logvar[kMaxStepWidth];
         for (int k = 0; k < count; ++k) {
-            evaluate_reference(d, x + k * d.input_width, mean, logvar);
+            for (int i = 0; i < d.input_width; ++i) xk[i] = x[i * kLanes + k];
+            evaluate_reference(d, xk, mean, logvar);
             for (int i = 0; i < n; ++i)
-                u[k * n + i] = mean[i] + std::exp(0.5f * logvar[i]) * eps[k * n + i];
+                u[i * kLanes + k] =
+                    mean[i] + std::exp(0.5f * logvar[i]) * eps[i * kLanes + k];
         }
     }
 };
 
 struct SimdOps {
+    static constexpr DecoderImpl kImpl = DecoderImpl::Simd;
     void box_muller(const float* xr, const float* xa, float* c, float* s,
                     int lanes) const {
-        sss::box_muller(xr, xa, c, s, lanes, DecoderImpl::Simd);
+        sss::box_muller(xr, xa, c, s, lanes, kImpl);
     }
-    void sample(const Decoder&, const SimdDecoder& sd, int count, const float* x,
-                const float* eps, float* u) const {
-        sd.sample_encoded(x, eps, u, count);
+    void sample(const Decoder&, const SimdDecoder& sd, const float* x, const float* eps,
+                float* u, int count) const {
+        sd.sample_lanes(x, eps, u, count);
     }
 };
 
@@ -118,14 +126,6 @@ struct SimdOps {
 inline float finite(float x) {
     if (std::isnan(x)) return 0.f;
     return std::clamp(x, -FLT_MAX, FLT_MAX);
-}
-
-// Fills x with [encoded conditions, z, 0...] for decoder d (input_width entries).
-inline void make_input(const Decoder& d, const float* values, const float* z, float* x) {
-    int nc = d.num_conditions();
-    for (int i = 0; i < nc; ++i) x[i] = d.conditions[i].encoding.encode(values[i]);
-    std::copy(z, z + d.latent_dim, x + nc);
-    std::fill(x + nc + d.latent_dim, x + d.input_width, 0.f);
 }
 
 }  // namespace
@@ -248,6 +248,7 @@ template <class Ops>
 void ScatteringModel::group_with(int K, const float* sigma, const float* g,
                                  const float* phi, Rng* rng, bool with_event,
                                  const Ops& ops, SphereStep* out) const {
+    constexpr DecoderImpl impl = Ops::kImpl;
     // N = 1 exactly with probability e^{-sigma}: the photon leaves along its first HG
     // direction.
     int act[kMaxGroup], na = 0;
@@ -271,6 +272,7 @@ void ScatteringModel::group_with(int K, const float* sigma, const float* g,
     constexpr int kMaxLanes = 3 * kMaxStepWidth;
     float xr[kMaxGroup * kMaxLanes], xa[kMaxGroup * kMaxLanes], c[kMaxGroup * kMaxLanes],
         sn[kMaxGroup * kMaxLanes];
+    xr[0] = xa[0] = 0.f;  // (all written below; this tells gcc's uninitialized check)
     for (int j = 0; j < na; ++j) {
         draw_normal_uniforms(rng[act[j]], n_lp, xr + j * lanes, xa + j * lanes);
         if (n_e)
@@ -286,38 +288,64 @@ void ScatteringModel::group_with(int K, const float* sigma, const float* g,
                              z[j] + n_lp);
     }
 
-    float x[kMaxGroup * kMaxStepWidth], eps[kMaxGroup * kMaxStepWidth],
-        u[kMaxGroup * kMaxStepWidth];
+    // Paths in lanes: row i of x is input i of every active step (lane j = step act[j]);
+    // lanes past na repeat lane 0, so that every lane a vector computes holds finite
+    // values.
+    alignas(64) float x[kMaxStepWidth * kLanes], eps[kMaxStepWidth * kLanes],
+        u[kMaxStepWidth * kLanes], raw[kLanes];
+    auto fill = [&](float* row, auto&& value) {
+        for (int j = 0; j < na; ++j) row[j] = value(j);
+        std::fill(row + na, row + kLanes, row[0]);
+    };
+    // Condition i of decoder d from raw values, the latent z (from offset zo of each
+    // step's normals) and eps (the no outputs after it), zero rows up to input_width.
+    auto inputs = [&](const Decoder& d, std::initializer_list<const float*> values,
+                      int zo) {
+        int i = 0;
+        for (const float* v : values) {
+            fill(raw, [&](int j) { return v[j]; });
+            code_lanes(d.conditions[i].encoding, false, raw, x + i * kLanes, na, impl);
+            std::fill(x + i * kLanes + na, x + (i + 1) * kLanes, x[i * kLanes]);
+            ++i;
+        }
+        for (int l = 0; l < d.latent_dim; ++l, ++i)
+            fill(x + i * kLanes, [&](int j) { return z[j][zo + l]; });
+        std::fill(x + i * kLanes, x + d.input_width * kLanes, 0.f);
+        for (int o = 0; o < d.num_outputs(); ++o)
+            fill(eps + o * kLanes, [&](int j) { return z[j][zo + d.latent_dim + o]; });
+    };
+    // Output o of decoder d, decoded, into raw (lanes [0, na)).
+    auto output = [&](const Decoder& d, int o) {
+        code_lanes(d.outputs[o].encoding, true, u + o * kLanes, raw, na, impl);
+    };
+    float s_act[kMaxGroup], g_act[kMaxGroup], v_act[kMaxGroup];
+    for (int j = 0; j < na; ++j) s_act[j] = sigma[act[j]], g_act[j] = g[act[j]];
+
     // LengthGen(sigma, g) -> N = max(2, floor(x))
+    inputs(L, {s_act, g_act}, 0);
+    ops.sample(L, length_simd_, x, eps, u, na);
+    output(L, 0);
     for (int j = 0; j < na; ++j) {
-        const float cond[2] = {sigma[act[j]], g[act[j]]};
-        make_input(L, cond, z[j], x + j * L.input_width);
-        eps[j] = z[j][L.latent_dim];
-    }
-    ops.sample(L, length_simd_, na, x, eps, u);
-    for (int j = 0; j < na; ++j) {
-        float n_real = L.outputs[0].encoding.decode(u[j]);
+        const float n_real = raw[j];
         out[act[j]].N =
             n_real >= 2.f
                 ? (n_real < float(kMaxScatterCount) ? int64_t(n_real) : kMaxScatterCount)
                 : 2;
+        v_act[j] = float(out[act[j]].N);
     }
 
     // PathGen(sigma, g, N) -> cos_theta clamped, (alpha, beta) into the unit disc
-    const int zp = L.latent_dim + 1;
-    for (int j = 0; j < na; ++j) {
-        const int k = act[j];
-        const float cond[3] = {sigma[k], g[k], float(out[k].N)};
-        make_input(P, cond, z[j] + zp, x + j * P.input_width);
-        std::copy(z[j] + zp + P.latent_dim, z[j] + zp + P.latent_dim + 3, eps + 3 * j);
+    inputs(P, {s_act, g_act, v_act}, L.latent_dim + 1);
+    ops.sample(P, path_simd_, x, eps, u, na);
+    float ab[3][kLanes];
+    for (int o = 0; o < 3; ++o) {
+        output(P, o);
+        std::copy(raw, raw + na, ab[o]);
     }
-    ops.sample(P, path_simd_, na, x, eps, u);
     for (int j = 0; j < na; ++j) {
         SphereStep& s = out[act[j]];
-        const float* uj = u + 3 * j;
-        s.cos_theta = std::clamp(finite(P.outputs[0].encoding.decode(uj[0])), -1.f, 1.f);
-        float a = finite(P.outputs[1].encoding.decode(uj[1])),
-              b = finite(P.outputs[2].encoding.decode(uj[2]));
+        s.cos_theta = std::clamp(finite(ab[0][j]), -1.f, 1.f);
+        float a = finite(ab[1][j]), b = finite(ab[2][j]);
         double r2 = double(a) * a + double(b) * b;  // no overflow in double
         if (r2 > 1.0) {
             double f = 1.0 / std::sqrt(r2);
@@ -334,21 +362,22 @@ void ScatteringModel::group_with(int K, const float* sigma, const float* g,
     if (!with_event) return;
 
     // EventGen(sigma, g, phi, N, cos_theta, alpha, beta) -> X into the unit ball, W unit
+    float p_act[kMaxGroup], ct[kMaxGroup], al[kMaxGroup], be[kMaxGroup];
     for (int j = 0; j < na; ++j) {
-        const int k = act[j];
-        const SphereStep& s = out[k];
-        const float cond[7] = {sigma[k],    g[k],    phi[k], float(s.N),
-                               s.cos_theta, s.alpha, s.beta};
-        make_input(E, cond, z[j] + n_lp, x + j * E.input_width);
-        std::copy(z[j] + n_lp + E.latent_dim, z[j] + n_lp + E.latent_dim + 6,
-                  eps + 6 * j);
+        const SphereStep& s = out[act[j]];
+        p_act[j] = phi[act[j]], ct[j] = s.cos_theta, al[j] = s.alpha, be[j] = s.beta;
     }
-    ops.sample(E, event_simd_, na, x, eps, u);
+    inputs(E, {s_act, g_act, p_act, v_act, ct, al, be}, n_lp);
+    ops.sample(E, event_simd_, x, eps, u, na);
+    float xw[6][kLanes];
+    for (int o = 0; o < 6; ++o) {
+        output(E, o);
+        std::copy(raw, raw + na, xw[o]);
+    }
     for (int j = 0; j < na; ++j) {
         SphereStep& s = out[act[j]];
         float v[6];
-        for (int i = 0; i < 6; ++i)
-            v[i] = finite(E.outputs[i].encoding.decode(u[6 * j + i]));
+        for (int i = 0; i < 6; ++i) v[i] = finite(xw[i][j]);
         Vec3 X{v[0], v[1], v[2]}, W{v[3], v[4], v[5]};
         double x2 = double(X.x) * X.x + double(X.y) * X.y + double(X.z) * X.z;
         if (x2 > 1.0) {

@@ -41,6 +41,15 @@ public:
     // each), for `count` inputs as above.
     void sample_encoded(const float* x, const float* eps, float* u, int count = 1) const;
 
+    // Paths in lanes: the same samples u for up to kLanes inputs stored variable by
+    // variable, x[i * kLanes + k] being input i of path k (likewise eps and u, rows of
+    // num_outputs()). Lanes from `count` on are computed too (any finite values there are
+    // harmless) or left alone. Every weight is a broadcast multiply-add on a vector of
+    // paths, so the layers' dependency chains of all paths run side by side: the fastest
+    // form when several paths need the network at once (bench/README.md).
+    static constexpr int kLanes = 16;
+    void sample_lanes(const float* x, const float* eps, float* u, int count) const;
+
     // The packed network, for the kernels (simd_decoder.cpp).
     struct Layer {
         int in = 0, out_pad = 0;  // out_pad: the padded output count (a multiple of 4)
@@ -52,10 +61,12 @@ public:
     int output_half() const { return output_half_; }  // offset of the log-variances
     int scratch_floats() const { return scratch_; }  // activation buffer size (each of 2)
 
-private:
+    // Deleter of the 64-byte aligned arrays the kernels use.
     struct FreeAligned {
         void operator()(float* p) const;
     };
+
+private:
     int input_width_ = 0, num_outputs_ = 0, output_half_ = 0, scratch_ = 0;
     std::vector<Layer> layers_;
     std::unique_ptr<float[], FreeAligned> data_;
@@ -79,6 +90,11 @@ void draw_normal_uniforms(Rng& rng, int n, float* xr, float* xa);
 void box_muller(const float* xr, const float* xa, float* c, float* s, int lanes,
                 DecoderImpl impl);
 void assemble_normals(const float* c, const float* s, int n, float* z);
+
+// The encoding e(x) (decode = false) or its inverse (true) of n <= SimdDecoder::kLanes
+// values, in float; the scalar form is Encoding::encode / decode (double inside).
+void code_lanes(const Encoding& e, bool decode, const float* in, float* out, int n,
+                DecoderImpl impl);
 
 // PyTorch's Softplus on x[0 .. n) with the decoder's SIMD kernel (for tests and
 // benchmarks).

@@ -124,6 +124,67 @@ TEST(SimdDecoder, ManyInputsPerCallEqualOneAtATime) {
     });
 }
 
+// Paths in lanes (one row of kLanes floats per variable) give the samples of the
+// one-input-per-call layout to float rounding (another summation order), for every count
+// of paths.
+TEST(SimdDecoder, LanesMatchOneInputPerCall) {
+    constexpr int L = SimdDecoder::kLanes;
+    for_each_target([] {
+        for (const char* name : {"LengthGen", "PathGen", "EventGen"}) {
+            Decoder d = test::random_decoder(name, 6, 2.f);
+            SimdDecoder s(d);
+            const int w = d.input_width, no = d.num_outputs();
+            alignas(64) float x[32 * L], eps[8 * L], u[8 * L];
+            Rng rng(13);
+            for (int count : {1, 5, 16}) {
+                for (float& v : x) v = 6.f * rng.uniform() - 3.f;
+                for (float& v : eps) v = 2.f * rng.uniform() - 1.f;
+                s.sample_lanes(x, eps, u, count);
+                for (int k = 0; k < count; ++k) {
+                    float xk[32], ek[8], uk[8];
+                    for (int i = 0; i < w; ++i) xk[i] = x[i * L + k];
+                    for (int i = 0; i < no; ++i) ek[i] = eps[i * L + k];
+                    s.sample_encoded(xk, ek, uk);
+                    for (int i = 0; i < no; ++i)
+                        EXPECT_NEAR(u[i * L + k], uk[i],
+                                    1e-5f * std::max(1.f, std::abs(uk[i])))
+                            << name << " count " << count << " lane " << k;
+                }
+            }
+        }
+    });
+}
+
+// The encodings on lanes (float) agree with the scalar ones (double inside).
+TEST(SimdDecoder, EncodingsOnLanesMatchScalar) {
+    constexpr int L = SimdDecoder::kLanes;
+    Encoding affine{Encoding::Kind::Affine, 2.5f, -0.3f};
+    Encoding log{Encoding::Kind::Log, 0.69f, -1.66f, 1.f, 0.5f};
+    Encoding log_neg{Encoding::Kind::Log, 1.03f, 0.36f, -1.f, 1.f};
+    Encoding logit{Encoding::Kind::Logit, 0.47f, -0.18f, 1.f, 0.f, -1.f, 1.f, 1e-4f};
+    for_each_target([&] {
+        for (const Encoding* e : {&affine, &log, &log_neg, &logit}) {
+            Rng rng(17);
+            for (int rep = 0; rep < 50; ++rep) {
+                alignas(64) float x[L], enc[L], dec[L];
+                for (float& v : x) {
+                    v = 1.998f * rng.uniform() - 0.999f;  // in every domain above
+                    if (e == &log) v = 200.f * rng.uniform();
+                }
+                code_lanes(*e, false, x, enc, L, DecoderImpl::Simd);
+                code_lanes(*e, true, enc, dec, L, DecoderImpl::Simd);
+                for (int k = 0; k < L; ++k) {
+                    EXPECT_NEAR(enc[k], e->encode(x[k]),
+                                2e-6f * std::max(1.f, std::abs(enc[k])));
+                    EXPECT_NEAR(dec[k], e->decode(enc[k]),
+                                2e-6f * std::max(1.f, std::abs(dec[k])));
+                    EXPECT_NEAR(dec[k], x[k], 1e-5f * std::max(1.f, std::abs(x[k])));
+                }
+            }
+        }
+    });
+}
+
 TEST(SimdDecoder, SampleEncodedIsMeanPlusScaledNoise) {
     Decoder d = test::random_decoder("EventGen", 2);
     SimdDecoder s(d);
