@@ -160,35 +160,76 @@ Vec3 PathTracer::direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng,
     return sum * (shadow_weight * n_lights);
 }
 
-PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
-    return st_ ? trace_impl<true>(o, d, rng) : trace_impl<false>(o, d, rng);
-}
-
-template <bool kSphereTracing>
-PathSample PathTracer::trace_impl(Vec3 o, Vec3 d, Rng& rng) const {
-    const SceneDesc& desc = scene_.desc();
-    const float eps = scene_.ray_epsilon();
-    PathSample out;
-    Vec3 L(0.f), beta(1.f);
+void PathTracer::start(PathState& ps, Vec3 o, Vec3 d, const Rng& rng) const {
+    ps = PathState();
+    ps.rng = rng;
+    ps.o = o;
+    ps.d = d;
     // RGB media with differing channels: each path transports one channel, chosen
     // uniformly, with weight 3 (unbiased; DESIGN §2). Grey media: all three channels at
     // once.
-    int channel = -1;
     if (!scene_.grey_media()) {
-        channel = std::min(2, int(rng.uniform() * 3.f));
-        beta = Vec3(0.f);
-        beta[channel] = 3.f;
+        ps.channel = std::min(2, int(ps.rng.uniform() * 3.f));
+        ps.beta = Vec3(0.f);
+        ps.beta[ps.channel] = 3.f;
     }
-    const float beta_start = max_component(beta);
+    ps.beta_start = max_component(ps.beta);
+}
+
+bool PathTracer::advance(PathState& ps, const WorldSphereStep* step) const {
+    return st_ ? run<true>(ps, step) : run<false>(ps, step);
+}
+
+PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
+    PathState ps;
+    start(ps, o, d, rng);
+    if (!st_) {
+        run<false>(ps, nullptr);
+    } else {
+        for (bool done = run<true>(ps, nullptr); !done;) {
+            const WorldSphereStep step = st_->sample(ps.step, ps.rng);
+            done = run<true>(ps, &step);
+        }
+    }
+    rng = ps.rng;
+    return ps.out;
+}
+
+template <bool kSphereTracing>
+bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
+    const SceneDesc& desc = scene_.desc();
+    const float eps = scene_.ray_epsilon();
+    // The path's state in locals for the loop (written back when it waits for a step).
+    Rng rng = ps.rng;
+    Vec3 o = ps.o, d = ps.d, L = ps.L, beta = ps.beta;
+    const float beta_start = ps.beta_start;
+    const int channel = ps.channel;
+    int shape = ps.shape;
+    bool specular = ps.specular;
+    float phase_pdf = ps.phase_pdf;
+    Vec3 scatter_pos = ps.scatter_pos;
+    float r_at_o = ps.r_at_o;
+    PathSample out = ps.out;
+    auto suspend = [&]() {
+        ps.rng = rng;
+        ps.o = o, ps.d = d, ps.L = L, ps.beta = beta;
+        ps.shape = shape;
+        ps.specular = specular;
+        ps.phase_pdf = phase_pdf;
+        ps.scatter_pos = scatter_pos;
+        ps.r_at_o = r_at_o;
+        ps.out = out;
+        return false;
+    };
+    auto finish = [&]() {
+        ps.rng = rng;
+        out.radiance = L;
+        ps.out = out;
+        return true;
+    };
     // NEE picks one light uniformly: the light-sampling pdfs in MIS weights carry 1/n.
     const float light_select_pdf =
         desc.lights.empty() ? 0.f : 1.f / float(desc.lights.size());
-    int shape = -1;         // the shape whose medium holds the photon; -1 = vacuum
-    bool specular = true;   // last vertex was the camera or a specular interface
-    float phase_pdf = 0.f;  // pdf of the direction sampled at the last scattering event
-    Vec3 scatter_pos;       // where that event happened (light pdfs are measured from it)
-    float r_at_o =
-        -1.f;  // the distance grid at o when already queried there ("st"), else < 0
     // Path Russian roulette after a scattering event or sphere step: false ends the path.
     auto survives_roulette = [&]() {
         float q = max_component(beta) / beta_start;
@@ -198,6 +239,40 @@ PathSample PathTracer::trace_impl(Vec3 o, Vec3 d, Rng& rng) const {
         }
         return true;
     };
+
+    if constexpr (kSphereTracing) {
+        if (step) {
+            // The sphere step this path waited for (requested below): weights, NEE from
+            // its representative event, and the exit (docs/sphere-tracing.md).
+            const Shape& s = desc.shapes[shape];
+            const Vec3 albedo = s.medium.albedo;
+            const StepRequest& req = ps.step;
+            Vec3 survival, nee_weight = req.nee_weight;
+            for (int c = 0; c < 3; ++c) {
+                survival[c] = float(survival_power(albedo[c], step->N));
+                if (req.with_event)
+                    nee_weight[c] *= float(event_weight_sum(albedo[c], step->N));
+            }
+            // NEE from the representative event, weighted by Lambda = sum_j phi^j, with
+            // the throughput on entering the sphere. MIS needs the same vertex on both
+            // sides: the first event (at o) is known, so it keeps pt's MIS, and its
+            // phase-sampled light hit (only possible for N = 1) keeps its weight. For
+            // N >= 2 the last event is unknown: its light hit gets weight 0 (phase_pdf =
+            // 0 below) and the events k >= 2 use light sampling alone.
+            if (req.with_event && !is_black(nee_weight))
+                L += beta * nee_weight *
+                     direct_light(step->X, step->W, shape, channel, rng,
+                                  step->first_event);
+            beta *= survival;
+            if (is_black(beta)) return finish();
+            phase_pdf = step->N == 1 ? hg_eval(dot(d, step->exit_dir), s.medium.g) : 0.f;
+            scatter_pos = o;
+            o = step->exit_pos;
+            d = step->exit_dir;
+            specular = false;
+            if (!survives_roulette()) return finish();
+        }
+    }
 
     for (;;) {
         if (shape < 0) {
@@ -260,14 +335,19 @@ PathSample PathTracer::trace_impl(Vec3 o, Vec3 d, Rng& rng) const {
         float t = sample_exponential(rng.uniform(), extinction(s.medium, channel));
         Hit hit;
         bool at_boundary = false;
-        float r_o;
-        if constexpr (kSphereTracing) {
-            r_o = r_at_o >= 0.f ? r_at_o : scene_.grid(shape).query(o);
-            r_at_o = -1.f;
-        } else {
-            r_o = scene_.grid(shape).query(o);
+        const DistanceGrid& grid = scene_.grid(shape);
+        const float r_o = r_at_o >= 0.f ? r_at_o : grid.query(o);
+        r_at_o = -1.f;
+        // The balls of radius r_o around o and r_end around the flight's end hold no
+        // boundary: when they cover the flight (t < r_o + r_end), it cannot reach the
+        // boundary either. r_end is kept for the collision there.
+        const Vec3 end = o + d * t;
+        float r_end = -1.f;
+        if (!(t < r_o)) {
+            if (t < kInf) r_end = grid.query(end);
+            if (!(t < r_o + r_end))
+                at_boundary = scene_.tracer().intersect(o, d, 0.f, t, &hit);
         }
-        if (!(t < r_o)) at_boundary = scene_.tracer().intersect(o, d, 0.f, t, &hit);
         if (!at_boundary && !(t < kInf)) {
             // No boundary ahead of an unbounded flight: numerical leak out of the mesh.
             shape = -1;
@@ -275,65 +355,40 @@ PathSample PathTracer::trace_impl(Vec3 o, Vec3 d, Rng& rng) const {
         }
 
         if (!at_boundary) {
-            o = o + d * t;
+            o = end;
+            const float r = r_end >= 0.f ? r_end : grid.query(o);
             if constexpr (kSphereTracing) {
                 // Sphere tracing: if the largest sphere around o inside the medium is
                 // optically thick enough, one step replaces every scattering event inside
                 // it (docs/sphere-tracing.md).
                 const float sigma_t = extinction(s.medium, channel);
-                const float r = scene_.grid(shape).query(o);
                 if (sigma_t * r >= st_->threshold()) {
                     ++out.sphere_steps;
-                    const float sigma = std::min(sigma_t * r, st_->sigma_max());
-                    const float radius = std::min(r, sigma / sigma_t);
+                    StepRequest& req = ps.step;
+                    req.p = o;
+                    req.w_in = d;
+                    req.sigma = std::min(sigma_t * r, st_->sigma_max());
+                    req.radius = std::min(r, req.sigma / sigma_t);
+                    req.g = s.medium.g;
                     const Vec3 albedo = s.medium.albedo;
-                    const bool with_event = st_->wants_event(shape);
+                    req.with_event = st_->wants_event(shape);
                     // The representative event is drawn for one albedo: the carried
                     // channel's, or, for RGB throughput with a chromatic albedo, a
                     // channel picked uniformly whose light connection then counts 3 times
                     // in that channel only.
-                    float phi = albedo[channel < 0 ? 0 : channel];
-                    Vec3 nee_weight(1.f);
-                    if (with_event && channel < 0 &&
+                    req.phi = albedo[channel < 0 ? 0 : channel];
+                    req.nee_weight = Vec3(1.f);
+                    if (req.with_event && channel < 0 &&
                         !(albedo.x == albedo.y && albedo.x == albedo.z)) {
                         const int c = std::min(2, int(rng.uniform() * 3.f));
-                        phi = albedo[c];
-                        nee_weight = Vec3(0.f);
-                        nee_weight[c] = 3.f;
+                        req.phi = albedo[c];
+                        req.nee_weight = Vec3(0.f);
+                        req.nee_weight[c] = 3.f;
                     }
-                    const WorldSphereStep step = st_->sample(
-                        o, d, radius, sigma, s.medium.g, phi, with_event, rng);
-                    Vec3 survival;
-                    for (int c = 0; c < 3; ++c) {
-                        survival[c] = float(survival_power(albedo[c], step.N));
-                        if (with_event)
-                            nee_weight[c] *= float(event_weight_sum(albedo[c], step.N));
-                    }
-                    // NEE from the representative event, weighted by Lambda = sum_j
-                    // phi^j, with the throughput on entering the sphere. MIS needs the
-                    // same vertex on both sides: the first event (at o) is known, so it
-                    // keeps pt's MIS, and its phase-sampled light hit (only possible for
-                    // N = 1) keeps its weight. For N >= 2 the last event is unknown: its
-                    // light hit gets weight 0 (phase_pdf = 0 below) and the events k >= 2
-                    // use light sampling alone.
-                    if (with_event && !is_black(nee_weight))
-                        L += beta * nee_weight *
-                             direct_light(step.X, step.W, shape, channel, rng,
-                                          step.first_event);
-                    beta *= survival;
-                    if (is_black(beta)) break;
-                    phase_pdf =
-                        step.N == 1 ? hg_eval(dot(d, step.exit_dir), s.medium.g) : 0.f;
-                    scatter_pos = o;
-                    o = step.exit_pos;
-                    d = step.exit_dir;
-                    specular = false;
-                    if (!survives_roulette()) break;
-                    continue;
+                    return suspend();
                 }
-                r_at_o =
-                    r;  // the ordinary event below stays at o: its next flight reuses r
             }
+            r_at_o = r;  // the ordinary event below stays at o: its next flight reuses r
             // Real collision: scatter.
             ++out.scatter_events;
             if (max_bounces_ >= 0 && int(out.scatter_events) > max_bounces_) break;
@@ -375,8 +430,7 @@ PathSample PathTracer::trace_impl(Vec3 o, Vec3 d, Rng& rng) const {
         shape = -1;
         o = offset(p, hit.normal, d, eps);
     }
-    out.radiance = L;
-    return out;
+    return finish();
 }
 
 }  // namespace sss

@@ -15,6 +15,7 @@
 #include "core/rng.h"
 #include "core/vec.h"
 #include "render/scene.h"
+#include "render/sphere_tracing.h"
 
 namespace sss {
 
@@ -26,7 +27,21 @@ struct PathSample {
         0;  // sphere steps ("st" only), each standing for N >= 1 events
 };
 
-class SphereTracing;
+// One path between calls of PathTracer::advance: the loop's state, and its random stream.
+struct PathState {
+    Rng rng;
+    Vec3 o, d;  // position and direction
+    Vec3 L{0.f}, beta{1.f};
+    float beta_start = 1.f;
+    int channel = -1;       // the channel carried (-1: all three; RGB media, DESIGN §2)
+    int shape = -1;         // the shape whose medium holds the photon; -1 = vacuum
+    bool specular = true;   // last vertex was the camera or a specular interface
+    float phase_pdf = 0.f;  // pdf of the direction sampled at the last scattering event
+    Vec3 scatter_pos;       // where that event happened (light pdfs are measured from it)
+    float r_at_o = -1.f;    // the distance grid at o when already queried there, else < 0
+    PathSample out;
+    StepRequest step;  // valid while the path waits for a sphere step
+};
 
 class PathTracer {
 public:
@@ -36,14 +51,24 @@ public:
     // or nullptr for "pt".
     PathTracer(const Scene& scene, int max_bounces, bool nee = true,
                const SphereTracing* sphere_tracing = nullptr);
-    // Radiance arriving at `o` from direction -d (a camera ray o + t d).
+    // Radiance arriving at `o` from direction -d (a camera ray o + t d), the whole path
+    // at once (a sphere step is sampled on its own: "st" renders use start / advance).
     PathSample trace(Vec3 o, Vec3 d, Rng& rng) const;
+
+    // The same path in pieces, so that several paths can share the decoders: start() sets
+    // up the camera ray o + t d; advance() runs the path until it ends (returns true;
+    // the result is in state.out) or needs a sphere step (false; state.step says which).
+    // The next advance() takes that step, sampled by SphereTracing::sample_group. The
+    // random numbers a path consumes, and so its result, do not depend on how paths are
+    // grouped.
+    void start(PathState& state, Vec3 o, Vec3 d, const Rng& rng) const;
+    bool advance(PathState& state, const WorldSphereStep* step = nullptr) const;
 
 private:
     // The path loop; kSphereTracing = (st_ != nullptr), so "pt" compiles without the
     // step.
     template <bool kSphereTracing>
-    PathSample trace_impl(Vec3 o, Vec3 d, Rng& rng) const;
+    bool run(PathState& state, const WorldSphereStep* step) const;
     // Phase x transmittance x emitted radiance / pdf at medium point p of shape `shape`,
     // for a photon travelling along d before scattering, from one light chosen uniformly
     // (weighted by the number of lights). mis = false: light sampling alone (weight 1),

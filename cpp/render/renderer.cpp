@@ -19,12 +19,67 @@ namespace sss {
 namespace {
 
 constexpr int kTile = 16;
+// Paths "st" keeps in flight per thread: the sphere steps they wait for are sampled
+// together (SphereTracing::sample_group), which is what makes a step cheap.
+constexpr int kPathsInFlight = SphereTracing::kMaxGroup;
 
 struct TileState {
     std::mutex mutex;
     std::condition_variable merged;
     int passes_merged = 0;
 };
+
+// Work items 0 .. count-1 (camera_ray(item, state) starts one, record(item, sample)
+// takes its result), traced kPathsInFlight at a time: each runs until it ends or waits
+// for a sphere step; the waiting steps are sampled together, and a path that ends makes
+// room for the next item. Every path draws from its own stream, so the results do not
+// depend on the grouping. Returns false if cancelled before the end.
+template <class Start, class Record>
+bool trace_in_flight(const PathTracer& tracer, const SphereTracing& st, int count,
+                     Start&& camera_ray, Record&& record,
+                     const std::atomic<bool>& cancel) {
+    PathState slot[kPathsInFlight];
+    int item[kPathsInFlight];
+    bool busy[kPathsInFlight] = {};
+    int next = 0;
+    // Advances slot j (taking `step` if given) until its path waits for a step; paths
+    // that end are recorded and replaced by the next item.
+    auto run = [&](int j, const WorldSphereStep* step) {
+        while (tracer.advance(slot[j], step)) {
+            record(item[j], slot[j].out);
+            step = nullptr;
+            if (next >= count) {
+                busy[j] = false;
+                return;
+            }
+            item[j] = next++;
+            camera_ray(item[j], slot[j]);
+        }
+    };
+    for (int j = 0; j < kPathsInFlight && next < count; ++j) {
+        busy[j] = true;
+        item[j] = next++;
+        camera_ray(item[j], slot[j]);
+        run(j, nullptr);
+    }
+    const StepRequest* req[kPathsInFlight];
+    Rng* rng[kPathsInFlight];
+    WorldSphereStep step[kPathsInFlight];
+    int waiting[kPathsInFlight];
+    for (;;) {
+        int n = 0;
+        for (int j = 0; j < kPathsInFlight; ++j)
+            if (busy[j]) {
+                waiting[n] = j;
+                req[n] = &slot[j].step;
+                rng[n++] = &slot[j].rng;
+            }
+        if (n == 0) return true;
+        if (cancel) return false;
+        st.sample_group(n, req, rng, step);
+        for (int k = 0; k < n; ++k) run(waiting[k], &step[k]);
+    }
+}
 
 }  // namespace
 
@@ -85,30 +140,42 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
             s2.assign(size_t(n) * 3, 0.0);
             ev.assign(size_t(n), 0);
             st.assign(size_t(n), 0);
+            // Sample k of tile pixel i (in row order) is work item i * m + (k - s0).
+            const int m = s1 - s0;
+            auto camera_ray = [&](int item, PathState& ps) {
+                const int i = item / m, k = s0 + item % m;
+                const int x = x0 + i % (x1 - x0), y = y0 + i / (x1 - x0);
+                Rng rng(opt.seed, uint64_t(y) * W + x, uint64_t(k));
+                float jx = rng.uniform(), jy = rng.uniform();
+                tracer.start(ps, camera.origin(), camera.direction(x + jx, y + jy), rng);
+            };
+            auto record = [&](int item, const PathSample& ps) {
+                const int i = item / m;
+                for (int c = 0; c < 3; ++c) {
+                    double v = ps.radiance[c];
+                    s[3 * i + c] += v;
+                    s2[3 * i + c] += v * v;
+                }
+                ev[i] += ps.scatter_events;
+                st[i] += ps.sphere_steps;
+            };
             bool complete = true;
             try {
-                for (int y = y0, i = 0; y < y1 && complete; ++y)
-                    for (int x = x0; x < x1; ++x, ++i) {
-                        if (cancel) {
+                if (sphere_tracing)
+                    complete = trace_in_flight(tracer, *sphere_tracing, n * m, camera_ray,
+                                               record, cancel);
+                else
+                    for (int i = 0; i < n * m && complete; ++i) {
+                        if (i % m == 0 && cancel) {
                             complete = false;
                             break;
                         }
-                        uint64_t pixel = uint64_t(y) * W + x;
-                        for (int k = s0; k < s1; ++k) {
-                            Rng rng(opt.seed, pixel, uint64_t(k));
-                            float jx = rng.uniform(), jy = rng.uniform();
-                            PathSample ps = tracer.trace(
-                                camera.origin(), camera.direction(x + jx, y + jy), rng);
-                            for (int c = 0; c < 3; ++c) {
-                                double v = ps.radiance[c];
-                                s[3 * i + c] += v;
-                                s2[3 * i + c] += v * v;
-                            }
-                            ev[i] += ps.scatter_events;
-                            st[i] += ps.sphere_steps;
-                        }
-                        done_samples += s1 - s0;
+                        PathState ps;
+                        camera_ray(i, ps);
+                        tracer.advance(ps);
+                        record(i, ps.out);
                     }
+                done_samples += n * m;
             } catch (const std::exception& e) {
                 std::lock_guard<std::mutex> lock(error_mutex);
                 if (error.empty()) error = e.what();

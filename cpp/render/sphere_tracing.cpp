@@ -104,39 +104,83 @@ float SphereTracing::event_phi(float phi) const {
     return std::clamp(phi, phi_lo_, phi_hi_);
 }
 
-WorldSphereStep SphereTracing::sample(Vec3 p, Vec3 w_in, float radius, float sigma,
-                                      float g, float phi, bool with_event,
-                                      Rng& rng) const {
-    SphereStep s;
-    if (sampler_ == SphereSampler::Walk) {
-        SphereWalk w = sphere_walk(sigma, g, phi, rng);
-        s.N = w.N;
-        s.cos_theta = w.cos_theta;
-        s.alpha = w.alpha;
-        s.beta = w.beta;
-        s.X = w.X;
-        s.W = w.W;
-    } else {
-        SSS_CHECK(model_ != nullptr);
-        s = model_->sample(sigma, g, event_phi(phi), rng, with_event);
-    }
-    // Exit frame -> world: z = w_in, a uniform turn psi about it, lengths times the
-    // radius.
-    const Frame f = sphere_step_frame(w_in, rng.uniform());
+namespace {
+
+// A step in the exit frame mapped to the world: z = w_in, a uniform turn psi about it
+// (one number from rng), lengths times the radius.
+WorldSphereStep to_world(const StepRequest& r, const SphereStep& s, Rng& rng) {
+    const Frame f = sphere_step_frame(r.w_in, rng.uniform());
     WorldSphereStep out;
     out.N = s.N;
-    out.exit_pos = p + f.to_world(sphere_exit_point(s.cos_theta)) * radius;
+    out.exit_pos = r.p + f.to_world(sphere_exit_point(s.cos_theta)) * r.radius;
     out.exit_dir =
         normalize(f.to_world(sphere_exit_direction(s.cos_theta, s.alpha, s.beta)));
-    if (with_event) {
+    if (r.with_event) {
         // Both samplers give the first event as exactly X = 0, W = +z (the learned one
         // draws that choice itself; EventGen models the events k >= 2, which lie off the
         // centre).
         out.first_event = s.X == Vec3(0.f) && s.W == Vec3(0.f, 0.f, 1.f);
-        out.X = out.first_event ? p : p + f.to_world(s.X) * radius;
-        out.W = out.first_event ? w_in : normalize(f.to_world(s.W));
+        out.X = out.first_event ? r.p : r.p + f.to_world(s.X) * r.radius;
+        out.W = out.first_event ? r.w_in : normalize(f.to_world(s.W));
     }
     return out;
+}
+
+}  // namespace
+
+WorldSphereStep SphereTracing::sample(const StepRequest& r, Rng& rng) const {
+    const StepRequest* req = &r;
+    Rng* rp = &rng;
+    WorldSphereStep out;
+    sample_group(1, &req, &rp, &out);
+    return out;
+}
+
+void SphereTracing::sample_group(int count, const StepRequest* const* requests,
+                                 Rng* const* rngs, WorldSphereStep* out) const {
+    for (int b = 0; b < count; b += kMaxGroup) {
+        const int K = std::min(kMaxGroup, count - b);
+        const StepRequest* const* req = requests + b;
+        SphereStep s[kMaxGroup];
+        if (sampler_ == SphereSampler::Walk) {
+            for (int k = 0; k < K; ++k) {
+                SphereWalk w =
+                    sphere_walk(req[k]->sigma, req[k]->g, req[k]->phi, *rngs[b + k]);
+                s[k].N = w.N;
+                s[k].cos_theta = w.cos_theta;
+                s[k].alpha = w.alpha;
+                s[k].beta = w.beta;
+                s[k].X = w.X;
+                s[k].W = w.W;
+            }
+        } else {
+            SSS_CHECK(model_ != nullptr);
+            // One model call for the steps with a representative event and one for those
+            // without; each step draws from its own stream, so the split changes nothing.
+            for (int event = 0; event < 2; ++event) {
+                int idx[kMaxGroup], n = 0;
+                float sigma[kMaxGroup], g[kMaxGroup], phi[kMaxGroup];
+                Rng rng[kMaxGroup];
+                for (int k = 0; k < K; ++k) {
+                    if (req[k]->with_event != bool(event)) continue;
+                    idx[n] = k;
+                    sigma[n] = req[k]->sigma;
+                    g[n] = req[k]->g;
+                    phi[n] = event_phi(req[k]->phi);
+                    rng[n++] = *rngs[b + k];
+                }
+                if (n == 0) continue;
+                SphereStep got[kMaxGroup];
+                model_->sample_group(n, sigma, g, phi, rng, bool(event),
+                                     DecoderImpl::Simd, got);
+                for (int j = 0; j < n; ++j) {
+                    s[idx[j]] = got[j];
+                    *rngs[b + idx[j]] = rng[j];
+                }
+            }
+        }
+        for (int k = 0; k < K; ++k) out[b + k] = to_world(*req[k], s[k], *rngs[b + k]);
+    }
 }
 
 }  // namespace sss

@@ -38,6 +38,18 @@ struct WorldSphereStep {
         true;  // the representative event is the first one, at p (X = p, W = w_in)
 };
 
+// A sphere step a path waits for (PathTracer::advance): where and how large, and what
+// its light connection is weighted with.
+struct StepRequest {
+    Vec3 p, w_in;        // the sphere's centre and the unit direction entering it
+    float radius = 0.f;  // r' in world units
+    float sigma = 0.f;   // sigma_t r'
+    float g = 0.f,
+          phi = 0.f;  // the medium's anisotropy; the albedo EventGen is asked about
+    bool with_event = false;  // sample the representative event (NEE)
+    Vec3 nee_weight{1.f};     // channel weights of its light connection (before Lambda)
+};
+
 class SphereTracing {
 public:
     // Loads the models from `models` (not for the walks, nor when threshold is infinite:
@@ -60,11 +72,15 @@ public:
     // The albedo EventGen is asked about for scene albedo phi (clamped into its range).
     float event_phi(float phi) const;
 
-    // One step of radius `radius` and optical radius `sigma` at p, entered along unit
-    // w_in, for anisotropy g and (for the event) albedo phi. Consumes rng: the sampler's
-    // numbers, then one for the turn psi about w_in.
-    WorldSphereStep sample(Vec3 p, Vec3 w_in, float radius, float sigma, float g,
-                           float phi, bool with_event, Rng& rng) const;
+    // One step for request r: its sampler's random numbers from rng, then one for the
+    // turn psi about w_in.
+    WorldSphereStep sample(const StepRequest& r, Rng& rng) const;
+    // `count` steps, step k for *requests[k] with *rngs[k]: the same samples as `count`
+    // calls of sample(), faster per step for the learned models (their decoders run on
+    // all the steps at once; at most kMaxGroup per call of the model, more are split).
+    void sample_group(int count, const StepRequest* const* requests, Rng* const* rngs,
+                      WorldSphereStep* out) const;
+    static constexpr int kMaxGroup = 16;
 
 private:
     const Scene& scene_;

@@ -6,6 +6,8 @@
 #include <limits>
 
 #include "core/check.h"
+#include "render/camera.h"
+#include "render/pt.h"
 #include "render/renderer.h"
 #include "testing/errors.h"
 #include "testing/model_dir.h"
@@ -134,6 +136,54 @@ TEST(SphereTracer, IdenticalForAnyThreadCount) {
     EXPECT_EQ(a.image, b.image);
     EXPECT_EQ(a.sphere_steps, b.sphere_steps);
     EXPECT_GT(a.total_sphere_steps, 0u);
+}
+
+// The renderer keeps many "st" paths in flight and samples their sphere steps together;
+// each path still draws from its own stream, so every pixel is the mean of the same
+// samples that tracing its paths one at a time (PathTracer::trace) gives.
+TEST(SphereTracer, PathsInFlightAreThePathsTracedOneAtATime) {
+    test::ModelDir models;
+    models.write_random(4);
+    for (bool chromatic : {false, true}) {
+        Scene scene(
+            sphere_scene(Vec3(15.f), chromatic ? Vec3(0.99f, 0.9f, 0.8f) : Vec3(0.95f),
+                         0.3f, BoundaryType::IndexMatched, true),
+            1);
+        RenderOptions opt = st_options(models.path(), 2.f);
+        opt.spp = 3;
+        opt.seed = 7;
+        RenderResult r = render(scene, opt);
+        ASSERT_GT(r.total_sphere_steps, 0u);
+
+        SphereTracing st(scene, opt.sphere_threshold, SphereSampler::Model, opt.models,
+                         true);
+        PathTracer tracer(scene, -1, true, &st);
+        const Camera& cam = scene.desc().camera;
+        PinholeCamera camera(cam);
+        for (int y = 0; y < cam.height; ++y)
+            for (int x = 0; x < cam.width; ++x) {
+                const size_t p = size_t(y) * cam.width + x;
+                double sum_d[3] = {0, 0, 0};
+                uint64_t events = 0, steps = 0;
+                for (int k = 0; k < opt.spp; ++k) {
+                    Rng rng(opt.seed, p, uint64_t(k));
+                    float jx = rng.uniform(), jy = rng.uniform();
+                    PathSample s = tracer.trace(camera.origin(),
+                                                camera.direction(x + jx, y + jy), rng);
+                    for (int c = 0; c < 3; ++c) sum_d[c] += s.radiance[c];
+                    events += s.scatter_events;
+                    steps += s.sphere_steps;
+                }
+                for (int c = 0; c < 3; ++c) {
+                    // The same samples summed in another order: equal to double rounding.
+                    const double want = sum_d[c] / opt.spp;
+                    EXPECT_NEAR(r.image[3 * p + c], want, 1e-6 * std::max(1.0, want))
+                        << x << " " << y;
+                }
+                EXPECT_EQ(r.events[p], float(double(events) / opt.spp));
+                EXPECT_EQ(r.sphere_steps[p], float(double(steps) / opt.spp));
+            }
+    }
 }
 
 TEST(SphereTracer, RefusesWhatTheModelsCannotDo) {
