@@ -78,7 +78,7 @@ public:
     void sample_batch(const float* sigma, const float* g, const float* phi, size_t n,
                       uint64_t seed, int threads, bool with_event, DecoderImpl impl,
                       SphereStep* out) const;
-    static constexpr int kBatchGroup = 8;
+    static constexpr int kBatchGroup = 16;
 
     const Decoder& length_gen() const { return length_; }
     const Decoder& path_gen() const { return path_; }

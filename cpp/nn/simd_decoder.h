@@ -11,6 +11,10 @@
 // 2) run on the padded blocks. The last layer's rows are reordered to [means, 0..,
 // log-variances, 0..], each half padded to a multiple of 4, so both halves start on a
 // block.
+//
+// sample_lanes reads the same packed weights one at a time and broadcasts each over a row
+// of 16 paths ("paths in lanes"): the form the sphere step uses (ScatteringModel::
+// sample_group), cheapest per step when many paths need the network at once.
 #pragma once
 
 #include <cstddef>
