@@ -258,7 +258,8 @@ int main(int argc, char** argv) {
                                 g_sink = out[0].cos_theta;
                             }) /
                 16;
-            js << "  \"group_16_N_path_event_ns_per_step\": " << group16_event_ns << ",\n";
+            js << "  \"group_16_N_path_event_ns_per_step\": " << group16_event_ns
+               << ",\n";
             std::printf("group of 16, N+path+event: %6.1f ns per step\n",
                         group16_event_ns);
 
@@ -295,7 +296,8 @@ int main(int argc, char** argv) {
            << ", \"batch_N_and_path\": " << batch_ns / pt_ns << "}\n}\n";
         std::printf("PT scattering event (best over the run): %.1f ns\n", pt_ns);
         std::printf(
-            "in PT events: single step N+path %.2f, group of 16 (as rendered) N+path %.2f, N+path+event "
+            "in PT events: single step N+path %.2f, group of 16 (as rendered) N+path "
+            "%.2f, N+path+event "
             "%.2f\n",
             single_step_ns / pt_ns, group16_ns / pt_ns, group16_event_ns / pt_ns);
 
