@@ -25,7 +25,7 @@ The cost of one sphere step is derived from the renders: per (shape, boundary) a
 time per path, a + b * events, over all its `pt` renders gives the cost b of one event; the
 time of each `st` render above a + b * events, divided by its steps, is the cost of a step.
 
-    PYTHONPATH=python python bench/st_vs_pt.py            # full run, ~20 min on 2 cores
+    PYTHONPATH=python python bench/st_vs_pt.py            # full run, ~7 min on 2 cores
     PYTHONPATH=python python bench/st_vs_pt.py --quick    # smoke run, ~30 s
     PYTHONPATH=python python bench/st_vs_pt.py --table bench/results/st_vs_pt.json  # tables only
 
