@@ -59,14 +59,16 @@ public:
 
     // One step. Throws sss::Error if sigma, g (or, with the event, phi) is outside the
     // training ranges of the decoders that the step uses or outside the domain of their
-    // encodings.
+    // encodings. With the SIMD decoder a lone step is slow (it runs on paths in lanes
+    // with 15 of 16 lanes idle): callers with many steps use sample_group.
     SphereStep sample(float sigma, float g, float phi, Rng& rng, bool with_event = true,
                       DecoderImpl impl = DecoderImpl::Simd) const;
 
     // `count` steps at once (at most kMaxGroup), step k with its own parameters and its
-    // own Rng: the same samples as `count` calls of `sample`, faster per step with the
-    // SIMD decoder (the steps' dependency chains overlap; bench/README.md). For a
-    // renderer that advances several paths together.
+    // own Rng: the same samples as `count` calls of `sample`, bit for bit. With the SIMD
+    // decoder the steps are the lanes of one evaluation (SimdDecoder::sample_lanes), so
+    // 16 cost about as much as one (bench/README.md). For a renderer that advances
+    // several paths together.
     void sample_group(int count, const float* sigma, const float* g, const float* phi,
                       Rng* rng, bool with_event, DecoderImpl impl, SphereStep* out) const;
     static constexpr int kMaxGroup = 16;
