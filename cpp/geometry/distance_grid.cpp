@@ -1,5 +1,6 @@
 #include "geometry/distance_grid.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace sss {
@@ -19,6 +20,12 @@ float DistanceGrid::query(Vec3 p) const {
     }
     // Guard against float rounding in |p - node| and the node position itself.
     return std::max(0.f, r * (1.f - 1e-5f) - 1e-6f * cell_);
+}
+
+float DistanceGrid::max_query() const {
+    float m = 0.f;
+    for (float d : dist_) m = std::max(m, d);
+    return m;
 }
 
 bool DistanceGrid::inside(Vec3 p) const {

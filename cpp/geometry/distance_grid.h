@@ -22,6 +22,8 @@ public:
 
     // Lower bound on the distance from p to the mesh surface; 0 outside the grid.
     float query(Vec3 p) const;
+    // An upper bound on query(p) over all p (the largest node distance).
+    float max_query() const;
     // Whether p is inside the closed mesh, by the sign stored at the nearest node: exact
     // when query(p) > 0, a guess within one cell of the surface.
     bool inside(Vec3 p) const;

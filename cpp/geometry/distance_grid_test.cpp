@@ -19,7 +19,8 @@ TriangleMesh lumpy_mesh() {
 }
 
 struct Stats {
-    double worst_excess = 0;  // max over points of r(p) - d(p); must be <= 0
+    double worst_excess = 0;  // max over points of r(p) - d(p) and of r(p) - max_query();
+                              // must be <= 0
     double worst_loss = 0;    // max over points inside the grid of d(p) - r(p)
 };
 
@@ -47,6 +48,7 @@ Stats check_conservative(const TriangleMesh& mesh, int resolution, int n, uint64
     for (size_t i = 0; i < pts.size(); ++i) {
         double r = grid.query(pts[i]);
         s.worst_excess = std::max(s.worst_excess, r - exact[i]);
+        s.worst_excess = std::max(s.worst_excess, r - double(grid.max_query()));
         if (b.contains(pts[i])) s.worst_loss = std::max(s.worst_loss, exact[i] - r);
     }
     return s;

@@ -120,7 +120,10 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
     std::vector<TileState> tiles(num_tiles);
 
     PinholeCamera camera(cam);
-    PathTracer tracer(scene, opt.max_bounces, opt.nee, sphere_tracing.get());
+    // Where no step can happen, "st" is "pt" path for path: trace it as "pt".
+    const SphereTracing* stepper =
+        sphere_tracing && sphere_tracing->may_step() ? sphere_tracing.get() : nullptr;
+    PathTracer tracer(scene, opt.max_bounces, opt.nee, stepper);
     std::atomic<int64_t> next_task{0}, done_samples{0};
     std::atomic<bool> cancel{false};
     std::mutex error_mutex;
@@ -161,8 +164,8 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
             };
             bool complete = true;
             try {
-                if (sphere_tracing)
-                    complete = trace_in_flight(tracer, *sphere_tracing, n * m, camera_ray,
+                if (stepper)
+                    complete = trace_in_flight(tracer, *stepper, n * m, camera_ray,
                                                record, cancel);
                 else
                     for (int i = 0; i < n * m && complete; ++i) {

@@ -34,6 +34,11 @@ SphereTracing::SphereTracing(const Scene& scene, float threshold, SphereSampler 
             "sphere_threshold must be >= 0 (inf: no sphere steps, the same image as "
             "'pt'), got ",
             threshold);
+    for (int i = 0; i < scene_.num_shapes(); ++i)
+        if (max_component(scene_.desc().shapes[i].medium.sigma_t) *
+                scene_.grid(i).max_query() >=
+            threshold_)
+            may_step_ = true;
     if (sampler_ == SphereSampler::Walk || std::isinf(threshold)) return;
     if (models.empty())
         fail(

@@ -64,6 +64,10 @@ public:
     SphereTracing& operator=(const SphereTracing&) = delete;
 
     float threshold() const { return threshold_; }
+    // Whether any medium of the scene has a point deep enough for a step (sigma_t r >=
+    // threshold with r the grid's bound). When none has, "st" is "pt" exactly, and the
+    // renderer traces it as "pt" (no paths in flight).
+    bool may_step() const { return may_step_; }
     // Steps are shrunk so that sigma = sigma_t * r' <= sigma_max.
     float sigma_max() const { return sigma_max_; }
     // Whether a step in `shape` samples its representative event (NEE on, lights present,
@@ -88,6 +92,7 @@ private:
     SphereSampler sampler_;
     bool nee_;
     float sigma_max_ = kWalkSigmaMax;
+    bool may_step_ = false;
     float phi_lo_ = 0.f, phi_hi_ = 1.f;
     std::unique_ptr<ScatteringModel> model_;
 };

@@ -121,6 +121,32 @@ TEST(SphereTracer, InfiniteThresholdGivesPtBitForBit) {
     }
 }
 
+TEST(SphereTracer, WhereNoStepFitsItIsPt) {
+    // A sphere of radius 1 with sigma_t 3 (the largest optical radius is 3) and tau = 6:
+    // no step fits anywhere, so st is pt, traced without paths in flight. With sigma_t 9
+    // in one channel the centre fits a step.
+    test::ModelDir models;
+    models.write_random(2);
+    Scene thin(
+        sphere_scene(Vec3(3.f), Vec3(0.9f), 0.4f, BoundaryType::IndexMatched, true), 2);
+    Scene deep(sphere_scene(Vec3(3.f, 3.f, 9.f), Vec3(0.9f), 0.4f,
+                            BoundaryType::IndexMatched, true),
+               2);
+    RenderOptions st = st_options(models.path(), 6.f);
+    EXPECT_FALSE(
+        SphereTracing(thin, 6.f, SphereSampler::Model, models.path(), true).may_step());
+    EXPECT_TRUE(
+        SphereTracing(deep, 6.f, SphereSampler::Model, models.path(), true).may_step());
+    st.spp = 4;
+    RenderOptions pt;
+    pt.spp = 4;
+    pt.threads = 2;
+    RenderResult a = render(thin, pt), c = render(thin, st);
+    EXPECT_EQ(a.image, c.image);
+    EXPECT_EQ(c.total_sphere_steps, 0u);
+    EXPECT_GT(render(deep, st).total_sphere_steps, 0u);
+}
+
 TEST(SphereTracer, IdenticalForAnyThreadCount) {
     test::ModelDir models;
     models.write_random(3);
