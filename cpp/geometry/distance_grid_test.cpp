@@ -42,6 +42,19 @@ Stats check_conservative(const TriangleMesh& mesh, int resolution, int n, uint64
         pts.push_back(q);
         pts.push_back(q + Vec3(grid.cell_size() * rng.uniform(), 0.f, 0.f));
     }
+    // And points within two cells of the surface on both sides, where the bound
+    // loses most: on a random triangle, moved along its normal.
+    for (int i = 0; i < n / 2; ++i) {
+        size_t t = std::min(mesh.triangles.size() - 1,
+                            size_t(rng.uniform() * float(mesh.triangles.size())));
+        float a = rng.uniform(), c = rng.uniform();
+        if (a + c > 1.f) a = 1.f - a, c = 1.f - c;
+        const auto& tri = mesh.triangles[t];
+        Vec3 y = mesh.positions[tri[0]] * (1.f - a - c) + mesh.positions[tri[1]] * a +
+                 mesh.positions[tri[2]] * c;
+        pts.push_back(y +
+                      mesh.normal(t) * ((rng.uniform() * 4.f - 2.f) * grid.cell_size()));
+    }
     std::vector<double> exact = exact_distances(mesh, pts);
     if (cell) *cell = grid.cell_size();
     Stats s;
