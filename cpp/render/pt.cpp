@@ -147,6 +147,13 @@ Vec3 PathTracer::direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng,
                 break;
             }
             case Light::Type::Environment: {
+                if (!mis) {
+                    // No MIS partner: sample the phase function, the ideal density for a
+                    // constant environment (phase / pdf = 1).
+                    Vec3 w = hg_sample(d, g, rng.uniform(), rng.uniform());
+                    sum += l.radiance * transmittance(p, w, kInf, shape, channel, rng);
+                    break;
+                }
                 Vec3 w = sample_uniform_sphere(rng.uniform(), rng.uniform());
                 float pdf = uniform_sphere_pdf();
                 float phase = hg_eval(dot(d, w), g);

@@ -71,9 +71,10 @@ private:
     bool run(PathState& state, const WorldSphereStep* step) const;
     // Phase x transmittance x emitted radiance / pdf at medium point p of shape `shape`,
     // for a photon travelling along d before scattering, from one light chosen uniformly
-    // (weighted by the number of lights). mis = false: light sampling alone (weight 1),
-    // for a vertex whose phase-sampled continuation cannot be weighted (a sphere step's
-    // events k >= 2).
+    // (weighted by the number of lights). mis = false: for a vertex whose phase-sampled
+    // continuation cannot be weighted (a sphere step's events k >= 2), each light's whole
+    // direct light by one strategy: light sampling (weight 1), except for the constant
+    // environment, whose shadow ray takes a phase-sampled direction.
     Vec3 direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng,
                       bool mis = true) const;
     // Transmittance from p (inside shape `shape`, or -1 for vacuum) along unit w over
