@@ -58,18 +58,25 @@ float PathTracer::area_light_pdf(int light, Vec3 p, Vec3 w, float t, Vec3 n) con
 }
 
 Vec3 PathTracer::transmittance(Vec3 p, Vec3 w, float dist, int shape, int channel,
-                               Rng& rng) const {
+                               Rng& rng, EmitterHit* emitter) const {
     const auto& shapes = scene_.desc().shapes;
     Vec3 tr(1.f);
     Vec3 o = p;
-    float remaining = dist;
+    float remaining = dist, travelled = 0.f;
     for (int crossing = 0; crossing < kMaxShadowCrossings; ++crossing) {
         Hit hit;
         if (!scene_.tracer().intersect(o, w, 0.f, remaining, &hit)) {
             if (shape >= 0) tr *= beer(shapes[shape].medium.sigma_t, remaining);
             return tr;
         }
-        if (int(hit.mesh) >= scene_.num_shapes()) return Vec3(0.f);  // an emitter's quad
+        if (int(hit.mesh) >= scene_.num_shapes()) {  // an emitter's quad
+            if (!emitter) return Vec3(0.f);
+            emitter->light = scene_.area_light_of_mesh(hit.mesh);
+            emitter->t = travelled + hit.t;
+            emitter->normal = hit.normal;
+            if (shape >= 0) tr *= beer(shapes[shape].medium.sigma_t, hit.t);
+            return tr;
+        }
         const Shape& s = shapes[hit.mesh];
         if (s.boundary.type == BoundaryType::Dielectric) return Vec3(0.f);
         if (shape >= 0) tr *= beer(shapes[shape].medium.sigma_t, hit.t);
@@ -86,6 +93,7 @@ Vec3 PathTracer::transmittance(Vec3 p, Vec3 w, float dist, int shape, int channe
         shape = dot(w, hit.normal) < 0.f ? int(hit.mesh) : -1;
         o = offset(o + w * hit.t, hit.normal, w, scene_.ray_epsilon());
         remaining -= hit.t;
+        travelled += hit.t;
     }
     return Vec3(0.f);
 }
@@ -142,8 +150,23 @@ Vec3 PathTracer::direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng,
                 float pdf = area_light_pdf(int(i), p, w, dist, n);
                 float phase = hg_eval(dot(d, w), g);
                 Vec3 tr = transmittance(p, w, dist * (1.f - 1e-4f), shape, channel, rng);
-                float mis_w = mis ? power_heuristic(pdf / n_lights, phase) : 1.f;
+                // With mis, the partner is the path's own phase-sampled flight (which
+                // sees the light selection too); without, the phase-sampled shadow ray
+                // below.
+                float mis_w = power_heuristic(mis ? pdf / n_lights : pdf, phase);
                 sum += l.radiance * tr * (phase * mis_w / pdf);
+                if (!mis) {
+                    // The second strategy: a phase-sampled shadow ray that meets this
+                    // light's front (phase / pdf = 1).
+                    Vec3 wp = hg_sample(d, g, rng.uniform(), rng.uniform());
+                    EmitterHit e;
+                    Vec3 trp = transmittance(p, wp, kInf, shape, channel, rng, &e);
+                    if (e.light == int(i) && dot(wp, e.normal) < 0.f) {
+                        float pdf_l = area_light_pdf(int(i), p, wp, e.t, e.normal);
+                        sum += l.radiance * trp *
+                               power_heuristic(hg_eval(dot(d, wp), g), pdf_l);
+                    }
+                }
                 break;
             }
             case Light::Type::Environment: {

@@ -73,16 +73,25 @@ private:
     // for a photon travelling along d before scattering, from one light chosen uniformly
     // (weighted by the number of lights). mis = false: for a vertex whose phase-sampled
     // continuation cannot be weighted (a sphere step's events k >= 2), each light's whole
-    // direct light by one strategy: light sampling (weight 1), except for the constant
-    // environment, whose shadow ray takes a phase-sampled direction.
+    // direct light from shadow rays alone: point and directional lights as always, the
+    // constant environment by a phase-sampled direction, an area light by a light sample
+    // and a phase-sampled ray, combined by MIS.
     Vec3 direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng,
                       bool mis = true) const;
     // Transmittance from p (inside shape `shape`, or -1 for vacuum) along unit w over
     // `dist`; 0 when a dielectric boundary or an emitter is in the way. Unbiased
     // estimate: once the transmittance of the channel(s) carried falls below
     // kShadowRoulette at a boundary, the rest of the ray is traced by Russian roulette.
-    Vec3 transmittance(Vec3 p, Vec3 w, float dist, int shape, int channel,
-                       Rng& rng) const;
+    // With `emitter`, an emitter's quad ends the ray instead of blocking it: the result
+    // is the transmittance up to it, and *emitter says which light, how far along w, and
+    // its normal (light -1: none met).
+    struct EmitterHit {
+        int light = -1;
+        float t = 0.f;
+        Vec3 normal;
+    };
+    Vec3 transmittance(Vec3 p, Vec3 w, float dist, int shape, int channel, Rng& rng,
+                       EmitterHit* emitter = nullptr) const;
     // Light-sampling pdf (solid angle) of direction w from a medium point, for MIS.
     float area_light_pdf(int light, Vec3 p, Vec3 w, float t, Vec3 n) const;
 

@@ -101,6 +101,59 @@ TEST(SphereTracer, FurnaceWithNeeAndExactWalksIsUnbiased) {
     }
 }
 
+TEST(SphereTracer, ExactWalksUnderAreaLightAndEnvironmentMatchPt) {
+    // A large area light above an index-matched sphere, and the environment: NEE from a
+    // step's events k >= 2 has no MIS partner there, so it combines a light sample and a
+    // phase-sampled ray for the area light and takes phase-sampled rays for the
+    // environment. With exact walks st must agree with pt (NEE, MIS) up to noise: 4x4
+    // block means compared by chi-square, and the sum over the sphere (4 sigma), with
+    // both renders' variances.
+    SceneDesc d = sphere_scene(Vec3(6.f), Vec3(0.95f), 0.7f, BoundaryType::IndexMatched);
+    Light area;
+    area.type = Light::Type::Area;
+    area.corner = {-1.f, 1.8f, 1.f};
+    area.edge1 = {0.f, 0.f, -2.f};
+    area.edge2 = {2.f, 0.f, 0.f};  // edge1 x edge2 points down, at the sphere
+    area.radiance = Vec3(5.f);
+    d.lights.push_back(area);
+    d.camera.width = d.camera.height = 32;
+    Scene scene(d, 2);
+    RenderOptions pt;
+    pt.spp = 256;
+    pt.threads = 2;
+    pt.seed = 5;
+    RenderOptions st = st_options("", 1.f);
+    st.sphere_sampler = SphereSampler::Walk;
+    st.spp = 256;
+    st.seed = 6;
+    RenderResult a = render(scene, pt), b = render(scene, st);
+    const int W = a.width, B = 4;
+    double chi2 = 0, diff = 0, var = 0;
+    int n = 0;
+    for (int by = 0; by < a.height / B; ++by)
+        for (int bx = 0; bx < W / B; ++bx)
+            for (int c = 0; c < 3; ++c) {
+                double ma = 0, mb = 0, v = 0;
+                for (int y = by * B; y < (by + 1) * B; ++y)
+                    for (int x = bx * B; x < (bx + 1) * B; ++x) {
+                        size_t i = 3 * (size_t(y) * W + x) + c;
+                        ma += a.image[i];
+                        mb += b.image[i];
+                        v += a.variance[i] + b.variance[i];
+                    }
+                if (v == 0.0) continue;  // background in both: the environment exactly
+                chi2 += (ma - mb) * (ma - mb) / v;
+                diff += ma - mb;
+                var += v;
+                ++n;
+            }
+    ASSERT_GT(n, 20);
+    EXPECT_LT(chi2, test::chi2_critical(n))
+        << "chi2 " << chi2 << " over " << n << " blocks";
+    EXPECT_LT(std::abs(diff), 4.0 * std::sqrt(var));  // the whole sphere
+    EXPECT_GT(b.total_sphere_steps, b.total_paths / 10);
+}
+
 TEST(SphereTracer, InfiniteThresholdGivesPtBitForBit) {
     // tau = inf runs st's code (a grid query at every collision) but never steps: the
     // image, its variance and the event counts are pt's exactly. No models are needed.
