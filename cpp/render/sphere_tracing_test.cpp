@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include "core/check.h"
 #include "render/camera.h"
@@ -26,6 +27,34 @@ SceneDesc sphere_scene(Vec3 sigma_t, Vec3 albedo, float g, BoundaryType boundary
     SceneDesc d = test::sphere_in_environment(sigma_t, albedo, g, boundary, point_light);
     d.source = "st-test";
     return d;
+}
+
+// Sums over one 4x4 pixel block and channel of the pixel means and their variances.
+struct BlockSum {
+    double value = 0, variance = 0;
+    int pixels = 0;
+};
+
+// The block sums of r, block-major with the channel innermost. skip_constant leaves out
+// pixels of zero variance (every sample the same, e.g. the background).
+std::vector<BlockSum> block_sums(const RenderResult& r, bool skip_constant) {
+    constexpr int B = 4;
+    std::vector<BlockSum> out;
+    for (int by = 0; by < r.height / B; ++by)
+        for (int bx = 0; bx < r.width / B; ++bx)
+            for (int c = 0; c < 3; ++c) {
+                BlockSum b;
+                for (int y = by * B; y < (by + 1) * B; ++y)
+                    for (int x = bx * B; x < (bx + 1) * B; ++x) {
+                        size_t i = 3 * (size_t(y) * r.width + x) + c;
+                        if (skip_constant && r.variance[i] == 0.f) continue;
+                        b.value += r.image[i];
+                        b.variance += r.variance[i];
+                        ++b.pixels;
+                    }
+                out.push_back(b);
+            }
+    return out;
 }
 
 RenderOptions st_options(const std::string& models, float threshold) {
@@ -70,29 +99,16 @@ TEST(SphereTracer, FurnaceWithNeeAndExactWalksIsUnbiased) {
         opt.spp = 128;
         opt.seed = 4;
         RenderResult r = render(scene, opt);
-        const int W = r.width, B = 4;
         double chi2 = 0, sum = 0, var = 0;
         int n = 0, pixels = 0;
-        for (int by = 0; by < r.height / B; ++by)
-            for (int bx = 0; bx < W / B; ++bx)
-                for (int c = 0; c < 3; ++c) {
-                    double m = 0, v = 0;
-                    int k = 0;
-                    for (int y = by * B; y < (by + 1) * B; ++y)
-                        for (int x = bx * B; x < (bx + 1) * B; ++x) {
-                            size_t i = 3 * (size_t(y) * W + x) + c;
-                            if (r.variance[i] == 0.f) continue;  // background: exactly 1
-                            m += r.image[i];
-                            v += r.variance[i];
-                            ++k;
-                        }
-                    if (k == 0) continue;
-                    chi2 += (m - k) * (m - k) / v;
-                    sum += m;
-                    var += v;
-                    pixels += k;
-                    ++n;
-                }
+        for (const BlockSum& b : block_sums(r, true)) {
+            if (b.pixels == 0) continue;  // background only: exactly 1
+            chi2 += (b.value - b.pixels) * (b.value - b.pixels) / b.variance;
+            sum += b.value;
+            var += b.variance;
+            pixels += b.pixels;
+            ++n;
+        }
         ASSERT_GT(n, 20);
         EXPECT_LT(chi2, test::chi2_critical(n))
             << "chi2 " << chi2 << " over " << n << " blocks";
@@ -127,26 +143,17 @@ TEST(SphereTracer, ExactWalksUnderAreaLightAndEnvironmentMatchPt) {
     st.spp = 256;
     st.seed = 6;
     RenderResult a = render(scene, pt), b = render(scene, st);
-    const int W = a.width, B = 4;
+    const std::vector<BlockSum> sa = block_sums(a, false), sb = block_sums(b, false);
     double chi2 = 0, diff = 0, var = 0;
     int n = 0;
-    for (int by = 0; by < a.height / B; ++by)
-        for (int bx = 0; bx < W / B; ++bx)
-            for (int c = 0; c < 3; ++c) {
-                double ma = 0, mb = 0, v = 0;
-                for (int y = by * B; y < (by + 1) * B; ++y)
-                    for (int x = bx * B; x < (bx + 1) * B; ++x) {
-                        size_t i = 3 * (size_t(y) * W + x) + c;
-                        ma += a.image[i];
-                        mb += b.image[i];
-                        v += a.variance[i] + b.variance[i];
-                    }
-                if (v == 0.0) continue;  // background in both: the environment exactly
-                chi2 += (ma - mb) * (ma - mb) / v;
-                diff += ma - mb;
-                var += v;
-                ++n;
-            }
+    for (size_t k = 0; k < sa.size(); ++k) {
+        const double d = sa[k].value - sb[k].value, v = sa[k].variance + sb[k].variance;
+        if (v == 0.0) continue;  // background in both: the environment exactly
+        chi2 += d * d / v;
+        diff += d;
+        var += v;
+        ++n;
+    }
     ASSERT_GT(n, 20);
     EXPECT_LT(chi2, test::chi2_critical(n))
         << "chi2 " << chi2 << " over " << n << " blocks";
@@ -176,8 +183,9 @@ TEST(SphereTracer, InfiniteThresholdGivesPtBitForBit) {
 
 TEST(SphereTracer, WhereNoStepFitsItIsPt) {
     // A sphere of radius 1 with sigma_t 3 (the largest optical radius is 3) and tau = 6:
-    // no step fits anywhere, so st is pt, traced without paths in flight. With sigma_t 9
-    // in one channel the centre fits a step.
+    // no step fits anywhere, so may_step() is false and the renderer traces st as pt
+    // (the image would be pt's either way; the flag is what this test pins down). With
+    // sigma_t 9 in one channel the centre fits a step.
     test::ModelDir models;
     models.write_random(2);
     Scene thin(
