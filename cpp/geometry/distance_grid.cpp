@@ -5,7 +5,7 @@
 
 namespace sss {
 
-float DistanceGrid::query(Vec3 p) const {
+float DistanceGrid::query(const Vec3& p) const {
     if (dist_.empty()) return 0.f;
     Vec3 g = (p - origin_) / cell_;
     if (!(g.x >= 0.f && g.y >= 0.f && g.z >= 0.f)) return 0.f;
@@ -28,7 +28,7 @@ float DistanceGrid::max_query() const {
     return m;
 }
 
-bool DistanceGrid::inside(Vec3 p) const {
+bool DistanceGrid::inside(const Vec3& p) const {
     if (dist_.empty()) return false;
     Vec3 g = (p - origin_) / cell_ + Vec3(0.5f);
     if (!(g.x >= 0.f && g.y >= 0.f && g.z >= 0.f)) return false;

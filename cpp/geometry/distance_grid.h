@@ -21,12 +21,12 @@ public:
     static DistanceGrid build(const TriangleMesh& mesh, int resolution, int threads = 0);
 
     // Lower bound on the distance from p to the mesh surface; 0 outside the grid.
-    float query(Vec3 p) const;
+    float query(const Vec3& p) const;
     // An upper bound on query(p) over all p (the largest node distance).
     float max_query() const;
     // Whether p is inside the closed mesh, by the sign stored at the nearest node: exact
     // when query(p) > 0, a guess within one cell of the surface.
-    bool inside(Vec3 p) const;
+    bool inside(const Vec3& p) const;
 
     // Exact unsigned distance at node (i, j, k) and whether that node lies inside.
     float node_distance(int i, int j, int k) const { return dist_[index(i, j, k)]; }

@@ -44,21 +44,33 @@ Vec3 offset(Vec3 p, Vec3 n, Vec3 w, float eps) {
     return p + n * (dot(w, n) > 0.f ? eps : -eps);
 }
 
+// Path Russian roulette after a scattering event or sphere step, once the throughput
+// fell below kRouletteThreshold of its start value: false ends the path.
+bool survives_roulette(Vec3& beta, float beta_start, Rng& rng) {
+    float q = max_component(beta) / beta_start;
+    if (q < kRouletteThreshold) {
+        if (rng.uniform() >= q) return false;
+        beta /= q;
+    }
+    return true;
+}
+
 }  // namespace
 
 PathTracer::PathTracer(const Scene& scene, int max_bounces, bool nee,
                        const SphereTracing* sphere_tracing)
     : scene_(scene), max_bounces_(max_bounces), nee_(nee), st_(sphere_tracing) {}
 
-float PathTracer::area_light_pdf(int light, Vec3 p, Vec3 w, float t, Vec3 n) const {
+float PathTracer::area_light_pdf(int light, const Vec3& p, const Vec3& w, float t,
+                                 const Vec3& n) const {
     const Light& l = scene_.desc().lights[light];
     float area = length(cross(l.edge1, l.edge2));
     float cos_l = std::abs(dot(w, n));
     return cos_l > 0.f ? t * t / (cos_l * area) : 0.f;
 }
 
-Vec3 PathTracer::transmittance(Vec3 p, Vec3 w, float dist, int shape, int channel,
-                               Rng& rng, EmitterHit* emitter) const {
+Vec3 PathTracer::transmittance(const Vec3& p, const Vec3& w, float dist, int shape,
+                               int channel, Rng& rng, EmitterHit* emitter) const {
     const auto& shapes = scene_.desc().shapes;
     Vec3 tr(1.f);
     Vec3 o = p;
@@ -98,8 +110,8 @@ Vec3 PathTracer::transmittance(Vec3 p, Vec3 w, float dist, int shape, int channe
     return Vec3(0.f);
 }
 
-Vec3 PathTracer::direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng,
-                              bool mis) const {
+Vec3 PathTracer::direct_light(const Vec3& p, const Vec3& d, int shape, int channel,
+                              Rng& rng, bool mis) const {
     const Shape& s = scene_.desc().shapes[shape];
     // A straight shadow ray never leaves a smooth dielectric boundary (DESIGN §2).
     if (s.boundary.type == BoundaryType::Dielectric) return Vec3(0.f);
@@ -190,7 +202,8 @@ Vec3 PathTracer::direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng,
     return sum * (shadow_weight * n_lights);
 }
 
-void PathTracer::start(PathState& ps, Vec3 o, Vec3 d, const Rng& rng) const {
+void PathTracer::start(PathState& ps, const Vec3& o, const Vec3& d,
+                       const Rng& rng) const {
     ps = PathState();
     ps.rng = rng;
     ps.o = o;
@@ -210,7 +223,7 @@ bool PathTracer::advance(PathState& ps, const WorldSphereStep* step) const {
     return st_ ? run<true>(ps, step) : run<false>(ps, step);
 }
 
-PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
+PathSample PathTracer::trace(const Vec3& o, const Vec3& d, Rng& rng) const {
     PathState ps;
     start(ps, o, d, rng);
     if (!st_) {
@@ -225,8 +238,71 @@ PathSample PathTracer::trace(Vec3 o, Vec3 d, Rng& rng) const {
     return ps.out;
 }
 
+bool PathTracer::take_step(PathState& ps, const WorldSphereStep& step) const {
+    const Shape& s = scene_.desc().shapes[ps.shape];
+    const Vec3 albedo = s.medium.albedo;
+    const StepRequest& req = ps.step;
+    Vec3 survival, nee_weight = req.nee_weight;
+    for (int c = 0; c < 3; ++c) {
+        survival[c] = float(survival_power(albedo[c], step.N));
+        if (req.with_event) nee_weight[c] *= float(event_weight_sum(albedo[c], step.N));
+    }
+    // NEE from the representative event, weighted by Lambda = sum_j phi^j, with the
+    // throughput on entering the sphere. MIS needs the same vertex on both sides: the
+    // first event (at o) is known, so it keeps pt's MIS, and its phase-sampled light hit
+    // (only possible for N = 1) keeps its weight. For N >= 2 the last event is unknown:
+    // its light hit gets weight 0 (phase_pdf = 0 below) and the events k >= 2 use light
+    // sampling alone.
+    if (req.with_event && !is_black(nee_weight))
+        ps.L +=
+            ps.beta * nee_weight *
+            direct_light(step.X, step.W, ps.shape, ps.channel, ps.rng, step.first_event);
+    ps.beta *= survival;
+    bool alive = !is_black(ps.beta);
+    if (alive) {
+        ps.phase_pdf = step.N == 1 ? hg_eval(dot(ps.d, step.exit_dir), s.medium.g) : 0.f;
+        ps.scatter_pos = ps.o;
+        ps.o = step.exit_pos;
+        ps.d = step.exit_dir;
+        ps.specular = false;
+        ps.r_at_o = -1.f;
+        alive = survives_roulette(ps.beta, ps.beta_start, ps.rng);
+    }
+    if (!alive) ps.out.radiance = ps.L;
+    return alive;
+}
+
+void PathTracer::request_step(PathState& ps, float r) const {
+    const Medium& m = scene_.desc().shapes[ps.shape].medium;
+    const float sigma_t = extinction(m, ps.channel);
+    ++ps.out.sphere_steps;
+    StepRequest& req = ps.step;
+    req.p = ps.o;
+    req.w_in = ps.d;
+    req.sigma = std::min(sigma_t * r, st_->sigma_max());
+    req.radius = std::min(r, req.sigma / sigma_t);
+    req.g = m.g;
+    req.with_event = st_->wants_event(ps.shape);
+    // The representative event is drawn for one albedo: the carried channel's, or, for
+    // RGB throughput with a chromatic albedo, a channel picked uniformly whose light
+    // connection then counts 3 times in that channel only.
+    req.phi = m.albedo[ps.channel < 0 ? 0 : ps.channel];
+    req.nee_weight = Vec3(1.f);
+    if (req.with_event && ps.channel < 0 &&
+        !(m.albedo.x == m.albedo.y && m.albedo.x == m.albedo.z)) {
+        const int c = std::min(2, int(ps.rng.uniform() * 3.f));
+        req.phi = m.albedo[c];
+        req.nee_weight = Vec3(0.f);
+        req.nee_weight[c] = 3.f;
+    }
+}
+
 template <bool kSphereTracing>
 bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
+    if constexpr (kSphereTracing) {
+        // The sphere step this path waited for (requested below).
+        if (step && !take_step(ps, *step)) return true;
+    }
     const SceneDesc& desc = scene_.desc();
     const float eps = scene_.ray_epsilon();
     // The path's state in locals for the loop (written back when it waits for a step).
@@ -249,7 +325,6 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
         ps.scatter_pos = scatter_pos;
         ps.r_at_o = r_at_o;
         ps.out = out;
-        return false;
     };
     auto finish = [&]() {
         ps.rng = rng;
@@ -260,49 +335,6 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
     // NEE picks one light uniformly: the light-sampling pdfs in MIS weights carry 1/n.
     const float light_select_pdf =
         desc.lights.empty() ? 0.f : 1.f / float(desc.lights.size());
-    // Path Russian roulette after a scattering event or sphere step: false ends the path.
-    auto survives_roulette = [&]() {
-        float q = max_component(beta) / beta_start;
-        if (q < kRouletteThreshold) {
-            if (rng.uniform() >= q) return false;
-            beta /= q;
-        }
-        return true;
-    };
-
-    if constexpr (kSphereTracing) {
-        if (step) {
-            // The sphere step this path waited for (requested below): weights, NEE from
-            // its representative event, and the exit (docs/sphere-tracing.md).
-            const Shape& s = desc.shapes[shape];
-            const Vec3 albedo = s.medium.albedo;
-            const StepRequest& req = ps.step;
-            Vec3 survival, nee_weight = req.nee_weight;
-            for (int c = 0; c < 3; ++c) {
-                survival[c] = float(survival_power(albedo[c], step->N));
-                if (req.with_event)
-                    nee_weight[c] *= float(event_weight_sum(albedo[c], step->N));
-            }
-            // NEE from the representative event, weighted by Lambda = sum_j phi^j, with
-            // the throughput on entering the sphere. MIS needs the same vertex on both
-            // sides: the first event (at o) is known, so it keeps pt's MIS, and its
-            // phase-sampled light hit (only possible for N = 1) keeps its weight. For
-            // N >= 2 the last event is unknown: its light hit gets weight 0 (phase_pdf =
-            // 0 below) and the events k >= 2 use light sampling alone.
-            if (req.with_event && !is_black(nee_weight))
-                L += beta * nee_weight *
-                     direct_light(step->X, step->W, shape, channel, rng,
-                                  step->first_event);
-            beta *= survival;
-            if (is_black(beta)) return finish();
-            phase_pdf = step->N == 1 ? hg_eval(dot(d, step->exit_dir), s.medium.g) : 0.f;
-            scatter_pos = o;
-            o = step->exit_pos;
-            d = step->exit_dir;
-            specular = false;
-            if (!survives_roulette()) return finish();
-        }
-    }
 
     for (;;) {
         if (shape < 0) {
@@ -391,31 +423,10 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
                 // Sphere tracing: if the largest sphere around o inside the medium is
                 // optically thick enough, one step replaces every scattering event inside
                 // it (docs/sphere-tracing.md).
-                const float sigma_t = extinction(s.medium, channel);
-                if (sigma_t * r >= st_->threshold()) {
-                    ++out.sphere_steps;
-                    StepRequest& req = ps.step;
-                    req.p = o;
-                    req.w_in = d;
-                    req.sigma = std::min(sigma_t * r, st_->sigma_max());
-                    req.radius = std::min(r, req.sigma / sigma_t);
-                    req.g = s.medium.g;
-                    const Vec3 albedo = s.medium.albedo;
-                    req.with_event = st_->wants_event(shape);
-                    // The representative event is drawn for one albedo: the carried
-                    // channel's, or, for RGB throughput with a chromatic albedo, a
-                    // channel picked uniformly whose light connection then counts 3 times
-                    // in that channel only.
-                    req.phi = albedo[channel < 0 ? 0 : channel];
-                    req.nee_weight = Vec3(1.f);
-                    if (req.with_event && channel < 0 &&
-                        !(albedo.x == albedo.y && albedo.x == albedo.z)) {
-                        const int c = std::min(2, int(rng.uniform() * 3.f));
-                        req.phi = albedo[c];
-                        req.nee_weight = Vec3(0.f);
-                        req.nee_weight[c] = 3.f;
-                    }
-                    return suspend();
+                if (extinction(s.medium, channel) * r >= st_->threshold()) {
+                    suspend();
+                    request_step(ps, r);
+                    return false;
                 }
             }
             r_at_o = r;  // the ordinary event below stays at o: its next flight reuses r
@@ -431,7 +442,7 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             scatter_pos = o;
             d = d_new;
             specular = false;
-            if (!survives_roulette()) break;
+            if (!survives_roulette(beta, beta_start, rng)) break;
             continue;
         }
 

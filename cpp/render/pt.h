@@ -53,7 +53,7 @@ public:
                const SphereTracing* sphere_tracing = nullptr);
     // Radiance arriving at `o` from direction -d (a camera ray o + t d), the whole path
     // at once (a sphere step is sampled on its own: "st" renders use start / advance).
-    PathSample trace(Vec3 o, Vec3 d, Rng& rng) const;
+    PathSample trace(const Vec3& o, const Vec3& d, Rng& rng) const;
 
     // The same path in pieces, so that several paths can share the decoders: start() sets
     // up the camera ray o + t d; advance() runs the path until it ends (returns true;
@@ -61,7 +61,7 @@ public:
     // The next advance() takes that step, sampled by SphereTracing::sample_group. The
     // random numbers a path consumes, and so its result, do not depend on how paths are
     // grouped.
-    void start(PathState& state, Vec3 o, Vec3 d, const Rng& rng) const;
+    void start(PathState& state, const Vec3& o, const Vec3& d, const Rng& rng) const;
     bool advance(PathState& state, const WorldSphereStep* step = nullptr) const;
 
 private:
@@ -69,6 +69,12 @@ private:
     // step.
     template <bool kSphereTracing>
     bool run(PathState& state, const WorldSphereStep* step) const;
+    // "st": applies the sphere step the path waited for (weights, NEE from its
+    // representative event, the exit) to its state; false when the path ends there.
+    bool take_step(PathState& state, const WorldSphereStep& step) const;
+    // "st": fills state.step, the request for a step at the path's position, where the
+    // grid gives r.
+    void request_step(PathState& state, float r) const;
     // Phase x transmittance x emitted radiance / pdf at medium point p of shape `shape`,
     // for a photon travelling along d before scattering, from one light chosen uniformly
     // (weighted by the number of lights). mis = false: for a vertex whose phase-sampled
@@ -76,7 +82,7 @@ private:
     // direct light from shadow rays alone: point and directional lights as always, the
     // constant environment by a phase-sampled direction, an area light by a light sample
     // and a phase-sampled ray, combined by MIS.
-    Vec3 direct_light(Vec3 p, Vec3 d, int shape, int channel, Rng& rng,
+    Vec3 direct_light(const Vec3& p, const Vec3& d, int shape, int channel, Rng& rng,
                       bool mis = true) const;
     // Transmittance from p (inside shape `shape`, or -1 for vacuum) along unit w over
     // `dist`; 0 when a dielectric boundary or an emitter is in the way. Unbiased
@@ -90,10 +96,11 @@ private:
         float t = 0.f;
         Vec3 normal;
     };
-    Vec3 transmittance(Vec3 p, Vec3 w, float dist, int shape, int channel, Rng& rng,
-                       EmitterHit* emitter = nullptr) const;
+    Vec3 transmittance(const Vec3& p, const Vec3& w, float dist, int shape, int channel,
+                       Rng& rng, EmitterHit* emitter = nullptr) const;
     // Light-sampling pdf (solid angle) of direction w from a medium point, for MIS.
-    float area_light_pdf(int light, Vec3 p, Vec3 w, float t, Vec3 n) const;
+    float area_light_pdf(int light, const Vec3& p, const Vec3& w, float t,
+                         const Vec3& n) const;
 
     const Scene& scene_;
     int max_bounces_;
