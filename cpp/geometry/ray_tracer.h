@@ -31,9 +31,9 @@ public:
     void commit();
 
     // Closest hit with t in (tnear, tfar); false if none.
-    bool intersect(Vec3 o, Vec3 d, float tnear, float tfar, Hit* hit) const;
+    bool intersect(const Vec3& o, const Vec3& d, float tnear, float tfar, Hit* hit) const;
     // Whether anything lies on the segment t in (tnear, tfar).
-    bool occluded(Vec3 o, Vec3 d, float tnear, float tfar) const;
+    bool occluded(const Vec3& o, const Vec3& d, float tnear, float tfar) const;
 
 private:
     struct Impl;

@@ -1,0 +1,46 @@
+#include "geometry/ray_tracer.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/rng.h"
+#include "shared/sampling.h"
+
+using namespace sss;
+
+// Rays from random points inside and outside an icosphere in random directions: every hit
+// is on the sphere, at the distance along the ray, and reports the hit triangle's
+// outward unit normal (the one TriangleMesh::normal gives, counter-clockwise winding).
+TEST(RayTracer, HitsReportDistanceTriangleAndOutwardNormal) {
+    const TriangleMesh mesh = make_icosphere(Vec3(0.2f, -0.1f, 0.3f), 0.7f, 3);
+    RayTracer tracer;
+    ASSERT_EQ(tracer.add_mesh(mesh), 0u);
+    tracer.commit();
+    Rng rng(7, 0, 0);
+    int hits = 0, from_inside = 0;
+    for (int i = 0; i < 4000; ++i) {
+        const Vec3 o =
+            Vec3(0.2f, -0.1f, 0.3f) +
+            sample_uniform_sphere(rng.uniform(), rng.uniform()) * (1.4f * rng.uniform());
+        const Vec3 d = sample_uniform_sphere(rng.uniform(), rng.uniform());
+        Hit hit;
+        if (!tracer.intersect(o, d, 0.f, 10.f, &hit)) continue;
+        ++hits;
+        ASSERT_EQ(hit.mesh, 0u);
+        ASSERT_LT(hit.prim, mesh.triangles.size());
+        const Vec3 n = mesh.normal(hit.prim);
+        EXPECT_NEAR(length(hit.normal), 1.f, 1e-5f);
+        EXPECT_GT(dot(hit.normal, n), 1.f - 1e-5f) << "ray " << i;
+        // The hit point lies in the triangle's plane.
+        const Vec3 p = o + d * hit.t;
+        EXPECT_NEAR(dot(p - mesh.positions[mesh.triangles[hit.prim][0]], n), 0.f, 1e-5f);
+        if (dot(d, hit.normal) > 0.f) ++from_inside;
+        EXPECT_FALSE(tracer.occluded(o, d, 0.f, hit.t * (1.f - 1e-4f)));
+        EXPECT_TRUE(tracer.occluded(o, d, 0.f, hit.t * (1.f + 1e-4f) + 1e-6f));
+    }
+    // Both sides seen: half the origins are inside (all of their rays hit), and about
+    // 1 - sqrt(3)/2 of the rays from outside hit.
+    EXPECT_GT(from_inside, 1500);
+    EXPECT_GT(hits - from_inside, 200);
+}
