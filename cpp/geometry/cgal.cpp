@@ -184,9 +184,16 @@ DistanceGrid DistanceGrid::build(const TriangleMesh& mesh, int resolution, int t
     DistanceGrid grid;
     grid.cell_ = max_component(b.extent()) / float(resolution);
     SSS_CHECK(grid.cell_ > 0.f);
+    grid.inv_cell_ = 1.f / grid.cell_;
     grid.origin_ = b.lo - Vec3(grid.cell_);
     for (int a = 0; a < 3; ++a)
         grid.n_[a] = int(std::ceil(b.extent()[a] / grid.cell_)) + 3;
+    // Coordinates in the grid are at most this large; float rounding in query() is a few
+    // of their ulps (2^-23 relative), with margin.
+    const float scale =
+        max_component(abs(grid.origin_)) +
+        grid.cell_ * float(std::max({grid.n_[0], grid.n_[1], grid.n_[2]}));
+    grid.guard_ = 2e-6f * scale;
     size_t count = size_t(grid.n_[0]) * grid.n_[1] * grid.n_[2];
     grid.dist_.resize(count);
     grid.inside_.resize(count);

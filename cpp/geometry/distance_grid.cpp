@@ -1,25 +1,41 @@
 #include "geometry/distance_grid.h"
 
+#include <hwy/highway.h>
+
 #include <algorithm>
 #include <cmath>
 
 namespace sss {
 
+namespace hn = hwy::HWY_NAMESPACE;  // the build's baseline target (SSE4 on x86-64-v2)
+
 float DistanceGrid::query(const Vec3& p) const {
     if (dist_.empty()) return 0.f;
-    Vec3 g = (p - origin_) / cell_;
+    const Vec3 g = (p - origin_) * inv_cell_;
     if (!(g.x >= 0.f && g.y >= 0.f && g.z >= 0.f)) return 0.f;
-    int i = int(g.x), j = int(g.y), k = int(g.z);
+    const int i = int(g.x), j = int(g.y), k = int(g.z);
     if (i >= n_[0] - 1 || j >= n_[1] - 1 || k >= n_[2] - 1) return 0.f;
-    // Each corner gives a valid lower bound (distance is 1-Lipschitz); keep the best.
-    float r = 0.f;
-    for (int c = 0; c < 8; ++c) {
-        int ii = i + (c & 1), jj = j + ((c >> 1) & 1), kk = k + ((c >> 2) & 1);
-        float d = dist_[index(ii, jj, kk)] - length(p - node_position(ii, jj, kk));
-        r = std::max(r, d);
-    }
-    // Guard against float rounding in |p - node| and the node position itself.
-    return std::max(0.f, r * (1.f - 1e-5f) - 1e-6f * cell_);
+    // Squared distances from p to the cell's two node planes on each axis, in cells.
+    const float fx = g.x - float(i), fy = g.y - float(j), fz = g.z - float(k);
+    const float x0 = fx * fx, x1 = (1.f - fx) * (1.f - fx);
+    const float y0 = fy * fy, y1 = (1.f - fy) * (1.f - fy);
+    const float z0 = fz * fz, z1 = (1.f - fz) * (1.f - fz);
+    // The eight corners as two vectors, (i, i+1) x (j, j+1) at k and at k + 1. Each gives
+    // a valid lower bound d(node) - |p - node| (distance is 1-Lipschitz); keep the best.
+    const float* a = &dist_[index(i, j, k)];
+    const float* b = a + n_[0];
+    const size_t slab = size_t(n_[0]) * size_t(n_[1]);
+    const hn::FixedTag<float, 4> v;
+    alignas(16) const float xy[4] = {x0 + y0, x1 + y0, x0 + y1, x1 + y1};
+    alignas(16) const float d_k0[4] = {a[0], a[1], b[0], b[1]};
+    alignas(16) const float d_k1[4] = {a[slab], a[slab + 1], b[slab], b[slab + 1]};
+    const auto cell = hn::Set(v, cell_), s_xy = hn::Load(v, xy);
+    const auto r_k0 =
+        hn::NegMulAdd(cell, hn::Sqrt(hn::Add(s_xy, hn::Set(v, z0))), hn::Load(v, d_k0));
+    const auto r_k1 =
+        hn::NegMulAdd(cell, hn::Sqrt(hn::Add(s_xy, hn::Set(v, z1))), hn::Load(v, d_k1));
+    const float r = hn::GetLane(hn::MaxOfLanes(v, hn::Max(r_k0, r_k1)));
+    return std::max(0.f, r - guard_);
 }
 
 float DistanceGrid::max_query() const {
@@ -30,7 +46,7 @@ float DistanceGrid::max_query() const {
 
 bool DistanceGrid::inside(const Vec3& p) const {
     if (dist_.empty()) return false;
-    Vec3 g = (p - origin_) / cell_ + Vec3(0.5f);
+    Vec3 g = (p - origin_) * inv_cell_ + Vec3(0.5f);
     if (!(g.x >= 0.f && g.y >= 0.f && g.z >= 0.f)) return false;
     int i = int(g.x), j = int(g.y), k = int(g.z);
     if (i >= n_[0] || j >= n_[1] || k >= n_[2]) return false;

@@ -46,7 +46,10 @@ private:
     }
 
     Vec3 origin_;
-    float cell_ = 0.f;
+    float cell_ = 0.f, inv_cell_ = 0.f;
+    // Subtracted from every bound: covers float rounding in p - node (a few ulps of the
+    // grid's coordinates) and in the bound's arithmetic.
+    float guard_ = 0.f;
     int n_[3] = {0, 0, 0};  // nodes per axis
     std::vector<float> dist_;
     std::vector<uint8_t> inside_;

@@ -110,15 +110,16 @@ Vec3 PathTracer::transmittance(const Vec3& p, const Vec3& w, float dist, int sha
     return Vec3(0.f);
 }
 
-Vec3 PathTracer::direct_light(const Vec3& p, const Vec3& d, int shape, int channel,
-                              Rng& rng, bool mis) const {
+Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
+                              int channel, Rng& rng, bool mis) const {
     const Shape& s = scene_.desc().shapes[shape];
     // A straight shadow ray never leaves a smooth dielectric boundary (DESIGN §2).
     if (s.boundary.type == BoundaryType::Dielectric) return Vec3(0.f);
     // Every shadow ray first travels at least r through this medium.
     float sigma_min =
         channel < 0 ? min_component(s.medium.sigma_t) : s.medium.sigma_t[channel];
-    float bound = std::exp(-sigma_min * scene_.grid(shape).query(p));
+    if (r < 0.f) r = scene_.grid(shape).query(p);
+    float bound = std::exp(-sigma_min * r);
     float shadow_weight = 1.f;
     if (bound < kShadowRoulette) {
         shadow_weight = roulette_weight(bound / kShadowRoulette, rng.uniform());
@@ -254,9 +255,9 @@ bool PathTracer::take_step(PathState& ps, const WorldSphereStep& step) const {
     // its light hit gets weight 0 (phase_pdf = 0 below) and the events k >= 2 use light
     // sampling alone.
     if (req.with_event && !is_black(nee_weight))
-        ps.L +=
-            ps.beta * nee_weight *
-            direct_light(step.X, step.W, ps.shape, ps.channel, ps.rng, step.first_event);
+        ps.L += ps.beta * nee_weight *
+                direct_light(step.X, -1.f, step.W, ps.shape, ps.channel, ps.rng,
+                             step.first_event);
     ps.beta *= survival;
     bool alive = !is_black(ps.beta);
     if (alive) {
@@ -388,6 +389,7 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             }
             shape = int(hit.mesh);
             o = offset(p, hit.normal, d, eps);
+            r_at_o = 0.f;  // on the surface: the grid could only say so
             continue;
         }
 
@@ -436,7 +438,7 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             beta *= s.medium.albedo;
             if (is_black(beta)) break;
             if (nee_ && !desc.lights.empty())
-                L += beta * direct_light(o, d, shape, channel, rng);
+                L += beta * direct_light(o, r, d, shape, channel, rng);
             Vec3 d_new = hg_sample(d, s.medium.g, rng.uniform(), rng.uniform());
             phase_pdf = hg_eval(dot(d, d_new), s.medium.g);
             scatter_pos = o;
@@ -462,6 +464,7 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             if (rng.uniform() < F) {
                 d = d - hit.normal * (2.f * cos_i);
                 o = offset(p, hit.normal, d, eps);
+                r_at_o = 0.f;
                 continue;
             }
             float eta = s.boundary.ior;

@@ -38,7 +38,8 @@ struct PathState {
     bool specular = true;   // last vertex was the camera or a specular interface
     float phase_pdf = 0.f;  // pdf of the direction sampled at the last scattering event
     Vec3 scatter_pos;       // where that event happened (light pdfs are measured from it)
-    float r_at_o = -1.f;    // the distance grid at o when already queried there, else < 0
+    float r_at_o = -1.f;  // the distance grid's bound at o when known (0 on the surface),
+                          // else < 0
     PathSample out;
     StepRequest step;  // valid while the path waits for a sphere step
 };
@@ -75,15 +76,16 @@ private:
     // "st": fills state.step, the request for a step at the path's position, where the
     // grid gives r.
     void request_step(PathState& state, float r) const;
-    // Phase x transmittance x emitted radiance / pdf at medium point p of shape `shape`,
-    // for a photon travelling along d before scattering, from one light chosen uniformly
+    // Phase x transmittance x emitted radiance / pdf at medium point p of shape `shape`
+    // (r: the distance grid's bound at p, or < 0 to query it), for a photon travelling
+    // along d before scattering, from one light chosen uniformly
     // (weighted by the number of lights). mis = false: for a vertex whose phase-sampled
     // continuation cannot be weighted (a sphere step's events k >= 2), each light's whole
     // direct light from shadow rays alone: point and directional lights as always, the
     // constant environment by a phase-sampled direction, an area light by a light sample
     // and a phase-sampled ray, combined by MIS.
-    Vec3 direct_light(const Vec3& p, const Vec3& d, int shape, int channel, Rng& rng,
-                      bool mis = true) const;
+    Vec3 direct_light(const Vec3& p, float r, const Vec3& d, int shape, int channel,
+                      Rng& rng, bool mis = true) const;
     // Transmittance from p (inside shape `shape`, or -1 for vacuum) along unit w over
     // `dist`; 0 when a dielectric boundary or an emitter is in the way. Unbiased
     // estimate: once the transmittance of the channel(s) carried falls below
