@@ -44,3 +44,30 @@ TEST(RayTracer, HitsReportDistanceTriangleAndOutwardNormal) {
     EXPECT_GT(from_inside, 1500);
     EXPECT_GT(hits - from_inside, 200);
 }
+
+// A closed mesh is watertight to rays through its edges: from points inside, rays aimed
+// at random points on every edge (where two triangles meet and a non-watertight test can
+// slip between them) all hit it from inside. Embree's robust mode guarantees this;
+// without it, 4 % of these rays leak. (Rays aimed exactly at vertices still leak in
+// either mode: about 0.3 % of them in robust mode, a case of measure zero in rendering.)
+TEST(RayTracer, RaysThroughEdgesDoNotLeakOutOfAClosedMesh) {
+    const TriangleMesh mesh = make_icosphere(Vec3(0.f), 1.f, 4);
+    RayTracer tracer;
+    tracer.add_mesh(mesh);
+    tracer.commit();
+    Rng rng(11, 0, 0);
+    int rays = 0, leaks = 0;
+    for (const auto& tri : mesh.triangles)
+        for (int e = 0; e < 3; ++e) {
+            const Vec3 a = mesh.positions[tri[e]], b = mesh.positions[tri[(e + 1) % 3]];
+            const Vec3 q = a + (b - a) * rng.uniform();
+            const Vec3 o = sample_uniform_sphere(rng.uniform(), rng.uniform()) *
+                           (0.5f * rng.uniform());
+            const Vec3 d = normalize(q - o);
+            Hit hit;
+            ++rays;
+            if (!tracer.intersect(o, d, 0.f, 10.f, &hit) || dot(d, hit.normal) <= 0.f)
+                ++leaks;
+        }
+    EXPECT_EQ(leaks, 0) << "of " << rays << " rays";
+}
