@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include "core/check.h"
 
@@ -13,6 +14,43 @@ namespace {
 void embree_error(void*, RTCError code, const char* message) {
     // Registered once on the device; Embree calls it from whichever thread failed.
     fail("Embree error ", int(code), ": ", message ? message : "(no message)");
+}
+
+// The intersect context of crossings(): Embree hands the filter a pointer to `rtc`, the
+// first member, and so to the whole struct.
+struct CrossingContext {
+    RTCIntersectContext rtc;
+    Crossing* out;
+    int max;
+    int count;  // -1 once more than max were found
+};
+
+// Records every hit and rejects it, so that the traversal goes on to the next one.
+void record_crossing(const RTCFilterFunctionNArguments* args) {
+    auto* c = reinterpret_cast<CrossingContext*>(args->context);
+    for (unsigned i = 0; i < args->N; ++i) {
+        if (!args->valid[i]) continue;
+        args->valid[i] = 0;
+        if (c->count < 0) continue;
+        const unsigned mesh = RTCHitN_geomID(args->hit, args->N, i);
+        const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
+        // The same triangle again: the high-quality build splits triangles across leaves.
+        bool seen = false;
+        for (int k = 0; k < c->count && !seen; ++k)
+            seen = c->out[k].mesh == mesh && c->out[k].prim == prim;
+        if (seen) continue;
+        if (c->count == c->max) {
+            c->count = -1;
+            continue;
+        }
+        Crossing& x = c->out[c->count++];
+        x.t = RTCRayN_tfar(args->ray, args->N, i);
+        x.mesh = mesh;
+        x.prim = prim;
+        x.normal = normalize(Vec3(RTCHitN_Ng_x(args->hit, args->N, i),
+                                  RTCHitN_Ng_y(args->hit, args->N, i),
+                                  RTCHitN_Ng_z(args->hit, args->N, i)));
+    }
 }
 }  // namespace
 
@@ -32,7 +70,9 @@ RayTracer::RayTracer() : impl_(std::make_unique<Impl>()) {
     impl_->scene = rtcNewScene(impl_->device);
     // Robust traversal: watertight hits on shared edges, so no ray leaks through a closed
     // mesh.
-    rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);
+    // Context filters: crossings() collects every hit of one ray.
+    rtcSetSceneFlags(impl_->scene,
+                     RTC_SCENE_FLAG_ROBUST | RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
     rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
 }
 
@@ -118,6 +158,37 @@ bool RayTracer::occluded(const Vec3& o, const Vec3& d, float tnear, float tfar) 
     ray.flags = 0;
     rtcOccluded1(impl_->scene, &ctx, &ray);
     return ray.tfar == -std::numeric_limits<float>::infinity();
+}
+
+int RayTracer::crossings(const Vec3& o, const Vec3& d, float tfar, Crossing* out,
+                         int max) const {
+    CrossingContext c;
+    rtcInitIntersectContext(&c.rtc);
+    c.rtc.filter = record_crossing;
+    c.out = out;
+    c.max = max;
+    c.count = 0;
+    RTCRayHit rh;
+    rh.ray.org_x = o.x;
+    rh.ray.org_y = o.y;
+    rh.ray.org_z = o.z;
+    rh.ray.dir_x = d.x;
+    rh.ray.dir_y = d.y;
+    rh.ray.dir_z = d.z;
+    rh.ray.tnear = 0.f;
+    rh.ray.tfar = tfar;
+    rh.ray.time = 0.f;
+    rh.ray.mask = 0xffffffffu;
+    rh.ray.id = 0;
+    rh.ray.flags = 0;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(impl_->scene, &c.rtc, &rh);
+    // Few crossings: insertion sort by distance.
+    for (int i = 1; i < c.count; ++i)
+        for (int k = i; k > 0 && out[k].t < out[k - 1].t; --k)
+            std::swap(out[k], out[k - 1]);
+    return c.count;
 }
 
 }  // namespace sss

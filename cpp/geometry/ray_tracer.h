@@ -19,6 +19,13 @@ struct Hit {
     unsigned prim = 0;  // triangle index within that mesh
 };
 
+// One surface a segment crosses (RayTracer::crossings).
+struct Crossing {
+    float t = 0.f;
+    unsigned mesh = 0, prim = 0;
+    Vec3 normal;  // outward unit normal of the triangle
+};
+
 class RayTracer {
 public:
     RayTracer();
@@ -34,6 +41,9 @@ public:
     bool intersect(const Vec3& o, const Vec3& d, float tnear, float tfar, Hit* hit) const;
     // Whether anything lies on the segment t in (tnear, tfar).
     bool occluded(const Vec3& o, const Vec3& d, float tnear, float tfar) const;
+    // Every triangle the segment t in (0, tfar) crosses, nearest first, in one traversal:
+    // writes out[0 .. count) and returns count, or -1 when there are more than `max`.
+    int crossings(const Vec3& o, const Vec3& d, float tfar, Crossing* out, int max) const;
 
 private:
     struct Impl;

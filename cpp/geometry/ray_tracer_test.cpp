@@ -71,3 +71,46 @@ TEST(RayTracer, RaysThroughEdgesDoNotLeakOutOfAClosedMesh) {
         }
     EXPECT_EQ(leaks, 0) << "of " << rays << " rays";
 }
+
+// crossings() lists every triangle a segment crosses, nearest first and each once, the
+// same surfaces that successive intersect() calls find one at a time.
+TEST(RayTracer, CrossingsAreTheSuccessiveClosestHits) {
+    RayTracer tracer;
+    const TriangleMesh outer = make_icosphere(Vec3(0.f), 1.f, 3);
+    const TriangleMesh inner = make_icosphere(Vec3(0.1f, 0.f, 0.f), 0.4f, 2);
+    tracer.add_mesh(outer);
+    tracer.add_mesh(inner);
+    tracer.commit();
+    Rng rng(5, 0, 0);
+    int checked = 0;
+    for (int i = 0; i < 2000; ++i) {
+        const Vec3 o =
+            sample_uniform_sphere(rng.uniform(), rng.uniform()) * (1.5f * rng.uniform());
+        const Vec3 d = sample_uniform_sphere(rng.uniform(), rng.uniform());
+        const float tfar = i % 2 ? 10.f : 0.8f;
+        Crossing x[8];
+        const int n = tracer.crossings(o, d, tfar, x, 8);
+        ASSERT_GE(n, 0);
+        // The same surfaces by closest hits, stepping past each one.
+        int k = 0;
+        float t0 = 0.f;
+        for (Hit hit; tracer.intersect(o, d, t0, tfar, &hit);
+             t0 = hit.t * (1.f + 1e-5f) + 1e-6f, ++k) {
+            ASSERT_LT(k, n) << "ray " << i;
+            EXPECT_EQ(x[k].mesh, hit.mesh) << "ray " << i;
+            EXPECT_EQ(x[k].prim, hit.prim) << "ray " << i;
+            EXPECT_NEAR(x[k].t, hit.t, 1e-5f);
+            EXPECT_GT(dot(x[k].normal, hit.normal), 1.f - 1e-5f);
+            if (k > 0) {
+                EXPECT_LT(x[k - 1].t, x[k].t);
+            }
+        }
+        EXPECT_EQ(k, n) << "ray " << i;
+        checked += n;
+    }
+    EXPECT_GT(checked, 1000);  // 1838 crossings with this seed
+    // More crossings than room for: -1.
+    Crossing one[1];
+    EXPECT_EQ(tracer.crossings(Vec3(-2.f, 0.f, 0.f), Vec3(1.f, 0.f, 0.f), 10.f, one, 1),
+              -1);
+}

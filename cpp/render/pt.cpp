@@ -24,7 +24,8 @@ constexpr float kRouletteThreshold = 0.1f;
 // 0.1 by measurement (docs/notation.md): the image variance barely changes, the time
 // drops.
 constexpr float kShadowRoulette = 0.1f;
-// Shadow rays cross at most this many boundaries (then the light counts as blocked).
+// Shadow rays cross at most this many boundaries (then the light counts as blocked): the
+// crossings of one ray are collected on the stack.
 constexpr int kMaxShadowCrossings = 64;
 
 float extinction(const Medium& m, int channel) {
@@ -70,44 +71,29 @@ float PathTracer::area_light_pdf(int light, const Vec3& p, const Vec3& w, float 
 }
 
 Vec3 PathTracer::transmittance(const Vec3& p, const Vec3& w, float dist, int shape,
-                               int channel, Rng& rng, EmitterHit* emitter) const {
+                               EmitterHit* emitter) const {
     const auto& shapes = scene_.desc().shapes;
+    Crossing hits[kMaxShadowCrossings];
+    const int n = scene_.tracer().crossings(p, w, dist, hits, kMaxShadowCrossings);
+    if (n < 0) return Vec3(0.f);
     Vec3 tr(1.f);
-    Vec3 o = p;
-    float remaining = dist, travelled = 0.f;
-    for (int crossing = 0; crossing < kMaxShadowCrossings; ++crossing) {
-        Hit hit;
-        if (!scene_.tracer().intersect(o, w, 0.f, remaining, &hit)) {
-            if (shape >= 0) tr *= beer(shapes[shape].medium.sigma_t, remaining);
-            return tr;
-        }
-        if (int(hit.mesh) >= scene_.num_shapes()) {  // an emitter's quad
+    float t_prev = 0.f;
+    for (int i = 0; i < n; ++i) {
+        const Crossing& h = hits[i];
+        if (shape >= 0) tr *= beer(shapes[shape].medium.sigma_t, h.t - t_prev);
+        if (int(h.mesh) >= scene_.num_shapes()) {  // an emitter's quad
             if (!emitter) return Vec3(0.f);
-            emitter->light = scene_.area_light_of_mesh(hit.mesh);
-            emitter->t = travelled + hit.t;
-            emitter->normal = hit.normal;
-            if (shape >= 0) tr *= beer(shapes[shape].medium.sigma_t, hit.t);
+            emitter->light = scene_.area_light_of_mesh(h.mesh);
+            emitter->t = h.t;
+            emitter->normal = h.normal;
             return tr;
         }
-        const Shape& s = shapes[hit.mesh];
-        if (s.boundary.type == BoundaryType::Dielectric) return Vec3(0.f);
-        if (shape >= 0) tr *= beer(shapes[shape].medium.sigma_t, hit.t);
-        if (is_black(tr)) return tr;
-        // Roulette on the rest of the ray once the transmittance so far is small:
-        // continue with probability m / kShadowRoulette and reweight (unbiased; weights
-        // stay <= the threshold, as for the grid-bound roulette in direct_light).
-        float m = channel < 0 ? max_component(tr) : tr[channel];
-        if (m < kShadowRoulette) {
-            float w = roulette_weight(m / kShadowRoulette, rng.uniform());
-            if (w == 0.f) return Vec3(0.f);
-            tr *= w;
-        }
-        shape = dot(w, hit.normal) < 0.f ? int(hit.mesh) : -1;
-        o = offset(o + w * hit.t, hit.normal, w, scene_.ray_epsilon());
-        remaining -= hit.t;
-        travelled += hit.t;
+        if (shapes[h.mesh].boundary.type == BoundaryType::Dielectric) return Vec3(0.f);
+        shape = dot(w, h.normal) < 0.f ? int(h.mesh) : -1;
+        t_prev = h.t;
     }
-    return Vec3(0.f);
+    if (shape >= 0) tr *= beer(shapes[shape].medium.sigma_t, dist - t_prev);
+    return tr;
 }
 
 Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
@@ -142,13 +128,13 @@ Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
                 float dist = length(to);
                 if (!(dist > 0.f)) break;
                 Vec3 w = to / dist;
-                Vec3 tr = transmittance(p, w, dist, shape, channel, rng);
+                Vec3 tr = transmittance(p, w, dist, shape);
                 sum += l.intensity * tr * (hg_eval(dot(d, w), g) / (dist * dist));
                 break;
             }
             case Light::Type::Directional: {
                 Vec3 w = -l.direction;
-                Vec3 tr = transmittance(p, w, kInf, shape, channel, rng);
+                Vec3 tr = transmittance(p, w, kInf, shape);
                 sum += l.irradiance * tr * hg_eval(dot(d, w), g);
                 break;
             }
@@ -162,7 +148,7 @@ Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
                 if (dot(w, n) >= 0.f) break;  // behind the one-sided emitter
                 float pdf = area_light_pdf(int(i), p, w, dist, n);
                 float phase = hg_eval(dot(d, w), g);
-                Vec3 tr = transmittance(p, w, dist * (1.f - 1e-4f), shape, channel, rng);
+                Vec3 tr = transmittance(p, w, dist * (1.f - 1e-4f), shape);
                 // With mis, the partner is the path's own phase-sampled flight (which
                 // sees the light selection too); without, the phase-sampled shadow ray
                 // below.
@@ -173,7 +159,7 @@ Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
                     // light's front (phase / pdf = 1).
                     Vec3 wp = hg_sample(d, g, rng.uniform(), rng.uniform());
                     EmitterHit e;
-                    Vec3 trp = transmittance(p, wp, kInf, shape, channel, rng, &e);
+                    Vec3 trp = transmittance(p, wp, kInf, shape, &e);
                     if (e.light == int(i) && dot(wp, e.normal) < 0.f) {
                         float pdf_l = area_light_pdf(int(i), p, wp, e.t, e.normal);
                         sum += l.radiance * trp *
@@ -187,13 +173,13 @@ Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
                     // No MIS partner: sample the phase function, the ideal density for a
                     // constant environment (phase / pdf = 1).
                     Vec3 w = hg_sample(d, g, rng.uniform(), rng.uniform());
-                    sum += l.radiance * transmittance(p, w, kInf, shape, channel, rng);
+                    sum += l.radiance * transmittance(p, w, kInf, shape);
                     break;
                 }
                 Vec3 w = sample_uniform_sphere(rng.uniform(), rng.uniform());
                 float pdf = uniform_sphere_pdf();
                 float phase = hg_eval(dot(d, w), g);
-                Vec3 tr = transmittance(p, w, kInf, shape, channel, rng);
+                Vec3 tr = transmittance(p, w, kInf, shape);
                 float mis_w = mis ? power_heuristic(pdf / n_lights, phase) : 1.f;
                 sum += l.radiance * tr * (phase * mis_w / pdf);
                 break;

@@ -87,19 +87,18 @@ private:
     Vec3 direct_light(const Vec3& p, float r, const Vec3& d, int shape, int channel,
                       Rng& rng, bool mis = true) const;
     // Transmittance from p (inside shape `shape`, or -1 for vacuum) along unit w over
-    // `dist`; 0 when a dielectric boundary or an emitter is in the way. Unbiased
-    // estimate: once the transmittance of the channel(s) carried falls below
-    // kShadowRoulette at a boundary, the rest of the ray is traced by Russian roulette.
-    // With `emitter`, an emitter's quad ends the ray instead of blocking it: the result
-    // is the transmittance up to it, and *emitter says which light, how far along w, and
-    // its normal (light -1: none met).
+    // `dist`, exact from the boundaries one ray crosses (RayTracer::crossings); 0 when a
+    // dielectric boundary or an emitter is in the way, or past kMaxShadowCrossings
+    // boundaries. With `emitter`, an emitter's quad ends the ray instead of blocking it:
+    // the result is the transmittance up to it, and *emitter says which light, how far
+    // along w, and its normal (light -1: none met).
     struct EmitterHit {
         int light = -1;
         float t = 0.f;
         Vec3 normal;
     };
-    Vec3 transmittance(const Vec3& p, const Vec3& w, float dist, int shape, int channel,
-                       Rng& rng, EmitterHit* emitter = nullptr) const;
+    Vec3 transmittance(const Vec3& p, const Vec3& w, float dist, int shape,
+                       EmitterHit* emitter = nullptr) const;
     // Light-sampling pdf (solid angle) of direction w from a medium point, for MIS.
     float area_light_pdf(int light, const Vec3& p, const Vec3& w, float t,
                          const Vec3& n) const;
