@@ -3,7 +3,6 @@
 #include <embree3/rtcore.h>
 
 #include <cmath>
-#include <limits>
 #include <utility>
 
 #include "core/check.h"
@@ -14,6 +13,26 @@ namespace {
 void embree_error(void*, RTCError code, const char* message) {
     // Registered once on the device; Embree calls it from whichever thread failed.
     fail("Embree error ", int(code), ": ", message ? message : "(no message)");
+}
+
+// The segment o + t d, t in (tnear, tfar), with no hit yet.
+RTCRayHit embree_ray(const Vec3& o, const Vec3& d, float tnear, float tfar) {
+    RTCRayHit rh;
+    rh.ray.org_x = o.x;
+    rh.ray.org_y = o.y;
+    rh.ray.org_z = o.z;
+    rh.ray.dir_x = d.x;
+    rh.ray.dir_y = d.y;
+    rh.ray.dir_z = d.z;
+    rh.ray.tnear = tnear;
+    rh.ray.tfar = tfar;
+    rh.ray.time = 0.f;
+    rh.ray.mask = 0xffffffffu;
+    rh.ray.id = 0;
+    rh.ray.flags = 0;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    return rh;
 }
 
 // The intersect context of crossings(): Embree hands the filter a pointer to `rtc`, the
@@ -113,21 +132,7 @@ bool RayTracer::intersect(const Vec3& o, const Vec3& d, float tnear, float tfar,
                           Hit* hit) const {
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
-    RTCRayHit rh;
-    rh.ray.org_x = o.x;
-    rh.ray.org_y = o.y;
-    rh.ray.org_z = o.z;
-    rh.ray.dir_x = d.x;
-    rh.ray.dir_y = d.y;
-    rh.ray.dir_z = d.z;
-    rh.ray.tnear = tnear;
-    rh.ray.tfar = tfar;
-    rh.ray.time = 0.f;
-    rh.ray.mask = 0xffffffffu;
-    rh.ray.id = 0;
-    rh.ray.flags = 0;
-    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    RTCRayHit rh = embree_ray(o, d, tnear, tfar);
     rtcIntersect1(impl_->scene, &ctx, &rh);
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
     hit->t = rh.ray.tfar;
@@ -140,26 +145,6 @@ bool RayTracer::intersect(const Vec3& o, const Vec3& d, float tnear, float tfar,
     return true;
 }
 
-bool RayTracer::occluded(const Vec3& o, const Vec3& d, float tnear, float tfar) const {
-    RTCIntersectContext ctx;
-    rtcInitIntersectContext(&ctx);
-    RTCRay ray;
-    ray.org_x = o.x;
-    ray.org_y = o.y;
-    ray.org_z = o.z;
-    ray.dir_x = d.x;
-    ray.dir_y = d.y;
-    ray.dir_z = d.z;
-    ray.tnear = tnear;
-    ray.tfar = tfar;
-    ray.time = 0.f;
-    ray.mask = 0xffffffffu;
-    ray.id = 0;
-    ray.flags = 0;
-    rtcOccluded1(impl_->scene, &ctx, &ray);
-    return ray.tfar == -std::numeric_limits<float>::infinity();
-}
-
 int RayTracer::crossings(const Vec3& o, const Vec3& d, float tfar, Crossing* out,
                          int max) const {
     CrossingContext c;
@@ -168,21 +153,7 @@ int RayTracer::crossings(const Vec3& o, const Vec3& d, float tfar, Crossing* out
     c.out = out;
     c.max = max;
     c.count = 0;
-    RTCRayHit rh;
-    rh.ray.org_x = o.x;
-    rh.ray.org_y = o.y;
-    rh.ray.org_z = o.z;
-    rh.ray.dir_x = d.x;
-    rh.ray.dir_y = d.y;
-    rh.ray.dir_z = d.z;
-    rh.ray.tnear = 0.f;
-    rh.ray.tfar = tfar;
-    rh.ray.time = 0.f;
-    rh.ray.mask = 0xffffffffu;
-    rh.ray.id = 0;
-    rh.ray.flags = 0;
-    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    RTCRayHit rh = embree_ray(o, d, 0.f, tfar);
     rtcIntersect1(impl_->scene, &c.rtc, &rh);
     // Few crossings: insertion sort by distance.
     for (int i = 1; i < c.count; ++i)

@@ -39,8 +39,6 @@ public:
 
     // Closest hit with t in (tnear, tfar); false if none.
     bool intersect(const Vec3& o, const Vec3& d, float tnear, float tfar, Hit* hit) const;
-    // Whether anything lies on the segment t in (tnear, tfar).
-    bool occluded(const Vec3& o, const Vec3& d, float tnear, float tfar) const;
     // Every triangle the segment t in (0, tfar) crosses, nearest first, in one traversal:
     // writes out[0 .. count) and returns count, or -1 when there are more than `max`.
     int crossings(const Vec3& o, const Vec3& d, float tfar, Crossing* out, int max) const;

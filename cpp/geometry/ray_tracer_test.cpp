@@ -36,8 +36,9 @@ TEST(RayTracer, HitsReportDistanceTriangleAndOutwardNormal) {
         const Vec3 p = o + d * hit.t;
         EXPECT_NEAR(dot(p - mesh.positions[mesh.triangles[hit.prim][0]], n), 0.f, 1e-5f);
         if (dot(d, hit.normal) > 0.f) ++from_inside;
-        EXPECT_FALSE(tracer.occluded(o, d, 0.f, hit.t * (1.f - 1e-4f)));
-        EXPECT_TRUE(tracer.occluded(o, d, 0.f, hit.t * (1.f + 1e-4f) + 1e-6f));
+        // Nothing closer: a segment ending just before the hit crosses nothing.
+        Crossing x[4];
+        EXPECT_EQ(tracer.crossings(o, d, hit.t * (1.f - 1e-4f), x, 4), 0);
     }
     // Both sides seen: half the origins are inside (all of their rays hit), and about
     // 1 - sqrt(3)/2 of the rays from outside hit.
