@@ -53,7 +53,9 @@ void record_crossing(const RTCFilterFunctionNArguments* args) {
         if (c->count < 0) continue;
         const unsigned mesh = RTCHitN_geomID(args->hit, args->N, i);
         const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
-        // The same triangle again: the high-quality build splits triangles across leaves.
+        // The same triangle again: Embree may reference a triangle from several leaves
+        // (spatial splits of the high-quality build). Not seen on our meshes; kept as a
+        // guard, it costs a scan of the few crossings so far.
         bool seen = false;
         for (int k = 0; k < c->count && !seen; ++k)
             seen = c->out[k].mesh == mesh && c->out[k].prim == prim;

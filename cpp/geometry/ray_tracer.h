@@ -1,7 +1,7 @@
-// Boundary ray queries with Embree 3: closest hit and occlusion against the triangle
-// meshes of a scene. The device and scene are owned here and released in the destructor;
-// geometry is added before commit() and the scene is read-only (and thread-safe)
-// afterwards.
+// Boundary ray queries with Embree 3: the closest hit, and every crossing of a segment
+// (shadow rays), against the triangle meshes of a scene. The device and scene are owned
+// here and released in the destructor; geometry is added before commit() and the scene is
+// read-only (and thread-safe) afterwards.
 #pragma once
 
 #include <memory>
