@@ -208,6 +208,14 @@ DistanceGrid DistanceGrid::build(const TriangleMesh& mesh, int resolution, int t
     side(Point(0, 0, 0));  // builds its internal tree before the threads share it
 
     if (threads <= 0) threads = int(std::max(1u, std::thread::hardware_concurrency()));
+    // Every corner of a cell the surface passes through is within a cell diagonal of it.
+    // So a node outside the mesh and farther than that from the surface is a corner only
+    // of cells wholly outside, where no point of a medium is: any lower bound will do for
+    // it, and the diagonal is one. A box query (no triangle within the box around the
+    // node) tells these nodes apart far faster than an exact distance, which outside
+    // the mesh would be most of the build's time.
+    const double diagonal = std::sqrt(3.0) * double(grid.cell_);
+    const float far_bound = round_down(diagonal);
     std::atomic<int> next_slab{0};
     auto work = [&]() {
         for (int k; (k = next_slab.fetch_add(1)) < grid.n_[2];) {
@@ -219,12 +227,21 @@ DistanceGrid DistanceGrid::build(const TriangleMesh& mesh, int resolution, int t
                 Point hint = row_hint;
                 for (int i = 0; i < grid.n_[0]; ++i) {
                     const Point q = to_point(grid.node_position(i, j, k));
+                    const size_t idx = grid.index(i, j, k);
+                    grid.inside_[idx] = side(q) == CGAL::ON_BOUNDED_SIDE;
+                    if (!grid.inside_[idx]) {
+                        const K::Iso_cuboid_3 box(q.x() - diagonal, q.y() - diagonal,
+                                                  q.z() - diagonal, q.x() + diagonal,
+                                                  q.y() + diagonal, q.z() + diagonal);
+                        if (!tree.do_intersect(box)) {
+                            grid.dist_[idx] = far_bound;
+                            continue;
+                        }
+                    }
                     hint = tree.closest_point(q, hint);
                     if (i == 0) row_hint = hint;
-                    const size_t idx = grid.index(i, j, k);
                     grid.dist_[idx] =
                         round_down(std::sqrt(CGAL::squared_distance(q, hint)));
-                    grid.inside_[idx] = side(q) == CGAL::ON_BOUNDED_SIDE;
                 }
             }
         }
@@ -237,9 +254,18 @@ DistanceGrid DistanceGrid::build(const TriangleMesh& mesh, int resolution, int t
 }
 
 bool point_inside_mesh(const TriangleMesh& mesh, Vec3 p) {
+    return points_inside_mesh(mesh, {p})[0];
+}
+
+std::vector<bool> points_inside_mesh(const TriangleMesh& mesh,
+                                     const std::vector<Vec3>& points) {
     SurfaceMesh sm = to_surface_mesh(mesh);
     CGAL::Side_of_triangle_mesh<SurfaceMesh, K> side(sm);
-    return side(Point(p.x, p.y, p.z)) != CGAL::ON_UNBOUNDED_SIDE;
+    std::vector<bool> inside;
+    inside.reserve(points.size());
+    for (const Vec3& p : points)
+        inside.push_back(side(Point(p.x, p.y, p.z)) != CGAL::ON_UNBOUNDED_SIDE);
+    return inside;
 }
 
 std::vector<double> exact_distances(const TriangleMesh& mesh,

@@ -28,7 +28,10 @@ public:
     // when query(p) > 0, a guess within one cell of the surface.
     bool inside(const Vec3& p) const;
 
-    // Exact unsigned distance at node (i, j, k) and whether that node lies inside.
+    // Unsigned distance at node (i, j, k), rounded down to a float: exact for nodes
+    // inside the mesh and for those within a cell diagonal of the surface; a node outside
+    // and farther away holds the diagonal (it is a corner only of cells wholly outside).
+    // And whether that node lies inside.
     float node_distance(int i, int j, int k) const { return dist_[index(i, j, k)]; }
     bool node_inside(int i, int j, int k) const { return inside_[index(i, j, k)] != 0; }
     Vec3 node_position(int i, int j, int k) const {
@@ -55,8 +58,11 @@ private:
     std::vector<uint8_t> inside_;
 };
 
-// Whether p lies inside the closed mesh (exact predicate; builds an AABB tree per call).
+// Whether p lies inside the closed mesh, or on it (exact predicate; builds an AABB tree
+// per call).
 bool point_inside_mesh(const TriangleMesh& mesh, Vec3 p);
+std::vector<bool> points_inside_mesh(const TriangleMesh& mesh,
+                                     const std::vector<Vec3>& points);
 
 // Exact distance from p to the mesh (for tests and tools; builds an AABB tree per call).
 std::vector<double> exact_distances(const TriangleMesh& mesh,
