@@ -328,9 +328,11 @@ Scene::Scene(SceneDesc desc, int threads)
     tracer_->commit();
     float scale = std::max(max_component(abs(all.lo)), max_component(abs(all.hi)));
     ray_epsilon_ = 1e-6f * (1.f + scale);
-    for (const Shape& s : desc_.shapes)
-        grids_.push_back(
-            DistanceGrid::build(s.mesh, desc_.render.grid_resolution, threads));
+    for (const Shape& s : desc_.shapes) {
+        const int res = desc_.render.grid_resolution > 0 ? desc_.render.grid_resolution
+                                                         : auto_grid_resolution(s);
+        grids_.push_back(DistanceGrid::build(s.mesh, res, threads));
+    }
     for (size_t i = 0; i < desc_.shapes.size(); ++i) {
         Vec3 o = desc_.camera.origin;
         if (point_inside_mesh(desc_.shapes[i].mesh, o))
@@ -338,6 +340,12 @@ Scene::Scene(SceneDesc desc, int threads)
                  "] lies inside shape '", desc_.shapes[i].name,
                  "' (allowed: a camera outside every shape)");
     }
+}
+
+int Scene::auto_grid_resolution(const Shape& shape) {
+    const float side = max_component(shape.mesh.bounds().extent());
+    const float mean_free_paths = max_component(shape.medium.sigma_t) * side / 64.f;
+    return mean_free_paths > kGridCellMeanFreePaths ? 128 : 64;
 }
 
 int Scene::area_light_of_mesh(unsigned mesh) const {

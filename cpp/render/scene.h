@@ -60,8 +60,10 @@ struct RenderSettings {
     std::string integrator = "pt";
     int spp = 16;
     uint64_t seed = 0;
-    int max_bounces = -1;      // scattering events per path; -1 = no limit
-    int grid_resolution = 64;  // distance-grid cells along a shape's largest side
+    int max_bounces = -1;  // scattering events per path; -1 = no limit
+    // Distance-grid cells along a shape's largest side; 0 = per shape, by its medium
+    // (Scene::auto_grid_resolution).
+    int grid_resolution = 0;
     float sphere_threshold =
         kDefaultSphereThreshold;  // "st": optical radius of the smallest step
     std::string
@@ -97,6 +99,15 @@ public:
     // True when every medium has the same sigma_t in all channels (paths then carry RGB).
     bool grey_media() const { return grey_; }
     float ray_epsilon() const { return ray_epsilon_; }
+
+    // The distance grid's resolution for a shape when the scene sets none: 64 cells along
+    // its largest side, or 128 when a 64th of that side is more than
+    // kGridCellMeanFreePaths mean free paths of its densest channel. The grid's bound
+    // loses up to sqrt(3) cells near the surface, which is where a dense medium's paths
+    // spend their events: there the finer grid saves events and boundary rays (measured
+    // in bench/README.md), elsewhere it only costs build time and memory.
+    static int auto_grid_resolution(const Shape& shape);
+    static constexpr float kGridCellMeanFreePaths = 10.f;
 
 private:
     SceneDesc desc_;

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "core/check.h"
+#include "testing/scenes.h"
 
 using namespace sss;
 
@@ -92,4 +93,24 @@ TEST(SceneBuild, RefusesCameraInsideShape) {
         EXPECT_NE(std::string(e.what()).find("inside shape"), std::string::npos)
             << e.what();
     }
+}
+
+// Without grid_resolution each shape's grid has 64 cells along its largest side, or 128
+// when such a cell is more than kGridCellMeanFreePaths mean free paths thick.
+TEST(Scene, GridResolutionFollowsTheDensestChannelWhenUnset) {
+    const float side = 2.f;  // the unit sphere's diameter (the icosphere spans it)
+    const float dense = Scene::kGridCellMeanFreePaths * 64.f / side * 1.5f;
+    for (float sigma_max : {dense / 3.f, dense}) {
+        SceneDesc d = test::sphere_in_environment(Vec3(1.f, sigma_max, 2.f), Vec3(0.9f),
+                                                  0.f, BoundaryType::IndexMatched);
+        d.render.grid_resolution = 0;
+        Scene scene(d, 2);
+        const int cells = sigma_max == dense ? 128 : 64;
+        EXPECT_NEAR(scene.grid(0).cell_size(), side / float(cells), 1e-4f)
+            << "sigma_t " << sigma_max;
+    }
+    SceneDesc d = test::sphere_in_environment(Vec3(1.f, dense, 2.f), Vec3(0.9f), 0.f,
+                                              BoundaryType::IndexMatched);
+    d.render.grid_resolution = 16;  // set: kept
+    EXPECT_NEAR(Scene(d, 2).grid(0).cell_size(), side / 16.f, 1e-4f);
 }
