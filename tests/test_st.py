@@ -13,7 +13,7 @@ Three kinds of comparison:
 
 Agreement is judged on 4x4-pixel block means: z = (a - b) / sqrt(var_a + var_b + (m b)^2) with
 the renders' own variance estimates and a relative allowance m (0 for the exact comparisons);
-a chi-square test on sum z^2 and a bound on max |z| (Bonferroni), both at p = 1e-3.
+per channel, a chi-square test on sum z^2 and a bound on max |z| (Bonferroni), both at p = 1e-3.
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ import pytest
 
 import sssphere
 from sssphere import SceneError
+from sssphere.render import STEP_NEE
 
 REPO = Path(__file__).resolve().parents[1]
 BUNNY = "/usr/share/glmark2/models/bunny.obj"
@@ -77,8 +78,9 @@ ENV = {"type": "environment", "radiance": [1, 0.5, 0.25]}
 
 
 def block_z(a, b, allowance=0.0, block=4):
-    """z-scores of block means of two renders (RenderResult) per channel, with a relative
-    allowance on b's block mean; blocks where both renders are exact (variance 0) are dropped."""
+    """z-scores of block means of two renders (RenderResult), (blocks, 3) per channel, with a
+    relative allowance on b's block mean; blocks where both renders are exact (variance 0) are
+    NaN."""
     h, w = a.image.shape[:2]
     h, w = h - h % block, w - w % block
 
@@ -90,18 +92,24 @@ def block_z(a, b, allowance=0.0, block=4):
     var = (blocks(a.variance) + blocks(b.variance)) / n + (allowance * blocks(b.image)) ** 2
     keep = var > 0
     assert np.all(diff[~keep] == 0)
-    return diff[keep] / np.sqrt(var[keep])
+    z = np.full(diff.shape, np.nan)
+    z[keep] = diff[keep] / np.sqrt(var[keep])
+    return z.reshape(-1, 3)
 
 
 def assert_agree(a, b, allowance=0.0, what=""):
+    """Per channel (in a grey medium the three carry the same samples, so they are not
+    independent terms of one chi-square): chi-square of the block z-scores and max |z|."""
     from scipy import stats
 
-    z = block_z(a, b, allowance)
-    n = z.size
-    assert n >= 12, n
-    chi2 = float((z ** 2).sum())
-    assert stats.chi2.sf(chi2, n) > 1e-3, f"{what}: chi2 {chi2:.1f} over {n} blocks"
-    assert np.abs(z).max() < stats.norm.isf(1e-3 / (2 * n)), f"{what}: max |z| {np.abs(z).max():.2f}"
+    for c, zc in enumerate(block_z(a, b, allowance).T):
+        z = zc[np.isfinite(zc)]
+        n = z.size
+        assert n >= 8, n
+        chi2 = float((z ** 2).sum())
+        assert stats.chi2.sf(chi2, n) > 1e-3, f"{what}, channel {c}: chi2 {chi2:.1f} over {n} blocks"
+        assert np.abs(z).max() < stats.norm.isf(1e-3 / (2 * n)), \
+            f"{what}, channel {c}: max |z| {np.abs(z).max():.2f}"
 
 
 def srgb(x):
@@ -132,11 +140,13 @@ def test_infinite_threshold_is_pt_bit_for_bit(boundary):
     assert st.mean_sphere_steps_per_path == 0
 
 
+@pytest.mark.parametrize("step_nee", STEP_NEE)
 @pytest.mark.parametrize("case", ["rgb_chromatic_albedo", "chromatic_sigma_t", "dielectric"])
-def test_exact_walks_agree_with_pt(case):
+def test_exact_walks_agree_with_pt(case, step_nee):
     """st with exact sphere walks instead of the networks is unbiased: it must agree with pt
-    within the noise. Area light + environment exercise the MIS rule of a step (MIS for its first
-    event only); chromatic albedo with RGB throughput exercises the one-channel NEE pick."""
+    within the noise. Area light + environment exercise the MIS rule of a step (step_nee
+    "event": MIS for its first event only; "hits": the exit flight's hits weighted 1); chromatic
+    albedo with RGB throughput exercises the one-channel NEE pick."""
     lights = [AREA, ENV]
     if case == "rgb_chromatic_albedo":
         d = sphere_scene(sigma_t=20.0, albedo=(0.95, 0.8, 0.6), lights=lights)
@@ -146,20 +156,22 @@ def test_exact_walks_agree_with_pt(case):
         d = sphere_scene(sigma_t=20.0, albedo=(0.95, 0.9, 0.8), lights=lights, boundary="dielectric")
     scene = sssphere.load_scene(d)
     st = sssphere.render_full(scene, integrator="st", sphere_sampler="walk", sphere_threshold=1.0,
-                              spp=512, seed=1)
+                              spp=512, seed=1, step_nee=step_nee)
     pt = sssphere.render_full(scene, integrator="pt", spp=512, seed=2)
     assert st.mean_sphere_steps_per_path > 0.3
     assert_agree(st, pt, what=case)
 
 
-def test_exact_walks_nee_agrees_with_no_nee():
-    """NEE with the representative event (Lambda-weighted) and st without NEE (light only from
-    paths that hit it) estimate the same image; exact walks, so no allowance."""
+@pytest.mark.parametrize("step_nee", STEP_NEE)
+def test_exact_walks_nee_agrees_with_no_nee(step_nee):
+    """NEE with the representative event (Lambda-weighted; "event") or with the step's exit hits
+    ("hits") and st without NEE (light only from paths that hit it) estimate the same image;
+    exact walks, so no allowance."""
     scene = sssphere.load_scene(sphere_scene(sigma_t=20.0, albedo=(0.95, 0.95, 0.95), lights=[AREA, ENV]))
     kw = dict(integrator="st", sphere_sampler="walk", sphere_threshold=1.0)
-    with_nee = sssphere.render_full(scene, spp=512, seed=1, **kw)
+    with_nee = sssphere.render_full(scene, spp=512, seed=1, step_nee=step_nee, **kw)
     without = sssphere.render_full(scene, spp=1024, seed=2, nee=False, **kw)
-    assert_agree(with_nee, without, what="walk nee vs no nee")
+    assert_agree(with_nee, without, what=f"walk nee ({step_nee}) vs no nee")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -181,10 +193,15 @@ def dense_bunny():
     return scene, ref
 
 
+@pytest.mark.parametrize("step_nee", STEP_NEE)
 @pytest.mark.parametrize("which", ["dense_sphere", "dense_bunny"])
-def test_st_converges_to_pt(which, models_dir, request):
+def test_st_converges_to_pt(which, step_nee, models_dir, request):
+    """The learned models against a PT reference, either way a step gets its direct light:
+    the sphere has a point light (EventGen's event in both modes) and the environment, the
+    bunny an area light and the environment (EventGen only with "event")."""
     scene, ref = request.getfixturevalue(which)
-    st = sssphere.render_full(scene, integrator="st", models=models_dir, spp=1024, seed=1)
+    st = sssphere.render_full(scene, integrator="st", models=models_dir, spp=1024, seed=1,
+                              step_nee=step_nee)
     assert st.mean_sphere_steps_per_path > 0.15  # the steps are exercised
     assert st.mean_events_per_path < ref.mean_events_per_path
     assert_agree(st, ref, allowance=MODEL_ALLOWANCE, what=which)
@@ -196,7 +213,7 @@ def test_nee_with_eventgen_agrees_with_no_nee(models_dir):
     """With the learned models, NEE from EventGen's representative event and st without NEE
     have the same expectation (up to EventGen's error, within the allowance)."""
     scene = sssphere.load_scene(sphere_scene(sigma_t=100.0, albedo=(0.95, 0.95, 0.95), lights=[AREA, ENV]))
-    kw = dict(integrator="st", models=models_dir, sphere_threshold=2.0)
+    kw = dict(integrator="st", models=models_dir, sphere_threshold=2.0, step_nee="event")
     with_nee = sssphere.render_full(scene, spp=512, seed=1, **kw)
     without = sssphere.render_full(scene, spp=1024, seed=2, nee=False, **kw)
     assert with_nee.mean_sphere_steps_per_path > 0.5
@@ -253,6 +270,7 @@ def _models_with(tmp_path, models_dir, **ranges):
         ({"sphere_threshold": math.nan}, "sphere_threshold must be a number >= 0"),
         ({"sphere_threshold": True}, "sphere_threshold must be a number >= 0"),
         ({"sphere_sampler": "exact"}, "sphere_sampler 'exact' is not allowed"),
+        ({"step_nee": "paper"}, r"step_nee 'paper' is not allowed \(allowed: 'hits', 'event'\)"),
     ],
 )
 def test_bad_arguments(models_dir, kwargs, expected):
@@ -281,8 +299,13 @@ def test_medium_outside_the_training_ranges(tmp_path, models_dir):
     scene = sssphere.load_scene(sphere_scene(res=4, g=0.3, albedo=(0.99, 0.8, 0.8)))
     with pytest.raises(SceneError, match=r"albedo 0.99 is outside EventGen's training range of phi \[0, 0.9\]"):
         sssphere.render_full(scene, integrator="st", models=edited, spp=1)
-    # Without NEE EventGen is not used, so the albedo does not matter.
+    # Without NEE EventGen is not used, so the albedo does not matter; nor with step_nee "hits"
+    # when no light is a point or directional light.
     sssphere.render_full(scene, integrator="st", models=edited, spp=1, nee=False)
+    env_only = sssphere.load_scene(sphere_scene(res=4, g=0.3, albedo=(0.99, 0.8, 0.8), lights=[ENV]))
+    sssphere.render_full(env_only, integrator="st", models=edited, spp=1)
+    with pytest.raises(SceneError, match="albedo 0.99 is outside EventGen's training range"):
+        sssphere.render_full(env_only, integrator="st", models=edited, spp=1, step_nee="event")
 
 
 def test_threshold_below_the_models_sigma_range(tmp_path, models_dir):

@@ -21,14 +21,19 @@ void usage() {
     std::cerr
         << "usage: sssphere-render SCENE.json -o OUT.(exr|png) [--spp N] [--seed N] "
            "[--threads N] [--integrator pt|st] [--sphere-threshold TAU] [--models DIR] "
-           "[--quiet]\n"
+           "[--step-nee hits|event] [--quiet]\n"
            "  st: a collision takes a sphere step where sigma_t * r >= TAU (default: the "
            "scene's\n"
            "  render.sphere_threshold, else "
         << sss::kDefaultSphereThreshold
         << "; inf: never); DIR holds lengthgen.json, pathgen.json,\n"
            "  eventgen.json (default: the scene's render.models, else the source tree's "
-           "models/)\n";
+           "models/)\n"
+           "  --step-nee: the direct light of a sphere step's events: 'hits' (default: "
+           "from\n"
+           "  its exit flight; EventGen only for point and directional lights) or "
+           "'event'\n"
+           "  (EventGen's representative event connects to every kind of light)\n";
 }
 
 float parse_threshold(const char* text) {
@@ -55,6 +60,7 @@ int main(int argc, char** argv) {
     float threshold = -1.f;  // < 0: the scene's
     long spp = -1, seed = -1, threads = 0;
     bool quiet = false;
+    sss::StepNee step_nee = sss::StepNee::Hits;
     try {
         for (int i = 1; i < argc; ++i) {
             std::string a = argv[i];
@@ -76,6 +82,8 @@ int main(int argc, char** argv) {
                 threshold = parse_threshold(value());
             else if (a == "--models")
                 models = value();
+            else if (a == "--step-nee")
+                step_nee = sss::parse_step_nee(value(), "--step-nee");
             else if (a == "--quiet")
                 quiet = true;
             else if (a == "-h" || a == "--help") {
@@ -106,6 +114,7 @@ int main(int argc, char** argv) {
         opt.sphere_threshold =
             threshold >= 0.f ? threshold : desc.render.sphere_threshold;
         opt.models = models.empty() ? desc.render.models : models;
+        opt.step_nee = step_nee;
 #ifdef SSSPHERE_SOURCE_MODELS
         // Last resort: the shipped models of the source tree this binary was built from.
         if (opt.models.empty() && std::filesystem::is_directory(SSSPHERE_SOURCE_MODELS))

@@ -48,7 +48,8 @@ const Shape& shape_at(const Scene& s, int i) {
 py::dict render_py(const Scene& scene, const std::string& integrator, int spp,
                    uint64_t seed, int threads, int max_bounces, bool nee,
                    float sphere_threshold, const std::string& models,
-                   const std::string& sphere_sampler, py::object progress) {
+                   const std::string& sphere_sampler, const std::string& step_nee,
+                   py::object progress) {
     RenderOptions opt;
     opt.integrator = integrator;
     opt.spp = spp;
@@ -65,6 +66,7 @@ py::dict render_py(const Scene& scene, const std::string& integrator, int spp,
     else
         fail("sphere_sampler '", sphere_sampler,
              "' is not allowed (allowed: 'model', 'walk')");
+    opt.step_nee = parse_step_nee(step_nee, "step_nee");
     bool interrupted = false;
     std::optional<py::error_already_set> callback_error;
     auto cb = [&](double f) -> bool {
@@ -192,7 +194,7 @@ PYBIND11_MODULE(_core, m) {
           py::arg("seed"), py::arg("threads"), py::arg("max_bounces"),
           py::arg("nee") = true, py::arg("sphere_threshold") = kDefaultSphereThreshold,
           py::arg("models") = "", py::arg("sphere_sampler") = "model",
-          py::arg("progress") = py::none());
+          py::arg("step_nee") = "hits", py::arg("progress") = py::none());
     m.attr("DEFAULT_SPHERE_THRESHOLD") = kDefaultSphereThreshold;
 
     m.def(

@@ -60,7 +60,11 @@ bool survives_roulette(Vec3& beta, float beta_start, Rng& rng) {
 
 PathTracer::PathTracer(const Scene& scene, int max_bounces, bool nee,
                        const SphereTracing* sphere_tracing)
-    : scene_(scene), max_bounces_(max_bounces), nee_(nee), st_(sphere_tracing) {}
+    : scene_(scene), max_bounces_(max_bounces), nee_(nee), st_(sphere_tracing) {
+    const auto& lights = scene_.desc().lights;
+    for (size_t i = 0; i < lights.size(); ++i)
+        if (lights[i].is_delta()) delta_lights_.push_back(int(i));
+}
 
 float PathTracer::area_light_pdf(int light, const Vec3& p, const Vec3& w, float t,
                                  const Vec3& n) const {
@@ -97,7 +101,7 @@ Vec3 PathTracer::transmittance(const Vec3& p, const Vec3& w, float dist, int sha
 }
 
 Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
-                              int channel, Rng& rng, bool mis) const {
+                              int channel, Rng& rng, bool mis, bool delta_only) const {
     const Shape& s = scene_.desc().shapes[shape];
     // A straight shadow ray never leaves a smooth dielectric boundary (DESIGN §2).
     if (s.boundary.type == BoundaryType::Dielectric) return Vec3(0.f);
@@ -116,8 +120,11 @@ Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
     // the light-sampling pdfs in the MIS weights carry the selection probability 1 /
     // n_lights (as on emission hits in trace()).
     const auto& lights = scene_.desc().lights;
-    const float n_lights = float(lights.size());
-    const size_t i = std::min(lights.size() - 1, size_t(rng.uniform() * n_lights));
+    const size_t count = delta_only ? delta_lights_.size() : lights.size();
+    if (count == 0) return Vec3(0.f);
+    const float n_lights = float(count);
+    size_t i = std::min(count - 1, size_t(rng.uniform() * n_lights));
+    if (delta_only) i = size_t(delta_lights_[i]);
     const Light& l = lights[i];
     const float g = s.medium.g;
     Vec3 sum(0.f);
@@ -235,15 +242,19 @@ bool PathTracer::take_step(PathState& ps, const WorldSphereStep& step) const {
         if (req.with_event) nee_weight[c] *= float(event_weight_sum(albedo[c], step.N));
     }
     // NEE from the representative event, weighted by Lambda = sum_j phi^j, with the
-    // throughput on entering the sphere. MIS needs the same vertex on both sides: the
-    // first event (at o) is known, so it keeps pt's MIS, and its phase-sampled light hit
-    // (only possible for N = 1) keeps its weight. For N >= 2 the last event is unknown:
-    // its light hit gets weight 0 (phase_pdf = 0 below) and the events k >= 2 use light
-    // sampling alone.
+    // throughput on entering the sphere.
+    // StepNee::Hits: only point and directional lights are sampled; every other light
+    // reaches the step's events through the exit flight, whose hit counts with weight 1
+    // (specular below), as in pt without NEE.
+    // StepNee::Event: MIS needs the same vertex on both sides: the first event (at o) is
+    // known, so it keeps pt's MIS, and its phase-sampled light hit (only possible for
+    // N = 1) keeps its weight. For N >= 2 the last event is unknown: its light hit gets
+    // weight 0 (phase_pdf = 0 below) and the events k >= 2 use light sampling alone.
+    const bool hits = st_->step_nee() == StepNee::Hits;
     if (req.with_event && !is_black(nee_weight))
         ps.L += ps.beta * nee_weight *
                 direct_light(step.X, -1.f, step.W, ps.shape, ps.channel, ps.rng,
-                             step.first_event);
+                             step.first_event, hits);
     ps.beta *= survival;
     bool alive = !is_black(ps.beta);
     if (alive) {
@@ -251,7 +262,7 @@ bool PathTracer::take_step(PathState& ps, const WorldSphereStep& step) const {
         ps.scatter_pos = ps.o;
         ps.o = step.exit_pos;
         ps.d = step.exit_dir;
-        ps.specular = false;
+        ps.specular = hits;
         ps.r_at_o = -1.f;
         alive = survives_roulette(ps.beta, ps.beta_start, ps.rng);
     }

@@ -11,6 +11,7 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include "core/rng.h"
 #include "core/vec.h"
@@ -33,9 +34,11 @@ struct PathState {
     Vec3 o, d;  // position and direction
     Vec3 L{0.f}, beta{1.f};
     float beta_start = 1.f;
-    int channel = -1;       // the channel carried (-1: all three; RGB media, DESIGN §2)
-    int shape = -1;         // the shape whose medium holds the photon; -1 = vacuum
-    bool specular = true;   // last vertex was the camera or a specular interface
+    int channel = -1;  // the channel carried (-1: all three; RGB media, DESIGN §2)
+    int shape = -1;    // the shape whose medium holds the photon; -1 = vacuum
+    // The last vertex did no light sampling that an emitter hit now must share with: the
+    // camera, a specular interface, or a sphere step with StepNee::Hits (weight 1).
+    bool specular = true;
     float phase_pdf = 0.f;  // pdf of the direction sampled at the last scattering event
     Vec3 scatter_pos;       // where that event happened (light pdfs are measured from it)
     float r_at_o = -1.f;  // the distance grid's bound at o when known (0 on the surface),
@@ -83,9 +86,11 @@ private:
     // continuation cannot be weighted (a sphere step's events k >= 2), each light's whole
     // direct light from shadow rays alone: point and directional lights as always, the
     // constant environment by a phase-sampled direction, an area light by a light sample
-    // and a phase-sampled ray, combined by MIS.
+    // and a phase-sampled ray, combined by MIS. delta_only: the light is chosen among
+    // the point and directional lights only (weighted by their number): a sphere step's
+    // events with StepNee::Hits, whose other lights come from hits.
     Vec3 direct_light(const Vec3& p, float r, const Vec3& d, int shape, int channel,
-                      Rng& rng, bool mis = true) const;
+                      Rng& rng, bool mis = true, bool delta_only = false) const;
     // Transmittance from p (inside shape `shape`, or -1 for vacuum) along unit w over
     // `dist`, exact from the boundaries one ray crosses (RayTracer::crossings); 0 when a
     // dielectric boundary or an emitter is in the way, or past kMaxShadowCrossings
@@ -107,6 +112,7 @@ private:
     int max_bounces_;
     bool nee_;
     const SphereTracing* st_;
+    std::vector<int> delta_lights_;  // indices of the point and directional lights
 };
 
 }  // namespace sss

@@ -98,8 +98,9 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
             fail("max_bounces ", opt.max_bounces,
                  " is not supported by integrator 'st' (allowed: -1): a sphere "
                  "step stands for many scattering events at once");
-        sphere_tracing = std::make_unique<SphereTracing>(
-            scene, opt.sphere_threshold, opt.sphere_sampler, opt.models, opt.nee);
+        sphere_tracing = std::make_unique<SphereTracing>(scene, opt.sphere_threshold,
+                                                         opt.sphere_sampler, opt.models,
+                                                         opt.nee, opt.step_nee);
     }
 
     const int tiles_x = (W + kTile - 1) / kTile, tiles_y = (H + kTile - 1) / kTile;

@@ -30,6 +30,8 @@ struct RenderOptions {
         models;  // "st": the directory of lengthgen.json, pathgen.json, eventgen.json
     SphereSampler sphere_sampler =
         SphereSampler::Model;  // Walk: exact walks (validation)
+    // "st" with nee: how a sphere step's events get their direct light (StepNee).
+    StepNee step_nee = StepNee::Hits;
 };
 
 struct RenderResult {

@@ -49,6 +49,8 @@ struct Light {
     Vec3 direction, irradiance;  // directional: unit travel direction, irradiance
     Vec3 corner, edge1, edge2;   // area: quad corner + s*edge1 + t*edge2, emits along
     Vec3 radiance;  //   normalize(edge1 x edge2); environment: constant radiance
+    // Point and directional lights: no path can hit them, only light sampling sees them.
+    bool is_delta() const { return type == Type::Point || type == Type::Directional; }
 };
 
 // Default sphere_threshold tau of integrator "st": a collision at p takes a sphere step

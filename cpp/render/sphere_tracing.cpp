@@ -26,9 +26,19 @@ float float_above(double x) {
 
 }  // namespace
 
+StepNee parse_step_nee(const std::string& text, const char* what) {
+    if (text == "hits") return StepNee::Hits;
+    if (text == "event") return StepNee::Event;
+    fail(what, " '", text, "' is not allowed (allowed: 'hits', 'event')");
+}
+
 SphereTracing::SphereTracing(const Scene& scene, float threshold, SphereSampler sampler,
-                             const std::string& models, bool nee)
-    : scene_(scene), threshold_(threshold), sampler_(sampler), nee_(nee) {
+                             const std::string& models, bool nee, StepNee step_nee)
+    : scene_(scene),
+      threshold_(threshold),
+      sampler_(sampler),
+      nee_(nee),
+      step_nee_(step_nee) {
     if (!(threshold >= 0.f))
         fail(
             "sphere_threshold must be >= 0 (inf: no sphere steps, the same image as "
@@ -101,8 +111,12 @@ SphereTracing::SphereTracing(const Scene& scene, float threshold, SphereSampler 
 SphereTracing::~SphereTracing() = default;
 
 bool SphereTracing::wants_event(int shape) const {
-    return nee_ && !scene_.desc().lights.empty() &&
-           scene_.desc().shapes[shape].boundary.type != BoundaryType::Dielectric;
+    if (!nee_ || scene_.desc().shapes[shape].boundary.type == BoundaryType::Dielectric)
+        return false;
+    const auto& lights = scene_.desc().lights;
+    if (step_nee_ == StepNee::Event) return !lights.empty();
+    return std::any_of(lights.begin(), lights.end(),
+                       [](const Light& l) { return l.is_delta(); });
 }
 
 float SphereTracing::event_phi(float phi) const {

@@ -28,6 +28,20 @@ constexpr float kPhiClampTolerance = 1e-3f;
 // slow as path tracing, for validating the integrator without model error).
 enum class SphereSampler { Model, Walk };
 
+// How a step's events get their direct light
+// (docs/sphere-tracing.md#nee-for-a-sphere-step).
+//   Hits:  no light sampling at the step's events for area lights and the environment;
+//          their direct light is what the step's exit flight collects when it reaches a
+//          light (weight 1). Point and directional lights, which no flight can hit, get a
+//          connection from EventGen's representative event. Needs no EventGen where the
+//          scene has no delta lights.
+//   Event: the paper's: EventGen's representative event gets a connection to one light
+//          chosen among all, weighted by Lambda, with the MIS rule of the docs.
+enum class StepNee { Hits, Event };
+// "hits" or "event"; anything else throws sss::Error naming `what` and the allowed
+// values.
+StepNee parse_step_nee(const std::string& text, const char* what);
+
 // One step in world space.
 struct WorldSphereStep {
     int64_t N = 1;  // scattering events the step stands for (>= 1)
@@ -58,7 +72,7 @@ public:
     // for media that get NEE) every channel's albedo. Throws sss::Error naming the shape,
     // the value and the range.
     SphereTracing(const Scene& scene, float threshold, SphereSampler sampler,
-                  const std::string& models, bool nee);
+                  const std::string& models, bool nee, StepNee step_nee = StepNee::Hits);
     ~SphereTracing();
     SphereTracing(const SphereTracing&) = delete;
     SphereTracing& operator=(const SphereTracing&) = delete;
@@ -70,8 +84,10 @@ public:
     bool may_step() const { return may_step_; }
     // Steps are shrunk so that sigma = sigma_t * r' <= sigma_max.
     float sigma_max() const { return sigma_max_; }
-    // Whether a step in `shape` samples its representative event (NEE on, lights present,
-    // an index-matched boundary: a dielectric-bounded medium gets no NEE, as in pt).
+    StepNee step_nee() const { return step_nee_; }
+    // Whether a step in `shape` samples its representative event (NEE on, an
+    // index-matched boundary: a dielectric-bounded medium gets no NEE, as in pt; and
+    // lights it connects to: any with StepNee::Event, point or directional with Hits).
     bool wants_event(int shape) const;
     // The albedo EventGen is asked about for scene albedo phi (clamped into its range).
     float event_phi(float phi) const;
@@ -91,6 +107,7 @@ private:
     float threshold_;
     SphereSampler sampler_;
     bool nee_;
+    StepNee step_nee_;
     float sigma_max_ = kWalkSigmaMax;
     bool may_step_ = false;
     float phi_lo_ = 0.f, phi_hi_ = 1.f;

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -57,6 +58,45 @@ std::vector<BlockSum> block_sums(const RenderResult& r, bool skip_constant) {
     return out;
 }
 
+// One channel's comparison over the blocks: chi-square of the block differences, their
+// sum and its variance. Channels are checked one at a time: in a grey medium all three
+// carry the same samples, so pooling them would count each block three times (a
+// chi-square three times too wide, a whole-image sigma sqrt(3) too small).
+struct ChannelTest {
+    double chi2 = 0, diff = 0, var = 0;
+    int blocks = 0;
+};
+
+// expect(k) -> (difference, variance) of block sum k (channel k % 3); variance 0 leaves
+// it out.
+template <class F>
+std::array<ChannelTest, 3> per_channel(size_t blocks, F&& expect) {
+    std::array<ChannelTest, 3> t;
+    for (size_t k = 0; k < blocks; ++k) {
+        const auto [d, v] = expect(k);
+        if (v == 0.0) continue;
+        ChannelTest& c = t[k % 3];
+        c.chi2 += d * d / v;
+        c.diff += d;
+        c.var += v;
+        ++c.blocks;
+    }
+    return t;
+}
+
+// Every channel: block chi-square under its p = 1e-4 critical value, the sum within 4
+// sigma.
+void expect_agreement(const std::array<ChannelTest, 3>& t, int min_blocks) {
+    for (int c = 0; c < 3; ++c) {
+        SCOPED_TRACE("channel " + std::to_string(c));
+        ASSERT_GT(t[c].blocks, min_blocks);
+        EXPECT_LT(t[c].chi2, test::chi2_critical(t[c].blocks))
+            << "chi2 " << t[c].chi2 << " over " << t[c].blocks << " blocks";
+        EXPECT_LT(std::abs(t[c].diff), 4.0 * std::sqrt(t[c].var))
+            << "sum of differences " << t[c].diff << " +- " << std::sqrt(t[c].var);
+    }
+}
+
 RenderOptions st_options(const std::string& models, float threshold) {
     RenderOptions opt;
     opt.integrator = "st";
@@ -86,45 +126,48 @@ TEST(SphereTracer, FurnaceWithoutNeeIsExactPerPathForAnyModel) {
 }
 
 TEST(SphereTracer, FurnaceWithNeeAndExactWalksIsUnbiased) {
-    // With exact sphere walks in place of the networks, st with NEE (Lambda-weighted
-    // light connections from the representative event, MIS for the first event only) must
-    // give the furnace's 1 everywhere up to noise. The NEE weights (Lambda = N here) make
-    // single samples heavy-tailed, so pixel variances from few samples are unreliable:
-    // the test compares 4x4-pixel block means (chi-square) and the mean over the sphere.
-    for (Vec3 sigma_t : {Vec3(6.f), Vec3(2.f, 6.f, 12.f)}) {
-        Scene scene(sphere_scene(sigma_t, Vec3(1.f), 0.5f, BoundaryType::IndexMatched),
-                    2);
-        RenderOptions opt = st_options("", 1.f);
-        opt.sphere_sampler = SphereSampler::Walk;
-        opt.spp = 128;
-        opt.seed = 4;
-        RenderResult r = render(scene, opt);
-        double chi2 = 0, sum = 0, var = 0;
-        int n = 0, pixels = 0;
-        for (const BlockSum& b : block_sums(r, true)) {
-            if (b.pixels == 0) continue;  // background only: exactly 1
-            chi2 += (b.value - b.pixels) * (b.value - b.pixels) / b.variance;
-            sum += b.value;
-            var += b.variance;
-            pixels += b.pixels;
-            ++n;
+    // With exact sphere walks in place of the networks, st with NEE must give the
+    // furnace's 1 everywhere up to noise, whichever way the steps get their direct light
+    // (StepNee::Event: Lambda-weighted connections from the representative event, MIS
+    // for the first event only; Hits: the exit flight's hits of the environment). The
+    // NEE weights (Lambda = N here) make single samples heavy-tailed, so pixel variances
+    // from few samples are unreliable: the test compares 4x4-pixel block means
+    // (chi-square) and the mean over the sphere, per channel.
+    for (StepNee mode : {StepNee::Event, StepNee::Hits}) {
+        for (Vec3 sigma_t : {Vec3(6.f), Vec3(2.f, 6.f, 12.f)}) {
+            SCOPED_TRACE(mode == StepNee::Event ? "event" : "hits");
+            Scene scene(
+                sphere_scene(sigma_t, Vec3(1.f), 0.5f, BoundaryType::IndexMatched), 2);
+            RenderOptions opt = st_options("", 1.f);
+            opt.step_nee = mode;
+            opt.sphere_sampler = SphereSampler::Walk;
+            opt.spp = 128;
+            opt.seed = 4;
+            const RenderResult r = render(scene, opt);
+            const std::vector<BlockSum> b = block_sums(r, true);
+            // Background-only blocks (no pixel left) are exactly 1 and left out.
+            expect_agreement(per_channel(b.size(),
+                                         [&](size_t k) {
+                                             return std::pair(b[k].value - b[k].pixels,
+                                                              b[k].variance);
+                                         }),
+                             6);
+            EXPECT_GT(r.total_sphere_steps, r.total_paths / 10);
         }
-        ASSERT_GT(n, 20);
-        EXPECT_LT(chi2, test::chi2_critical(n))
-            << "chi2 " << chi2 << " over " << n << " blocks";
-        EXPECT_NEAR(sum / pixels, 1.0, 4.0 * std::sqrt(var) / pixels);
-        EXPECT_GT(r.total_sphere_steps, r.total_paths / 10);
     }
 }
 
-TEST(SphereTracer, ExactWalksUnderAreaLightAndEnvironmentMatchPt) {
-    // A large area light above an index-matched sphere, and the environment: NEE from a
-    // step's events k >= 2 has no MIS partner there, so it combines a light sample and a
-    // phase-sampled ray for the area light and takes phase-sampled rays for the
-    // environment. With exact walks st must agree with pt (NEE, MIS) up to noise: 4x4
-    // block means compared by chi-square, and the sum over the sphere (4 sigma), with
-    // both renders' variances.
-    SceneDesc d = sphere_scene(Vec3(6.f), Vec3(0.95f), 0.7f, BoundaryType::IndexMatched);
+TEST(SphereTracer, ExactWalksUnderAllKindsOfLightMatchPt) {
+    // A large area light above an index-matched sphere, a point light and the
+    // environment. StepNee::Event: NEE from a step's events k >= 2 has no MIS partner, so
+    // it combines a light sample and a phase-sampled ray for the area light and takes
+    // phase-sampled rays for the environment. StepNee::Hits: the steps' events see the
+    // area light and the environment only through the exit flights' hits (weight 1) and
+    // connect to the point light alone. With exact walks st must agree with pt (NEE, MIS)
+    // up to noise in both modes: 4x4 block means compared by chi-square, and the sum over
+    // the sphere (4 sigma), with both renders' variances, per channel.
+    SceneDesc d =
+        sphere_scene(Vec3(6.f), Vec3(0.95f), 0.7f, BoundaryType::IndexMatched, true);
     Light area;
     area.type = Light::Type::Area;
     area.corner = {-1.f, 1.8f, 1.f};
@@ -138,27 +181,26 @@ TEST(SphereTracer, ExactWalksUnderAreaLightAndEnvironmentMatchPt) {
     pt.spp = 256;
     pt.threads = 2;
     pt.seed = 5;
-    RenderOptions st = st_options("", 1.f);
-    st.sphere_sampler = SphereSampler::Walk;
-    st.spp = 256;
-    st.seed = 6;
-    RenderResult a = render(scene, pt), b = render(scene, st);
-    const std::vector<BlockSum> sa = block_sums(a, false), sb = block_sums(b, false);
-    double chi2 = 0, diff = 0, var = 0;
-    int n = 0;
-    for (size_t k = 0; k < sa.size(); ++k) {
-        const double d = sa[k].value - sb[k].value, v = sa[k].variance + sb[k].variance;
-        if (v == 0.0) continue;  // background in both: the environment exactly
-        chi2 += d * d / v;
-        diff += d;
-        var += v;
-        ++n;
+    const std::vector<BlockSum> sa = block_sums(render(scene, pt), false);
+    for (StepNee mode : {StepNee::Event, StepNee::Hits}) {
+        SCOPED_TRACE(mode == StepNee::Event ? "event" : "hits");
+        RenderOptions st = st_options("", 1.f);
+        st.sphere_sampler = SphereSampler::Walk;
+        st.step_nee = mode;
+        st.spp = 256;
+        st.seed = 6;
+        const RenderResult b = render(scene, st);
+        const std::vector<BlockSum> sb = block_sums(b, false);
+        // Blocks of background in both (the environment exactly) have variance 0.
+        expect_agreement(per_channel(sa.size(),
+                                     [&](size_t k) {
+                                         return std::pair(
+                                             sa[k].value - sb[k].value,
+                                             sa[k].variance + sb[k].variance);
+                                     }),
+                         20);
+        EXPECT_GT(b.total_sphere_steps, b.total_paths / 10);
     }
-    ASSERT_GT(n, 20);
-    EXPECT_LT(chi2, test::chi2_critical(n))
-        << "chi2 " << chi2 << " over " << n << " blocks";
-    EXPECT_LT(std::abs(diff), 4.0 * std::sqrt(var));  // the whole sphere
-    EXPECT_GT(b.total_sphere_steps, b.total_paths / 10);
 }
 
 TEST(SphereTracer, InfiniteThresholdGivesPtBitForBit) {
@@ -231,46 +273,49 @@ TEST(SphereTracer, IdenticalForAnyThreadCount) {
 TEST(SphereTracer, PathsInFlightAreThePathsTracedOneAtATime) {
     test::ModelDir models;
     models.write_random(4);
-    for (bool chromatic : {false, true}) {
-        Scene scene(
-            sphere_scene(Vec3(15.f), chromatic ? Vec3(0.99f, 0.9f, 0.8f) : Vec3(0.95f),
-                         0.3f, BoundaryType::IndexMatched, true),
-            1);
-        RenderOptions opt = st_options(models.path(), 2.f);
-        opt.spp = 3;
-        opt.seed = 7;
-        RenderResult r = render(scene, opt);
-        ASSERT_GT(r.total_sphere_steps, 0u);
+    for (StepNee mode : {StepNee::Event, StepNee::Hits})
+        for (bool chromatic : {false, true}) {
+            Scene scene(sphere_scene(Vec3(15.f),
+                                     chromatic ? Vec3(0.99f, 0.9f, 0.8f) : Vec3(0.95f),
+                                     0.3f, BoundaryType::IndexMatched, true),
+                        1);
+            RenderOptions opt = st_options(models.path(), 2.f);
+            opt.spp = 3;
+            opt.seed = 7;
+            opt.step_nee = mode;
+            RenderResult r = render(scene, opt);
+            ASSERT_GT(r.total_sphere_steps, 0u);
 
-        SphereTracing st(scene, opt.sphere_threshold, SphereSampler::Model, opt.models,
-                         true);
-        PathTracer tracer(scene, -1, true, &st);
-        const Camera& cam = scene.desc().camera;
-        PinholeCamera camera(cam);
-        for (int y = 0; y < cam.height; ++y)
-            for (int x = 0; x < cam.width; ++x) {
-                const size_t p = size_t(y) * cam.width + x;
-                double sum_d[3] = {0, 0, 0};
-                uint64_t events = 0, steps = 0;
-                for (int k = 0; k < opt.spp; ++k) {
-                    Rng rng(opt.seed, p, uint64_t(k));
-                    float jx = rng.uniform(), jy = rng.uniform();
-                    PathSample s = tracer.trace(camera.origin(),
-                                                camera.direction(x + jx, y + jy), rng);
-                    for (int c = 0; c < 3; ++c) sum_d[c] += s.radiance[c];
-                    events += s.scatter_events;
-                    steps += s.sphere_steps;
+            SphereTracing st(scene, opt.sphere_threshold, SphereSampler::Model,
+                             opt.models, true, mode);
+            PathTracer tracer(scene, -1, true, &st);
+            const Camera& cam = scene.desc().camera;
+            PinholeCamera camera(cam);
+            for (int y = 0; y < cam.height; ++y)
+                for (int x = 0; x < cam.width; ++x) {
+                    const size_t p = size_t(y) * cam.width + x;
+                    double sum_d[3] = {0, 0, 0};
+                    uint64_t events = 0, steps = 0;
+                    for (int k = 0; k < opt.spp; ++k) {
+                        Rng rng(opt.seed, p, uint64_t(k));
+                        float jx = rng.uniform(), jy = rng.uniform();
+                        PathSample s = tracer.trace(
+                            camera.origin(), camera.direction(x + jx, y + jy), rng);
+                        for (int c = 0; c < 3; ++c) sum_d[c] += s.radiance[c];
+                        events += s.scatter_events;
+                        steps += s.sphere_steps;
+                    }
+                    for (int c = 0; c < 3; ++c) {
+                        // The same samples summed in another order: equal to double
+                        // rounding.
+                        const double want = sum_d[c] / opt.spp;
+                        EXPECT_NEAR(r.image[3 * p + c], want, 1e-6 * std::max(1.0, want))
+                            << x << " " << y;
+                    }
+                    EXPECT_EQ(r.events[p], float(double(events) / opt.spp));
+                    EXPECT_EQ(r.sphere_steps[p], float(double(steps) / opt.spp));
                 }
-                for (int c = 0; c < 3; ++c) {
-                    // The same samples summed in another order: equal to double rounding.
-                    const double want = sum_d[c] / opt.spp;
-                    EXPECT_NEAR(r.image[3 * p + c], want, 1e-6 * std::max(1.0, want))
-                        << x << " " << y;
-                }
-                EXPECT_EQ(r.events[p], float(double(events) / opt.spp));
-                EXPECT_EQ(r.sphere_steps[p], float(double(steps) / opt.spp));
-            }
-    }
+        }
 }
 
 TEST(SphereTracer, RefusesWhatTheModelsCannotDo) {
@@ -307,19 +352,31 @@ TEST(SphereTracer, RefusesWhatTheModelsCannotDo) {
     EXPECT_HAS(m, "shapes[0] ('sphere')");
     EXPECT_HAS(m, "g = 0.7 is outside the training range [-0.5, 0.5]");
 
+    // EventGen is needed (and the albedo checked against its range) where steps connect
+    // to lights: always with StepNee::Event, only for point and directional lights with
+    // Hits.
     SceneDesc phi = desc;
     phi.shapes[0].medium.albedo = Vec3(0.8f, 0.95f, 0.8f);
-    EXPECT_HAS(err(phi, st_options(models.path(), 2.f)),
+    RenderOptions event = st_options(models.path(), 2.f);
+    event.step_nee = StepNee::Event;
+    EXPECT_HAS(err(phi, event), "albedo 0.95 is outside EventGen's training range");
+    EXPECT_EQ(err(phi, st_options(models.path(), 2.f)), "");  // environment only: hits
+    SceneDesc phi_point = sphere_scene(Vec3(10.f), Vec3(0.8f, 0.95f, 0.8f), 0.3f,
+                                       BoundaryType::IndexMatched, true);
+    EXPECT_HAS(err(phi_point, st_options(models.path(), 2.f)),
                "albedo 0.95 is outside EventGen's training range");
     RenderOptions no_nee = st_options(models.path(), 2.f);
     no_nee.nee = false;  // EventGen is not used: any albedo
     EXPECT_EQ(err(phi, no_nee), "");
     phi.shapes[0].boundary.type =
         BoundaryType::Dielectric;  // no NEE from inside: EventGen unused
-    EXPECT_EQ(err(phi, st_options(models.path(), 2.f)), "");
+    EXPECT_EQ(err(phi, event), "");
     phi.shapes[0].boundary.type = BoundaryType::IndexMatched;
     phi.shapes[0].medium.albedo = Vec3(0.9005f);  // within kPhiClampTolerance: clamped
-    EXPECT_EQ(err(phi, st_options(models.path(), 2.f)), "");
+    EXPECT_EQ(err(phi, event), "");
+
+    EXPECT_HAS(error_of([] { parse_step_nee("events", "--step-nee"); }),
+               "--step-nee 'events' is not allowed (allowed: 'hits', 'event')");
 
     RenderOptions bounces = st_options(models.path(), 2.f);
     bounces.max_bounces = 5;

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sssphere.render import DEFAULT_SPHERE_THRESHOLD, INTEGRATORS, render_full, write_image
+from sssphere.render import DEFAULT_SPHERE_THRESHOLD, INTEGRATORS, STEP_NEE, render_full, write_image
 from sssphere.scene import SceneError, load_scene
 
 IMAGE_SUFFIXES = (".exr", ".png")
@@ -81,7 +81,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
         result = render_full(
             scene, integrator=args.integrator, spp=args.spp, seed=args.seed,
             threads=args.threads, progress=bar, sphere_threshold=args.sphere_threshold,
-            models=args.models,
+            models=args.models, step_nee=args.step_nee,
         )
     finally:
         bar.close()
@@ -219,6 +219,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--models", metavar="DIR",
                    help="st: directory of lengthgen.json, pathgen.json, eventgen.json (default: the "
                         "scene's render.models, else the repository's models/)")
+    r.add_argument("--step-nee", choices=STEP_NEE, default="hits",
+                   help="st: the direct light of a sphere step's events: hits (default: from its "
+                        "exit flight; EventGen only for point and directional lights) or event "
+                        "(EventGen's representative event connects to every light)")
     r.add_argument("--aovs", action="store_true",
                    help="also write OUT_variance.exr, OUT_events.exr (scattering events per path) "
                         "and, for st, OUT_sphere_steps.exr")

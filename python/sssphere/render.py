@@ -17,6 +17,7 @@ from sssphere.scene import Scene, load_scene
 
 INTEGRATORS = ("pt", "st")
 SPHERE_SAMPLERS = ("model", "walk")
+STEP_NEE = ("hits", "event")
 DEFAULT_SPHERE_THRESHOLD = float(_core.DEFAULT_SPHERE_THRESHOLD)
 
 
@@ -46,7 +47,7 @@ class RenderResult:
     mean_sphere_steps_per_path: float
 
 
-def _resolve_st(scene, sphere_threshold, models, sphere_sampler):
+def _resolve_st(scene, sphere_threshold, models, sphere_sampler, step_nee="hits"):
     """The sphere-tracing settings: arguments first, then the scene's render block, then the
     defaults (threshold DEFAULT_SPHERE_THRESHOLD, the repository's models/)."""
     if sphere_threshold is None:
@@ -60,7 +61,10 @@ def _resolve_st(scene, sphere_threshold, models, sphere_sampler):
     if sphere_sampler not in SPHERE_SAMPLERS:
         raise SceneError(f"sphere_sampler {sphere_sampler!r} is not allowed "
                          f"(allowed: {', '.join(repr(s) for s in SPHERE_SAMPLERS)})")
-    return float(sphere_threshold), os.fspath(models), sphere_sampler
+    if step_nee not in STEP_NEE:
+        raise SceneError(f"step_nee {step_nee!r} is not allowed "
+                         f"(allowed: {', '.join(repr(s) for s in STEP_NEE)})")
+    return float(sphere_threshold), os.fspath(models), sphere_sampler, step_nee
 
 
 def _resolve(scene, integrator, spp, seed, threads, max_bounces):
@@ -97,6 +101,7 @@ def render_full(
     sphere_threshold: Optional[float] = None,
     models: Union[str, os.PathLike, None] = None,
     sphere_sampler: str = "model",
+    step_nee: str = "hits",
 ) -> RenderResult:
     """Render and return the image with its variance and complexity (see RenderResult).
 
@@ -111,13 +116,19 @@ def render_full(
     DEFAULT_SPHERE_THRESHOLD) and ``models`` (the directory of lengthgen.json, pathgen.json,
     eventgen.json; default: the scene's ``render.models``, else the repository's ``models/``).
     ``sphere_sampler="walk"`` replaces the networks by exact sphere walks (as slow as path
-    tracing; it validates the integrator without model error).
+    tracing; it validates the integrator without model error). ``step_nee`` says how the
+    events inside a sphere step get their direct light when ``nee`` is on: ``"hits"`` (the
+    default) from the step's exit flight when it reaches an area light or the environment,
+    with EventGen's representative event connecting only to point and directional lights;
+    ``"event"`` (the paper's) from EventGen's event connecting to every kind of light
+    (docs/sphere-tracing.md, "NEE for a sphere step").
     """
     scene, integrator, spp, seed, threads, max_bounces = _resolve(
         scene, integrator, spp, seed, threads, max_bounces)
-    tau, models_dir, sampler = _resolve_st(scene, sphere_threshold, models, sphere_sampler)
+    tau, models_dir, sampler, step_nee = _resolve_st(scene, sphere_threshold, models,
+                                                     sphere_sampler, step_nee)
     r = _core.render(scene, integrator, spp, seed, threads, max_bounces, bool(nee), tau,
-                     models_dir if integrator == "st" else "", sampler, progress)
+                     models_dir if integrator == "st" else "", sampler, step_nee, progress)
     paths = max(1, int(r["total_paths"]))
     return RenderResult(
         image=r["image"],
@@ -141,15 +152,16 @@ def render(
     nee: bool = True,
     sphere_threshold: Optional[float] = None,
     models: Union[str, os.PathLike, None] = None,
+    step_nee: str = "hits",
 ) -> np.ndarray:
     """Render a scene to a (height, width, 3) float32 array of linear radiance.
 
-    ``integrator="st"`` renders with sphere tracing; ``sphere_threshold`` and ``models`` are
-    described in render_full. Ctrl-C raises KeyboardInterrupt (use render_full to keep a
+    ``integrator="st"`` renders with sphere tracing; ``sphere_threshold``, ``models`` and
+    ``step_nee`` are described in render_full. Ctrl-C raises KeyboardInterrupt (use render_full to keep a
     partial image).
     """
     result = render_full(scene, integrator=integrator, spp=spp, seed=seed, threads=threads, nee=nee,
-                         sphere_threshold=sphere_threshold, models=models)
+                         sphere_threshold=sphere_threshold, models=models, step_nee=step_nee)
     if result.interrupted:
         raise KeyboardInterrupt
     return result.image
