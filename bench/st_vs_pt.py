@@ -208,10 +208,24 @@ def run_scene(shape, boundary, scale, args, maps) -> dict:
     if abs(nonee_spp - S) <= 0.1 * S:
         nonee_spp = S
     # The densest bunny: st at the reference's spp too, to see its error near convergence.
+    dense = shape == "bunny" and scale == max(args.scales)
     st_conv = None
-    if shape == "bunny" and scale == max(args.scales):
+    if dense:
         c = render(scene, "st", ref_spp, 6, args)
         st_conv = {**summary(c, ref_spp), **errors(c, ref, ref_err)}
+    # Index-matched: st with the paper's step NEE (EventGen's event connects to every light)
+    # next to the default (area and environment light from the exit flight's hits).
+    event = None
+    if boundary == "index_matched":
+        ev = timed(scene, "st", S, 1, args, step_nee="event")
+        ev_spp = max(1, round(S * pt.seconds / ev.seconds))
+        ev_eq = render(scene, "st", ev_spp, 3, args, step_nee="event")
+        event = {"equal_spp": {**summary(ev, S), **errors(ev, ref, ref_err)},
+                 "speedup": pt.seconds / ev.seconds,
+                 "equal_time": {**summary(ev_eq, ev_spp), **errors(ev_eq, ref, ref_err)}}
+        if dense:
+            c = render(scene, "st", ref_spp, 6, args, step_nee="event")
+            event["at_reference_spp"] = {**summary(c, ref_spp), **errors(c, ref, ref_err)}
     maps[(shape, boundary, scale)] = {
         "pt": pt.events, "st": st.events + st.sphere_steps, "st_steps": st.sphere_steps,
         "ref": ref.image, "pt_img": pt.image, "st_eq_img": st_eq.image, "nonee_eq_img": nonee_eq.image}
@@ -235,6 +249,7 @@ def run_scene(shape, boundary, scale, args, maps) -> dict:
         },
         "pt_no_nee_equal_spp": summary(nonee, S),
         "st_at_reference_spp": st_conv,
+        "st_step_nee_event": event,
         "ns_per_path": {"pt": 1e9 * pt.seconds / (paths * S), "st": 1e9 * st.seconds / (paths * S),
                         "ref": 1e9 * ref.seconds / (paths * ref_spp),
                         "st_eq": 1e9 * st_eq.seconds / (paths * st_spp)},
@@ -415,13 +430,28 @@ def tables(results) -> str:
             f"| {et['st']['rel_mse']:.2e} / {et['pt_nee']['rel_mse']:.2e} / {et['pt_no_nee']['rel_mse']:.2e} "
             f"| {100 * b[k]:+.1f} ± {100 * et['st']['bias_sigma'][k]:.1f} % "
             f"| {r['reference']['spp']}, {r['reference']['own_error']['rmse_srgb']:.4f} |")
-    conv = [r for r in results["scenes"] if r.get("st_at_reference_spp")]
+    ev = [r for r in results["scenes"] if r.get("st_step_nee_event")]
+    if ev:
+        out += ["", "| index-matched | speed-up hits / event | equal-time sRGB RMSE hits / event "
+                "| rel. MSE hits / event | bias of mean (G) hits / event |",
+                "|---|---:|---:|---:|---|"]
+        for r in ev:
+            e, h = r["st_step_nee_event"]["equal_time"], r["equal_time"]["st"]
+            out.append(f"| {r['shape']}, σt {r['sigma_t']:g} | ×{r['speedup']:.2f} / "
+                       f"×{r['st_step_nee_event']['speedup']:.2f} "
+                       f"| {h['rmse_srgb']:.4f} / {e['rmse_srgb']:.4f} | {h['rel_mse']:.2e} / {e['rel_mse']:.2e} "
+                       f"| {100 * h['bias'][1]:+.1f} ± {100 * h['bias_sigma'][1]:.1f} % / "
+                       f"{100 * e['bias'][1]:+.1f} ± {100 * e['bias_sigma'][1]:.1f} % |")
+    conv = [(r, r["st_at_reference_spp"], "hits" if r["boundary"] == "index_matched" else "")
+            for r in results["scenes"] if r.get("st_at_reference_spp")]
+    conv += [(r, r["st_step_nee_event"]["at_reference_spp"], "event") for r in results["scenes"]
+             if (r.get("st_step_nee_event") or {}).get("at_reference_spp")]
     if conv:
         out += ["", "| densest bunny | st spp | st s | sRGB RMSE vs ref | noise removed | rel. MSE | "
                 "noise removed | bias of mean (per channel) |", "|---|---:|---:|---:|---:|---:|---:|---|"]
-        for r in conv:
-            c = r["st_at_reference_spp"]
-            out.append(f"| {r['boundary'].replace('_', '-')}, σt {r['sigma_t']:g} | {c['spp']} | {c['seconds']:.1f} "
+        for r, c, mode in conv:
+            out.append(f"| {r['boundary'].replace('_', '-')}, σt {r['sigma_t']:g}"
+                       f"{', step_nee ' + mode if mode else ''} | {c['spp']} | {c['seconds']:.1f} "
                        f"| {c['rmse_srgb']:.4f} | {c['rmse_srgb_noise_removed']:.4f} | {c['rel_mse']:.2e} "
                        f"| {c['rel_mse_noise_removed']:.2e} | "
                        + ", ".join(f"{100 * x:+.1f} ± {100 * y:.1f} %" for x, y in zip(c["bias"], c["bias_sigma"]))

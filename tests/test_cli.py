@@ -44,6 +44,7 @@ def test_render_scene_file_to_exr_and_png(tmp_path, small_scene):
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--integrator", "st", "--models", "{tmp}/none"],
          "none: not a directory"),
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--sphere-threshold", "-1"], "must be a number >= 0"),
+        (["render", "{scene}", "-o", "{tmp}/x.exr", "--step-nee", "paper"], "invalid choice: 'paper'"),
     ],
 )
 def test_cli_errors_are_clear(tmp_path, small_scene, args, expected):
@@ -83,10 +84,37 @@ def test_ctrl_c_writes_partial_image_python_cli(tmp_path, slow_scene):
     assert np.all(np.isfinite(img)) and img.max() > 0
 
 
-def test_ctrl_c_writes_partial_image_cpp_cli(tmp_path, slow_scene):
+def _cpp_cli() -> str:
     exe = shutil.which("sssphere-render") or os.path.join(REPO, "build", "dev", "cpp", "sssphere-render")
     if not os.path.exists(exe):
         pytest.fail("the C++ renderer sssphere-render was not built")
+    return exe
+
+
+def test_step_nee_option_of_both_clis(tmp_path, small_scene):
+    """--step-nee reaches the renderer: the same image as render(step_nee=...) from Python,
+    and a clear error for a value that is not allowed."""
+    small_scene["shapes"][0]["medium"].update(sigma_t=50, albedo=0.95)
+    small_scene["render"].update(integrator="st", spp=2)
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    expected = sssphere.render(sssphere.load_scene(small_scene), step_nee="event")
+    for cmd in (["render", tmp_path / "s.json", "-o", tmp_path / "py.exr", "--quiet", "--step-nee", "event"],):
+        r = run_cli(*cmd)
+        assert r.returncode == 0, r.stderr
+        np.testing.assert_array_equal(sssphere.read_image(tmp_path / "py.exr"), expected)
+    exe = _cpp_cli()
+    r = subprocess.run([exe, str(tmp_path / "s.json"), "-o", str(tmp_path / "cpp.exr"), "--quiet",
+                        "--step-nee", "event"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    np.testing.assert_array_equal(sssphere.read_image(tmp_path / "cpp.exr"), expected)
+    r = subprocess.run([exe, str(tmp_path / "s.json"), "-o", str(tmp_path / "cpp.exr"), "--step-nee", "paper"],
+                       capture_output=True, text=True)
+    assert r.returncode != 0
+    assert "--step-nee 'paper' is not allowed (allowed: 'hits', 'event')" in r.stderr, r.stderr
+
+
+def test_ctrl_c_writes_partial_image_cpp_cli(tmp_path, slow_scene):
+    exe = _cpp_cli()
     out = tmp_path / "partial.png"
     code, err = _interrupt_after_start([exe, str(slow_scene), "-o", str(out)], tmp_path)
     assert code == 130, err
