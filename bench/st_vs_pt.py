@@ -154,8 +154,11 @@ def render(scene, integrator, spp, seed, args, **kw):
 
 def summary(r, spp) -> dict:
     img = r.image.astype(np.float64)
+    steps = r.mean_sphere_steps_per_path * float(r.samples.sum())
     return {"spp": int(spp), "seconds": r.seconds, "events_per_path": r.mean_events_per_path,
             "sphere_steps_per_path": r.mean_sphere_steps_per_path,
+            # One step's sampling (decoders, frame), timed in the render, per thread.
+            "step_ns": 1e9 * r.step_seconds / steps if steps > 0 else None,
             "non_finite_pixels": int((~np.isfinite(img).all(axis=2)).sum()),
             "image_mean": np.nanmean(img, axis=(0, 1)).tolist()}
 
@@ -260,9 +263,12 @@ def run_scene(shape, boundary, scale, args, maps) -> dict:
     return row
 
 
-def step_cost(rows) -> dict:
-    """Per (shape, boundary): fit pt's ns per path = a + b * events over its pt renders, then
-    each st render's ns per path above a + b * events, per sphere step."""
+def step_cost(rows, threads: int) -> dict:
+    """Per (shape, boundary): the cost of a `pt` event, from a fit of pt's ns per path = a + b *
+    events over its pt renders (wall time with `threads` threads, so b * threads is one event
+    on one thread), next to the cost of a sphere step timed inside the st renders (sampling:
+    decoders and frame, per thread). Also each st render's ns per path above a + b * events,
+    per step: what its steps and the events it has left cost beyond pt's average event."""
     out = {}
     for shape in SHAPES:
         for boundary in BOUNDARIES:
@@ -277,18 +283,24 @@ def step_cost(rows) -> dict:
             b, a = np.polyfit(x, y, 1)
             per = []
             for r in fam:
-                for ns, ev, stp in ((r["ns_per_path"]["st"], r["st"]["events_per_path"],
-                                     r["st"]["sphere_steps_per_path"]),
-                                    (r["ns_per_path"]["st_eq"], r["st_eq_events_per_path"],
-                                     r["st_eq_steps_per_path"])):
+                for ns, summ in ((r["ns_per_path"]["st"], r["st"]),
+                                 (r["ns_per_path"]["st_eq"], r["equal_time"]["st"])):
+                    stp = summ["sphere_steps_per_path"]
                     if stp > 0.5:  # too few steps: the residual is noise
                         per.append({"sigma_t": r["sigma_t"], "steps_per_path": stp,
-                                    "ns_per_step": (ns - a - b * ev) / stp})
-            ns_step = float(np.median([p["ns_per_step"] for p in per])) if per else None
+                                    "step_ns_timed": summ.get("step_ns"),
+                                    "excess_ns_per_step": (ns - a - b * summ["events_per_path"]) / stp})
+            timed_ns = [p["step_ns_timed"] for p in per if p["step_ns_timed"] is not None]
+            ns_step = float(np.median(timed_ns)) if timed_ns else None
+            excess = float(np.median([p["excess_ns_per_step"] for p in per])) if per else None
+            event_ns = float(b) * threads
             out[f"{shape}/{boundary}"] = {
                 "pt_ns_per_path_fixed": float(a), "pt_ns_per_event": float(b),
-                "st_ns_per_step": ns_step,
-                "step_in_pt_events": ns_step / b if ns_step is not None and b > 0 else None,
+                "pt_thread_ns_per_event": event_ns,
+                "st_thread_ns_per_step": ns_step,
+                "step_in_pt_events": ns_step / event_ns if ns_step is not None and b > 0 else None,
+                "st_excess_ns_per_step": excess,
+                "excess_in_pt_events": excess / b if excess is not None and b > 0 else None,
                 "per_render": per}
     return out
 
@@ -466,13 +478,14 @@ def tables(results) -> str:
                        + (f"| {100 * c['mitsuba_mean_vs_reference'][1]:+.1f} % |"
                           if c["mitsuba_mean_vs_reference"] else "| – |"))
     if results.get("step_cost"):
-        out += ["", "| family | pt ns/event | pt ns/path fixed | st ns/step (median) | step in pt events |",
+        out += ["", "| family | pt event, ns per thread (fit) | st step, ns per thread (timed) "
+                "| step in pt events | st excess over the fit per step, in pt events |",
                 "|---|---:|---:|---:|---:|"]
         for k, v in results["step_cost"].items():
-            ns = v["st_ns_per_step"]
-            ev = v["step_in_pt_events"]
-            out.append(f"| {k.replace('_', '-')} | {v['pt_ns_per_event']:.1f} | {v['pt_ns_per_path_fixed']:.0f} "
-                       f"| {'–' if ns is None else f'{ns:.0f}'} | {'–' if ev is None else f'{ev:.1f}'} |")
+            ns, ev, ex = v["st_thread_ns_per_step"], v["step_in_pt_events"], v["excess_in_pt_events"]
+            out.append(f"| {k.replace('_', '-')} | {v['pt_thread_ns_per_event']:.0f} "
+                       f"| {'–' if ns is None else f'{ns:.0f}'} | {'–' if ev is None else f'{ev:.1f}'} "
+                       f"| {'–' if ex is None else f'{ex:.1f}'} |")
     return "\n".join(out)
 
 
@@ -525,7 +538,7 @@ def main(argv=None) -> int:
     args.output.parent.mkdir(parents=True, exist_ok=True)
 
     def save():
-        results["step_cost"] = step_cost(results["scenes"])
+        results["step_cost"] = step_cost(results["scenes"], threads)
         tmp = args.output.with_suffix(".json.tmp")
         tmp.write_text(json.dumps(results, indent=1) + "\n")
         tmp.replace(args.output)
@@ -580,9 +593,10 @@ def main(argv=None) -> int:
     results["total_seconds"] = time.perf_counter() - t_start
     save()
     for k, v in results["step_cost"].items():
-        print(f"step cost {k}: pt {v['pt_ns_per_event']:.1f} ns/event (+{v['pt_ns_per_path_fixed']:.0f} "
-              f"ns/path), st step {None if v['st_ns_per_step'] is None else round(v['st_ns_per_step'])} ns"
-              f" = {None if v['step_in_pt_events'] is None else round(v['step_in_pt_events'], 1)} events")
+        ns, ev = v["st_thread_ns_per_step"], v["step_in_pt_events"]
+        print(f"step cost {k}: pt event {v['pt_thread_ns_per_event']:.0f} ns, st step "
+              f"{'-' if ns is None else round(ns)} ns = {'-' if ev is None else round(ev, 1)} events "
+              "(per thread)")
     print(tables(results))
     print(f"wrote {args.output}")
     for f in plot(results, maps, args.output.parent):

@@ -138,6 +138,7 @@ def test_infinite_threshold_is_pt_bit_for_bit(boundary):
     np.testing.assert_array_equal(st.variance, pt.variance)
     np.testing.assert_array_equal(st.events, pt.events)
     assert st.mean_sphere_steps_per_path == 0
+    assert st.step_seconds == 0 and pt.step_seconds == 0
 
 
 @pytest.mark.parametrize("step_nee", STEP_NEE)
@@ -227,6 +228,9 @@ def test_identical_for_any_thread_count(models_dir):
     np.testing.assert_array_equal(a.image, b.image)
     np.testing.assert_array_equal(a.sphere_steps, b.sphere_steps)
     assert a.mean_sphere_steps_per_path > 0
+    # The time spent sampling steps is part of the render's, summed over its threads.
+    for r, threads in ((a, 1), (b, 2)):
+        assert 0 < r.step_seconds < threads * r.seconds
 
 
 def test_scene_file_settings(tmp_path, models_dir):

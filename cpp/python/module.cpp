@@ -102,6 +102,7 @@ py::dict render_py(const Scene& scene, const std::string& integrator, int spp,
     d["sphere_steps"] = to_array(r.sphere_steps, {H, W});
     d["samples"] = to_array(r.samples, {H, W});
     d["seconds"] = r.seconds;
+    d["step_seconds"] = r.step_seconds;
     d["cancelled"] = r.cancelled;
     d["interrupted"] = interrupted;
     d["total_events"] = r.total_events;

@@ -33,11 +33,12 @@ struct TileState {
 // takes its result), traced kPathsInFlight at a time: each runs until it ends or waits
 // for a sphere step; the waiting steps are sampled together, and a path that ends makes
 // room for the next item. Every path draws from its own stream, so the results do not
-// depend on the grouping. Returns false if cancelled before the end.
+// depend on the grouping. Adds the time spent sampling steps to step_seconds. Returns
+// false if cancelled before the end.
 template <class Start, class Record>
 bool trace_in_flight(const PathTracer& tracer, const SphereTracing& st, int count,
-                     Start&& camera_ray, Record&& record,
-                     const std::atomic<bool>& cancel) {
+                     Start&& camera_ray, Record&& record, const std::atomic<bool>& cancel,
+                     double& step_seconds) {
     PathState slot[kPathsInFlight];
     int item[kPathsInFlight];
     bool busy[kPathsInFlight] = {};
@@ -76,7 +77,10 @@ bool trace_in_flight(const PathTracer& tracer, const SphereTracing& st, int coun
             }
         if (n == 0) return true;
         if (cancel) return false;
+        const auto t0 = std::chrono::steady_clock::now();
         st.sample_group(n, req, rng, step);
+        step_seconds +=
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         for (int k = 0; k < n; ++k) run(waiting[k], &step[k]);
     }
 }
@@ -129,9 +133,11 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
     std::atomic<bool> cancel{false};
     std::mutex error_mutex;
     std::string error;
+    double step_seconds = 0.0;  // summed over the threads (under error_mutex)
     const double total_samples = double(W) * H * opt.spp;
 
     auto worker = [&]() {
+        double my_step_seconds = 0.0;
         std::vector<double> s, s2;
         std::vector<uint64_t> ev, st;
         for (int64_t task; !cancel && (task = next_task.fetch_add(1)) < num_tasks;) {
@@ -167,7 +173,7 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
             try {
                 if (stepper)
                     complete = trace_in_flight(tracer, *stepper, n * m, camera_ray,
-                                               record, cancel);
+                                               record, cancel, my_step_seconds);
                 else
                     for (int i = 0; i < n * m && complete; ++i) {
                         if (i % m == 0 && cancel) {
@@ -208,6 +214,8 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
             ts.passes_merged = pass + 1;
             ts.merged.notify_all();
         }
+        std::lock_guard<std::mutex> lock(error_mutex);
+        step_seconds += my_step_seconds;
     };
 
     auto start = std::chrono::steady_clock::now();
@@ -256,6 +264,7 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
     r.cancelled = user_cancelled;
     r.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    r.step_seconds = step_seconds;
     r.image.assign(size_t(W) * H * 3, 0.f);
     r.variance.assign(size_t(W) * H * 3, 0.f);
     r.events.assign(size_t(W) * H, 0.f);

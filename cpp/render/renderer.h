@@ -43,6 +43,9 @@ struct RenderResult {
     std::vector<float> sphere_steps;  // (height, width) mean sphere steps per path ("st")
     std::vector<uint32_t> samples;    // (height, width) samples taken
     double seconds = 0.0;
+    // Time spent sampling sphere steps (decoders, frames; "st"), summed over the threads:
+    // divided by total_sphere_steps, the cost of one step in the render.
+    double step_seconds = 0.0;
     bool cancelled = false;
     uint64_t total_events = 0;
     uint64_t total_sphere_steps = 0;

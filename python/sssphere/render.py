@@ -32,6 +32,8 @@ class RenderResult:
     sphere_steps : (height, width) float32, mean sphere steps per path (0 for ``"pt"``).
     samples : (height, width) uint32, samples taken per pixel (fewer if interrupted).
     seconds : wall-clock render time.
+    step_seconds : time spent sampling sphere steps (decoders and frames, ``"st"``), summed
+        over the threads; step_seconds / (mean_sphere_steps_per_path * paths) is one step.
     interrupted : True if Ctrl-C (or a progress callback returning False) stopped it early.
     mean_events_per_path, mean_sphere_steps_per_path : the same two counts over the whole image.
     """
@@ -42,6 +44,7 @@ class RenderResult:
     sphere_steps: np.ndarray
     samples: np.ndarray
     seconds: float
+    step_seconds: float
     interrupted: bool
     mean_events_per_path: float
     mean_sphere_steps_per_path: float
@@ -137,6 +140,7 @@ def render_full(
         sphere_steps=r["sphere_steps"],
         samples=r["samples"],
         seconds=float(r["seconds"]),
+        step_seconds=float(r["step_seconds"]),
         interrupted=bool(r["cancelled"]),
         mean_events_per_path=float(r["total_events"]) / paths,
         mean_sphere_steps_per_path=float(r["total_sphere_steps"]) / paths,
