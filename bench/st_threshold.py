@@ -46,7 +46,7 @@ CASES = {
     "bunny_s100_im": ("scenes/bunny.json", {"sigma_t": [100, 100, 100], "boundary": "index_matched"}),
     "bunny_s500_diel": ("scenes/bunny.json", {}),
 }
-TAUS = (1.0, 2.0, 4.0, 8.0, 16.0)
+TAUS = (1.0, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0)
 
 
 def scene_dict(case: str, res: int) -> dict:
