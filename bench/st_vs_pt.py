@@ -329,7 +329,9 @@ def mitsuba_case(shape, boundary, scale, args, mu, mi, warm, st_row) -> dict:
             "st_mean_vs_reference": (st.image.mean(axis=(0, 1)) / ref_mean - 1).tolist()}
 
 
-def plot(results, maps, outdir: Path):
+def plot(results, maps, output: Path):
+    """The figures, named after the JSON file (st_vs_pt.json: st_vs_pt.png, st_vs_pt_steps.png,
+    st_vs_pt_images.png)."""
     try:
         import matplotlib
     except ImportError:
@@ -376,9 +378,9 @@ def plot(results, maps, outdir: Path):
         a.grid(True, which="both", alpha=0.3)
         a.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(outdir / "st_vs_pt.png", dpi=100)
+    fig.savefig(output.with_name(output.stem + ".png"), dpi=100)
     plt.close(fig)
-    written.append(outdir / "st_vs_pt.png")
+    written.append(output.with_name(output.stem + ".png"))
 
     # Heat maps (Fig. 7): per pixel, pt events per path and st events + steps per path.
     scales = sorted({k[2] for k in maps})
@@ -403,9 +405,9 @@ def plot(results, maps, outdir: Path):
                                 f"{float(np.mean(m[name])):.0f}/path", fontsize=7)
         if im is not None:
             fig.colorbar(im, ax=ax, shrink=0.6, label="pt: events per path; st: events + steps")
-        fig.savefig(outdir / "st_vs_pt_steps.png", dpi=90)
+        fig.savefig(output.with_name(output.stem + "_steps.png"), dpi=90)
         plt.close(fig)
-        written.append(outdir / "st_vs_pt_steps.png")
+        written.append(output.with_name(output.stem + "_steps.png"))
 
     # The densest bunny at equal time: reference, pt (NEE), pt (no NEE), st.
     dense = [k for k in maps if k[0] == "bunny" and k[2] == max(scales)]
@@ -419,9 +421,9 @@ def plot(results, maps, outdir: Path):
                 ax[i, j].set_title(f"bunny {k[1]}, sigma_t {BASE_SIGMA * k[2]:g}: {t}", fontsize=8)
                 ax[i, j].axis("off")
         fig.tight_layout()
-        fig.savefig(outdir / "st_vs_pt_images.png", dpi=100)
+        fig.savefig(output.with_name(output.stem + "_images.png"), dpi=100)
         plt.close(fig)
-        written.append(outdir / "st_vs_pt_images.png")
+        written.append(output.with_name(output.stem + "_images.png"))
     return written
 
 
@@ -599,7 +601,7 @@ def main(argv=None) -> int:
               "(per thread)")
     print(tables(results))
     print(f"wrote {args.output}")
-    for f in plot(results, maps, args.output.parent):
+    for f in plot(results, maps, args.output):
         print(f"wrote {f}")
     return 0
 
