@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -91,6 +92,13 @@ def _cpp_cli() -> str:
     return exe
 
 
+def assert_reports_step_cost(stderr: str):
+    """The summary line gives the steps per path and the time one took."""
+    m = re.search(r"\+ ([0-9.]+) sphere steps \(([0-9]+) ns each\) per path", stderr)
+    assert m, stderr
+    assert float(m.group(1)) > 0 and int(m.group(2)) > 0, stderr
+
+
 def test_step_nee_option_of_both_clis(tmp_path, small_scene):
     """--step-nee reaches the renderer: the same image as render(step_nee=...) from Python,
     and a clear error for a value that is not allowed."""
@@ -101,11 +109,13 @@ def test_step_nee_option_of_both_clis(tmp_path, small_scene):
     r = run_cli("render", tmp_path / "s.json", "-o", tmp_path / "py.exr", "--quiet", "--step-nee", "event")
     assert r.returncode == 0, r.stderr
     np.testing.assert_array_equal(sssphere.read_image(tmp_path / "py.exr"), expected)
+    assert_reports_step_cost(r.stderr)
     exe = _cpp_cli()
     r = subprocess.run([exe, str(tmp_path / "s.json"), "-o", str(tmp_path / "cpp.exr"), "--quiet",
                         "--step-nee", "event"], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     np.testing.assert_array_equal(sssphere.read_image(tmp_path / "cpp.exr"), expected)
+    assert_reports_step_cost(r.stderr)
     r = subprocess.run([exe, str(tmp_path / "s.json"), "-o", str(tmp_path / "cpp.exr"), "--step-nee", "paper"],
                        capture_output=True, text=True)
     assert r.returncode != 0

@@ -136,9 +136,10 @@ int main(int argc, char** argv) {
         double paths = double(r.total_paths);
         std::string steps;
         if (r.total_sphere_steps > 0) {
-            char buf[64];
-            std::snprintf(buf, sizeof buf, " + %.1f sphere steps",
-                          r.total_sphere_steps / paths);
+            char buf[96];
+            std::snprintf(buf, sizeof buf, " + %.1f sphere steps (%.0f ns each)",
+                          r.total_sphere_steps / paths,
+                          1e9 * r.step_seconds / double(r.total_sphere_steps));
             steps = buf;
         }
         std::fprintf(stderr, "%s %s: %.2f s, %.1f scattering events%s per path\n",

@@ -94,8 +94,11 @@ def _cmd_render(args: argparse.Namespace) -> int:
             write_image(f"{stem}_sphere_steps.exr", result.sphere_steps[:, :, None])
     spp_done = int(result.samples.min()) if result.samples.size else 0
     what = "interrupted: wrote the partial image" if result.interrupted else "wrote"
-    steps = (f" + {result.mean_sphere_steps_per_path:.1f} sphere steps"
-             if result.mean_sphere_steps_per_path > 0 else "")
+    steps = ""
+    if result.mean_sphere_steps_per_path > 0:
+        step_ns = 1e9 * result.step_seconds / (result.mean_sphere_steps_per_path * result.samples.sum())
+        steps = f" + {result.mean_sphere_steps_per_path:.1f} sphere steps ({step_ns:.0f} ns each)"
+
     print(
         f"{what} {out} ({scene.width}x{scene.height}, {spp_done}"
         f"{'' if not result.interrupted else '+'} spp; scene built in {load_s:.2f}s, "
