@@ -229,6 +229,15 @@ def run_scene(shape, boundary, scale, args, maps) -> dict:
         if dense:
             c = render(scene, "st", ref_spp, 6, args, step_nee="event")
             event["at_reference_spp"] = {**summary(c, ref_spp), **errors(c, ref, ref_err)}
+    # Index-matched: st without NEE too, next to pt without NEE (large lights, where
+    # phase-sampled hits find the light and NEE costs more than it saves).
+    st_nonee = None
+    if boundary == "index_matched":
+        sn = timed(scene, "st", S, 2, args, nee=False)
+        sn_spp = max(1, round(S * pt.seconds / sn.seconds))
+        sn_eq = render(scene, "st", sn_spp, 4, args, nee=False)
+        st_nonee = {"equal_spp": summary(sn, S), "speedup_over_pt_no_nee": nonee.seconds / sn.seconds,
+                    "equal_time": {**summary(sn_eq, sn_spp), **errors(sn_eq, ref, ref_err)}}
     maps[(shape, boundary, scale)] = {
         "pt": pt.events, "st": st.events + st.sphere_steps, "st_steps": st.sphere_steps,
         "ref": ref.image, "pt_img": pt.image, "st_eq_img": st_eq.image, "nonee_eq_img": nonee_eq.image}
@@ -253,6 +262,7 @@ def run_scene(shape, boundary, scale, args, maps) -> dict:
         "pt_no_nee_equal_spp": summary(nonee, S),
         "st_at_reference_spp": st_conv,
         "st_step_nee_event": event,
+        "st_no_nee": st_nonee,
         "ns_per_path": {"pt": 1e9 * pt.seconds / (paths * S), "st": 1e9 * st.seconds / (paths * S),
                         "ref": 1e9 * ref.seconds / (paths * ref_spp),
                         "st_eq": 1e9 * st_eq.seconds / (paths * st_spp)},
@@ -456,6 +466,15 @@ def tables(results) -> str:
                        f"| {h['rmse_srgb']:.4f} / {e['rmse_srgb']:.4f} | {h['rel_mse']:.2e} / {e['rel_mse']:.2e} "
                        f"| {100 * h['bias'][1]:+.1f} ± {100 * h['bias_sigma'][1]:.1f} % / "
                        f"{100 * e['bias'][1]:+.1f} ± {100 * e['bias_sigma'][1]:.1f} % |")
+    nn = [r for r in results["scenes"] if r.get("st_no_nee")]
+    if nn:
+        out += ["", "| index-matched, NEE off | speed-up st / pt, both without NEE "
+                "| equal-time rel. MSE: st / st no NEE / pt / pt no NEE |", "|---|---:|---|"]
+        for r in nn:
+            et, sn = r["equal_time"], r["st_no_nee"]
+            out.append(f"| {r['shape']}, σt {r['sigma_t']:g} | ×{sn['speedup_over_pt_no_nee']:.2f} "
+                       f"| {et['st']['rel_mse']:.2e} / {sn['equal_time']['rel_mse']:.2e} / "
+                       f"{et['pt_nee']['rel_mse']:.2e} / {et['pt_no_nee']['rel_mse']:.2e} |")
     conv = [(r, r["st_at_reference_spp"], "hits" if r["boundary"] == "index_matched" else "")
             for r in results["scenes"] if r.get("st_at_reference_spp")]
     conv += [(r, r["st_step_nee_event"]["at_reference_spp"], "event") for r in results["scenes"]
