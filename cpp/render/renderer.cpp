@@ -133,7 +133,7 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
     std::atomic<bool> cancel{false};
     std::mutex error_mutex;
     std::string error;
-    double step_seconds = 0.0;  // summed over the threads (under error_mutex)
+    double step_seconds = 0.0;  // summed over the threads, each under error_mutex
     const double total_samples = double(W) * H * opt.spp;
 
     auto worker = [&]() {

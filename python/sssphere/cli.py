@@ -98,7 +98,6 @@ def _cmd_render(args: argparse.Namespace) -> int:
     if result.mean_sphere_steps_per_path > 0:
         step_ns = 1e9 * result.step_seconds / (result.mean_sphere_steps_per_path * result.samples.sum())
         steps = f" + {result.mean_sphere_steps_per_path:.1f} sphere steps ({step_ns:.0f} ns each)"
-
     print(
         f"{what} {out} ({scene.width}x{scene.height}, {spp_done}"
         f"{'' if not result.interrupted else '+'} spp; scene built in {load_s:.2f}s, "
