@@ -525,6 +525,9 @@ def main(argv=None) -> int:
     p.add_argument("--mitsuba-spp", type=int, default=None, help="spp of the Mitsuba comparison (default 8)")
     p.add_argument("--threads", type=int, default=0, help="0 = all cores")
     p.add_argument("--models", default=None, help="model directory (default: the repository's models/)")
+    p.add_argument("--simd-target", default="",
+                   help="pin the decoders' SIMD target (AVX2, SSE4, ...: another CPU's step cost); "
+                        "default: the best here")
     p.add_argument("--quick", action="store_true", help="16x16, 2 spp, reference 16 spp: a smoke run")
     p.add_argument("--cache", default=str(HERE / "results" / "cache"))
     p.add_argument("--output", type=Path, default=HERE / "results" / "st_vs_pt.json")
@@ -545,10 +548,12 @@ def main(argv=None) -> int:
     if q and args.output == HERE / "results" / "st_vs_pt.json":
         args.output = Path(tempfile.gettempdir()) / "st_vs_pt_quick" / "st_vs_pt.json"
     threads = args.threads if args.threads > 0 else (os.cpu_count() or 1)
+    sssphere.ScatteringModel.use_simd_target(args.simd_target)
     settings = {k: (str(v) if isinstance(v, Path) else v) for k, v in vars(args).items()}
     settings.update({
         "sphere_threshold": DEFAULT_TAU, "albedo": ALBEDO, "g": G,
         "base_sigma_t": BASE_SIGMA, "threads_used": threads, "rel_mse_epsilon": REL_EPS,
+        "simd_target_used": sssphere.ScatteringModel.simd_target(),
         "lights": "scenes/bunny.json's (area + environment) for every scene",
         "timing": "render_full's own wall clock (scene loading excluded); Mitsuba: mi.render",
     })
@@ -569,7 +574,7 @@ def main(argv=None) -> int:
     render(warm_scene, "st", 1, 1, args)  # load models, warm caches (untimed)
     maps = {}
     print(f"{args.resolution}x{args.resolution}, {args.spp} spp, {threads} threads, tau "
-          f"{settings['sphere_threshold']:g}", flush=True)
+          f"{settings['sphere_threshold']:g}, decoders on {settings['simd_target_used']}", flush=True)
     for shape in args.shapes:
         for boundary in args.boundaries:
             for scale in args.scales:

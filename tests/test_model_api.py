@@ -241,6 +241,34 @@ def test_scalar_and_simd_sampling_agree(models):
         np.testing.assert_allclose(a[k][same_n], b[k][same_n], atol=1e-4, err_msg=k)
 
 
+def test_every_simd_target_can_be_pinned_and_samples_alike(models):
+    """Pinning a target (for benchmarks of other CPUs) switches the decoders the sampler
+    uses; every target samples the same law (the scalar one above within rounding)."""
+    model, _ = models
+    targets = ScatteringModel.simd_targets()
+    assert targets and targets[0] == ScatteringModel.simd_target()
+    n = 2000
+    args = dict(sigma_t=np.linspace(0.5, 80, n), g=0.4, albedo=0.7, n=n, seed=3)
+    try:
+        runs = {}
+        for t in targets:
+            ScatteringModel.use_simd_target(t)
+            assert ScatteringModel.simd_target() == t
+            runs[t] = model.sample(**args)
+        with pytest.raises(ValueError, match="SIMD target 'NOSUCH' is not available here"):
+            ScatteringModel.use_simd_target("NOSUCH")
+    finally:
+        ScatteringModel.use_simd_target("")
+    assert ScatteringModel.simd_target() == targets[0]
+    a = runs[targets[0]]
+    for t in targets[1:]:
+        b = runs[t]
+        same_n = a["N"] == b["N"]
+        assert np.mean(same_n) > 0.998, t
+        for k in ("cos_theta", "alpha", "beta", "X", "W"):
+            np.testing.assert_allclose(a[k][same_n], b[k][same_n], atol=1e-4, err_msg=f"{t} {k}")
+
+
 @pytest.mark.parametrize(
     "kwargs, expected",
     [

@@ -3,6 +3,7 @@
 // arguments.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
 
 #include <algorithm>
 #include <memory>
@@ -141,6 +142,11 @@ void bind_nn(py::module_& m) {
         .def_property_readonly("path", &ScatteringModel::where)
         .def_property_readonly_static(
             "simd_target", [](py::object) { return std::string(simd_target_name()); })
+        .def_static("simd_targets", &simd_targets,
+                    "The SIMD targets compiled in that this CPU runs, best first.")
+        .def_static("use_simd_target", &simd_use_target, py::arg("name"),
+                    "Pin the decoders' SIMD target ('' = the best here); for benchmarks, "
+                    "between renders only.")
         .def("__repr__", [](const ScatteringModel& m) {
             std::ostringstream os;
             Range r = m.sigma_range();

@@ -149,5 +149,26 @@ class ScatteringModel:
         """The input width of decoder ``model_name`` (LengthGen, PathGen or EventGen)."""
         return self._core.input_width(model_name)
 
+    @staticmethod
+    def simd_targets() -> list[str]:
+        """The SIMD targets of the decoders that this CPU can run, best first ("AVX3" is
+        AVX-512, then "AVX2", "SSE4", ...)."""
+        return list(_core.ScatteringModel.simd_targets())
+
+    @staticmethod
+    def simd_target() -> str:
+        """The SIMD target the decoders run on now."""
+        return _core.ScatteringModel.simd_target
+
+    @staticmethod
+    def use_simd_target(name: str = "") -> None:
+        """Pin the decoders (in renders too) to one of ``simd_targets()``; ``""`` returns to
+        the best this CPU has. For benchmarks of other CPUs' instruction sets: it is global
+        to the process, so call it only while nothing renders or samples. Raises ValueError
+        naming the target when this CPU or build does not have it."""
+        if not isinstance(name, str):
+            raise ValueError(f"name must be a string, got {name!r}")
+        _core.ScatteringModel.use_simd_target(name)
+
     def __repr__(self) -> str:
         return repr(self._core)
