@@ -51,6 +51,43 @@ def test_progress_callback_can_stop_early(small_scene):
     assert all(0 <= f <= 1 for f in seen)
 
 
+def test_record_paths_gives_every_paths_counts(small_scene):
+    scene = sssphere.load_scene(small_scene)
+    assert sssphere.render_full(scene, spp=2).path_events is None
+    a = sssphere.render_full(scene, spp=6, seed=3, threads=1, record_paths=True)
+    b = sssphere.render_full(scene, spp=6, seed=3, threads=2, record_paths=True)
+    assert a.path_events.shape == a.path_steps.shape == (6, 16, 24)
+    assert a.path_events.dtype == np.uint32
+    np.testing.assert_array_equal(a.path_events, b.path_events)
+    # The per-pixel means are the recorded paths' means; pt takes no sphere steps.
+    np.testing.assert_allclose(a.path_events.mean(axis=0), a.events, rtol=1e-6)
+    assert a.path_events.mean() == pytest.approx(a.mean_events_per_path, rel=1e-12)
+    assert not a.path_steps.any()
+    # Paths differ: the samples of one pixel are not copies of each other.
+    assert len(np.unique(a.path_events[:, 8, 12])) > 1
+
+
+def test_record_paths_of_an_interrupted_render_are_zero_past_its_samples(small_scene):
+    small_scene["render"]["spp"] = 1 << 10
+    small_scene["shapes"][0]["medium"]["sigma_t"] = 200
+    r = sssphere.render_full(small_scene, record_paths=True, progress=lambda f: False)
+    assert r.interrupted
+    k = np.arange(1 << 10)[:, None, None]
+    assert not r.path_events[k >= r.samples[None]].any()
+    taken = k < r.samples[None]
+    if taken.any():
+        np.testing.assert_allclose(np.where(taken, r.path_events, 0).sum(axis=0),
+                                   r.events * r.samples, rtol=1e-5)
+
+
+def test_record_paths_refuses_more_paths_than_it_can_hold(small_scene):
+    with pytest.raises(sssphere.SceneError, match=r"record_paths keeps 8 bytes per path: 24x16 "
+                       r"pixels at 349526 spp are 134217984 paths \(allowed: at most 134217728\)"):
+        sssphere.render_full(small_scene, spp=349526, record_paths=True)
+    with pytest.raises(sssphere.SceneError, match="record_paths must be True or False"):
+        sssphere.render_full(small_scene, spp=1, record_paths="yes")
+
+
 def test_write_exr_keeps_linear_values_and_png_is_srgb(tmp_path, small_scene):
     img = np.zeros((4, 5, 3), np.float32)
     img[1, 2] = [2.5, 0.5, 0.0]

@@ -223,11 +223,18 @@ def test_nee_with_eventgen_agrees_with_no_nee(models_dir):
 
 def test_identical_for_any_thread_count(models_dir):
     scene = sssphere.load_scene(sphere_scene(sigma_t=50.0))
-    a = sssphere.render_full(scene, integrator="st", models=models_dir, spp=4, seed=5, threads=1)
-    b = sssphere.render_full(scene, integrator="st", models=models_dir, spp=4, seed=5, threads=2)
+    a = sssphere.render_full(scene, integrator="st", models=models_dir, spp=4, seed=5, threads=1,
+                             record_paths=True)
+    b = sssphere.render_full(scene, integrator="st", models=models_dir, spp=4, seed=5, threads=2,
+                             record_paths=True)
     np.testing.assert_array_equal(a.image, b.image)
     np.testing.assert_array_equal(a.sphere_steps, b.sphere_steps)
     assert a.mean_sphere_steps_per_path > 0
+    # Every path's counts, recorded where the paths are traced 16 at a time.
+    np.testing.assert_array_equal(a.path_steps, b.path_steps)
+    np.testing.assert_array_equal(a.path_events, b.path_events)
+    np.testing.assert_allclose(a.path_steps.mean(axis=0), a.sphere_steps, rtol=1e-6)
+    np.testing.assert_allclose(a.path_events.mean(axis=0), a.events, rtol=1e-6)
     # The time spent sampling steps is part of the render's, summed over its threads.
     for r, threads in ((a, 1), (b, 2)):
         assert 0 < r.step_seconds < threads * r.seconds

@@ -49,7 +49,7 @@ py::dict render_py(const Scene& scene, const std::string& integrator, int spp,
                    uint64_t seed, int threads, int max_bounces, bool nee,
                    float sphere_threshold, const std::string& models,
                    const std::string& sphere_sampler, const std::string& step_nee,
-                   py::object progress) {
+                   bool record_paths, py::object progress) {
     RenderOptions opt;
     opt.integrator = integrator;
     opt.spp = spp;
@@ -67,6 +67,7 @@ py::dict render_py(const Scene& scene, const std::string& integrator, int spp,
         fail("sphere_sampler '", sphere_sampler,
              "' is not allowed (allowed: 'model', 'walk')");
     opt.step_nee = parse_step_nee(step_nee, "step_nee");
+    opt.record_paths = record_paths;
     bool interrupted = false;
     std::optional<py::error_already_set> callback_error;
     auto cb = [&](double f) -> bool {
@@ -101,6 +102,10 @@ py::dict render_py(const Scene& scene, const std::string& integrator, int spp,
     d["events"] = to_array(r.events, {H, W});
     d["sphere_steps"] = to_array(r.sphere_steps, {H, W});
     d["samples"] = to_array(r.samples, {H, W});
+    if (record_paths) {
+        d["path_events"] = to_array(r.path_events, {py::ssize_t(spp), H, W});
+        d["path_steps"] = to_array(r.path_steps, {py::ssize_t(spp), H, W});
+    }
     d["seconds"] = r.seconds;
     d["step_seconds"] = r.step_seconds;
     d["cancelled"] = r.cancelled;
@@ -195,7 +200,8 @@ PYBIND11_MODULE(_core, m) {
           py::arg("seed"), py::arg("threads"), py::arg("max_bounces"),
           py::arg("nee") = true, py::arg("sphere_threshold") = kDefaultSphereThreshold,
           py::arg("models") = "", py::arg("sphere_sampler") = "model",
-          py::arg("step_nee") = "hits", py::arg("progress") = py::none());
+          py::arg("step_nee") = "hits", py::arg("record_paths") = false,
+          py::arg("progress") = py::none());
     m.attr("DEFAULT_SPHERE_THRESHOLD") = kDefaultSphereThreshold;
 
     m.def(

@@ -107,6 +107,14 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
                                                          opt.nee, opt.step_nee);
     }
 
+    const uint64_t num_paths = uint64_t(W) * uint64_t(H) * uint64_t(opt.spp);
+    if (opt.record_paths && num_paths > kMaxRecordedPaths)
+        fail("record_paths keeps 8 bytes per path: ", W, "x", H, " pixels at ", opt.spp,
+             " spp are ", num_paths, " paths (allowed: at most ", kMaxRecordedPaths,
+             "); render fewer pixels or samples");
+    std::vector<uint32_t> path_events(opt.record_paths ? num_paths : 0),
+        path_steps(opt.record_paths ? num_paths : 0);
+
     const int tiles_x = (W + kTile - 1) / kTile, tiles_y = (H + kTile - 1) / kTile;
     const int num_tiles = tiles_x * tiles_y;
     // Passes of 1, 2, 4, ... samples per pixel up to spp/16, then spp/16 each: an
@@ -161,6 +169,12 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
             };
             auto record = [&](int item, const PathSample& ps) {
                 const int i = item / m;
+                if (opt.record_paths) {
+                    const int x = x0 + i % (x1 - x0), y = y0 + i / (x1 - x0);
+                    const size_t at = (size_t(s0 + item % m) * H + y) * W + x;
+                    path_events[at] = ps.scatter_events;
+                    path_steps[at] = ps.sphere_steps;
+                }
                 for (int c = 0; c < 3; ++c) {
                     double v = ps.radiance[c];
                     s[3 * i + c] += v;
@@ -270,6 +284,14 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
     r.events.assign(size_t(W) * H, 0.f);
     r.sphere_steps.assign(size_t(W) * H, 0.f);
     r.samples = count;
+    if (opt.record_paths) {
+        // A pass traced but not merged (cancelled) is not among the samples: clear it.
+        for (size_t p = 0; p < size_t(W) * H; ++p)
+            for (size_t k = count[p]; k < size_t(opt.spp); ++k)
+                path_events[k * W * H + p] = path_steps[k * W * H + p] = 0;
+        r.path_events = std::move(path_events);
+        r.path_steps = std::move(path_steps);
+    }
     for (size_t p = 0; p < size_t(W) * H; ++p) {
         double n = count[p];
         r.total_paths += count[p];

@@ -32,7 +32,12 @@ struct RenderOptions {
         SphereSampler::Model;  // Walk: exact walks (validation)
     // "st" with nee: how a sphere step's events get their direct light (StepNee).
     StepNee step_nee = StepNee::Hits;
+    // Keep every path's event and step counts (RenderResult::path_events, path_steps):
+    // 8 bytes per path, at most kMaxRecordedPaths paths.
+    bool record_paths = false;
 };
+
+constexpr uint64_t kMaxRecordedPaths = uint64_t(1) << 27;
 
 struct RenderResult {
     int width = 0, height = 0;
@@ -42,6 +47,9 @@ struct RenderResult {
         events;  // (height, width) mean ordinary scattering events per path
     std::vector<float> sphere_steps;  // (height, width) mean sphere steps per path ("st")
     std::vector<uint32_t> samples;    // (height, width) samples taken
+    // With record_paths: (spp, height, width) ordinary events and sphere steps of each
+    // path, sample k of a pixel at [k][y][x]; 0 for the samples not taken (k >= samples).
+    std::vector<uint32_t> path_events, path_steps;
     double seconds = 0.0;
     // Time spent sampling sphere steps (decoders, frames; "st"), summed over the threads:
     // divided by total_sphere_steps, the cost of one step in the render.

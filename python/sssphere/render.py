@@ -36,6 +36,9 @@ class RenderResult:
         over the threads; step_seconds / (mean_sphere_steps_per_path * paths) is one step.
     interrupted : True if Ctrl-C (or a progress callback returning False) stopped it early.
     mean_events_per_path, mean_sphere_steps_per_path : the same two counts over the whole image.
+    path_events, path_steps : with ``record_paths=True``, (spp, height, width) uint32: the
+        ordinary events and sphere steps of every path, sample k of pixel (y, x) at [k, y, x]
+        (0 where k >= samples[y, x]); else None.
     """
 
     image: np.ndarray
@@ -48,6 +51,8 @@ class RenderResult:
     interrupted: bool
     mean_events_per_path: float
     mean_sphere_steps_per_path: float
+    path_events: Optional[np.ndarray] = None
+    path_steps: Optional[np.ndarray] = None
 
 
 def _resolve_st(scene, sphere_threshold, models, sphere_sampler, step_nee="hits"):
@@ -105,6 +110,7 @@ def render_full(
     models: Union[str, os.PathLike, None] = None,
     sphere_sampler: str = "model",
     step_nee: str = "hits",
+    record_paths: bool = False,
 ) -> RenderResult:
     """Render and return the image with its variance and complexity (see RenderResult).
 
@@ -125,13 +131,20 @@ def render_full(
     with EventGen's representative event connecting only to point and directional lights;
     ``"event"`` (the paper's) from EventGen's event connecting to every kind of light
     (docs/sphere-tracing.md, "NEE for a sphere step").
+
+    ``record_paths=True`` also returns every path's event and step counts (``path_events``,
+    ``path_steps``; 8 bytes per path, at most 2**27 paths): the distribution of path
+    lengths, not only their means.
     """
     scene, integrator, spp, seed, threads, max_bounces = _resolve(
         scene, integrator, spp, seed, threads, max_bounces)
     tau, models_dir, sampler, step_nee = _resolve_st(scene, sphere_threshold, models,
                                                      sphere_sampler, step_nee)
+    if not isinstance(record_paths, (bool, np.bool_)):
+        raise SceneError(f"record_paths must be True or False, got {record_paths!r}")
     r = _core.render(scene, integrator, spp, seed, threads, max_bounces, bool(nee), tau,
-                     models_dir if integrator == "st" else "", sampler, step_nee, progress)
+                     models_dir if integrator == "st" else "", sampler, step_nee,
+                     record_paths=bool(record_paths), progress=progress)
     paths = max(1, int(r["total_paths"]))
     return RenderResult(
         image=r["image"],
@@ -144,6 +157,8 @@ def render_full(
         interrupted=bool(r["cancelled"]),
         mean_events_per_path=float(r["total_events"]) / paths,
         mean_sphere_steps_per_path=float(r["total_sphere_steps"]) / paths,
+        path_events=r.get("path_events"),
+        path_steps=r.get("path_steps"),
     )
 
 
