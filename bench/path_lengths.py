@@ -49,7 +49,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 import sssphere  # noqa: E402
-from st_vs_pt import BASE_SIGMA, BOUNDARIES, SCALES, SHAPES, scene_dict, timed  # noqa: E402
+from st_vs_pt import BASE_SIGMA, BOUNDARIES, SCALES, SHAPES, pyplot, scene_dict, timed  # noqa: E402
 
 WARP = (4, 8)  # lanes of one warp: 4 rows x 8 columns of pixels, one sample index
 STEP_COSTS = (1.0, 3.0)  # lane units per sphere step, one pt event = 1
@@ -128,13 +128,9 @@ def tables(results) -> str:
 
 
 def plot(results, output: Path) -> list:
-    try:
-        import matplotlib
-    except ImportError:
-        print("matplotlib is not installed: no plots", file=sys.stderr)
+    plt = pyplot()
+    if plt is None:
         return []
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     rows = results["scenes"]
     fams = [(s, b) for s in SHAPES for b in BOUNDARIES if any((r["shape"], r["boundary"]) == (s, b) for r in rows)]

@@ -339,16 +339,24 @@ def mitsuba_case(shape, boundary, scale, args, mu, mi, warm, st_row) -> dict:
             "st_mean_vs_reference": (st.image.mean(axis=(0, 1)) / ref_mean - 1).tolist()}
 
 
-def plot(results, maps, output: Path):
-    """The figures, named after the JSON file (st_vs_pt.json: st_vs_pt.png, st_vs_pt_steps.png,
-    st_vs_pt_images.png)."""
+def pyplot():
+    """matplotlib.pyplot on the file-only Agg backend, or None (with a message) without it."""
     try:
         import matplotlib
     except ImportError:
         print("matplotlib is not installed: no plots", file=sys.stderr)
-        return []
+        return None
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    return plt
+
+
+def plot(results, maps, output: Path):
+    """The figures, named after the JSON file (st_vs_pt.json: st_vs_pt.png, st_vs_pt_steps.png,
+    st_vs_pt_images.png)."""
+    plt = pyplot()
+    if plt is None:
+        return []
     from matplotlib.colors import LogNorm
 
     rows = results["scenes"]
