@@ -23,6 +23,9 @@ if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 packages=(build-essential libembree-dev libtbb-dev libcgal-dev libgmp-dev libmpfr-dev
           libboost-dev libopenimageio-dev nlohmann-json3-dev libhwy-dev libgtest-dev glmark2-data
           python3-dev python3-pip)
+# The GPU path (cpp/gpu/): the Vulkan loader and headers, glslc for the compute shaders, and
+# Mesa's drivers, whose lavapipe runs those shaders on CPU-only machines and in CI.
+packages+=(libvulkan-dev glslc mesa-vulkan-drivers)
 # --dev: clang-format for the C++ format check in scripts/test.sh.
 if [ "$dev" -eq 1 ]; then packages+=(clang-format); fi
 missing=()
