@@ -41,6 +41,12 @@ public:
     int ny() const { return n_[1]; }
     int nz() const { return n_[2]; }
     float cell_size() const { return cell_; }
+    Vec3 origin() const { return origin_; }  // node (0, 0, 0)
+    // What query() subtracts from every bound (float rounding; see guard_ below).
+    float guard() const { return guard_; }
+    // Every node's distance, node (i, j, k) at (k * ny + j) * nx + i (the GPU path's
+    // copy).
+    const std::vector<float>& node_distances() const { return dist_; }
     bool empty() const { return dist_.empty(); }
 
 private:

@@ -19,6 +19,7 @@ using namespace sss;
 
 void bind_media(py::module_& m);  // bind_media.cpp
 void bind_nn(py::module_& m);     // bind_nn.cpp
+void bind_gpu(py::module_& m);    // bind_gpu.cpp
 
 namespace {
 
@@ -123,6 +124,7 @@ PYBIND11_MODULE(_core, m) {
     py::register_exception<Error>(m, "SceneError", PyExc_ValueError);
     bind_media(m);
     bind_nn(m);
+    bind_gpu(m);
 
     py::class_<Scene, std::shared_ptr<Scene>>(m, "Scene")
         .def(py::init([](const std::string& text, const std::string& base_dir,

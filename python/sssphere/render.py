@@ -18,6 +18,7 @@ from sssphere.scene import Scene, load_scene
 INTEGRATORS = ("pt", "st")
 SPHERE_SAMPLERS = ("model", "walk")
 STEP_NEE = ("hits", "event")
+BACKENDS = ("cpu", "vulkan")
 DEFAULT_SPHERE_THRESHOLD = float(_core.DEFAULT_SPHERE_THRESHOLD)
 
 
@@ -39,6 +40,10 @@ class RenderResult:
     path_events, path_steps : with ``record_paths=True``, (spp, height, width) uint32: the
         ordinary events and sphere steps of every path, sample k of pixel (y, x) at [k, y, x]
         (0 where k >= samples[y, x]); else None.
+    backend : ``"cpu"`` or ``"vulkan"``.
+    gpu_seconds : ``backend="vulkan"``: the GPU time of the render's dispatches (timestamps);
+        else None.
+    device : the Vulkan device that rendered (``backend="vulkan"``), else None.
     """
 
     image: np.ndarray
@@ -53,6 +58,9 @@ class RenderResult:
     mean_sphere_steps_per_path: float
     path_events: Optional[np.ndarray] = None
     path_steps: Optional[np.ndarray] = None
+    backend: str = "cpu"
+    gpu_seconds: Optional[float] = None
+    device: Optional[str] = None
 
 
 def _resolve_st(scene, sphere_threshold, models, sphere_sampler, step_nee="hits"):
@@ -111,6 +119,7 @@ def render_full(
     sphere_sampler: str = "model",
     step_nee: str = "hits",
     record_paths: bool = False,
+    backend: str = "cpu",
 ) -> RenderResult:
     """Render and return the image with its variance and complexity (see RenderResult).
 
@@ -135,16 +144,38 @@ def render_full(
     ``record_paths=True`` also returns every path's event and step counts (``path_events``,
     ``path_steps``; 8 bytes per path, at most 2**27 paths): the distribution of path
     lengths, not only their means.
+
+    ``backend="vulkan"`` renders on a Vulkan device (a GPU, or Mesa's lavapipe on the CPU;
+    docs/gpu.md): ``"pt"`` and ``"st"`` without light sampling, the estimator of
+    ``nee=False``. Scenes whose media all have dielectric boundaries get the same image as
+    with NEE (no shadow ray leaves such a medium); elsewhere pass ``nee=False``. Point and
+    directional lights, ``sphere_sampler="walk"`` and ``threads`` are CPU-only.
     """
+    if backend not in BACKENDS:
+        raise SceneError(f"backend {backend!r} is not allowed "
+                         f"(allowed: {', '.join(repr(b) for b in BACKENDS)})")
     scene, integrator, spp, seed, threads, max_bounces = _resolve(
         scene, integrator, spp, seed, threads, max_bounces)
     tau, models_dir, sampler, step_nee = _resolve_st(scene, sphere_threshold, models,
                                                      sphere_sampler, step_nee)
     if not isinstance(record_paths, (bool, np.bool_)):
         raise SceneError(f"record_paths must be True or False, got {record_paths!r}")
-    r = _core.render(scene, integrator, spp, seed, threads, max_bounces, bool(nee), tau,
-                     models_dir if integrator == "st" else "", sampler, step_nee,
-                     record_paths=bool(record_paths), progress=progress)
+    if backend == "vulkan":
+        if threads not in (0,):
+            raise SceneError(f"threads={threads!r} is CPU-only (backend 'vulkan' uses the GPU's own)")
+        if step_nee != "hits":
+            raise SceneError(f"step_nee {step_nee!r} is CPU-only (backend 'vulkan' samples no "
+                             "lights)")
+        if sampler != "model":
+            raise SceneError(f"sphere_sampler {sampler!r} is CPU-only (backend 'vulkan' "
+                             "samples steps with the models)")
+        r = _core.render_gpu(scene, integrator, spp, seed, max_bounces, bool(nee), tau,
+                             models_dir if integrator == "st" else "",
+                             record_paths=bool(record_paths), progress=progress)
+    else:
+        r = _core.render(scene, integrator, spp, seed, threads, max_bounces, bool(nee), tau,
+                         models_dir if integrator == "st" else "", sampler, step_nee,
+                         record_paths=bool(record_paths), progress=progress)
     paths = max(1, int(r["total_paths"]))
     return RenderResult(
         image=r["image"],
@@ -159,6 +190,9 @@ def render_full(
         mean_sphere_steps_per_path=float(r["total_sphere_steps"]) / paths,
         path_events=r.get("path_events"),
         path_steps=r.get("path_steps"),
+        backend=backend,
+        gpu_seconds=r.get("gpu_seconds"),
+        device=r.get("device"),
     )
 
 
@@ -172,15 +206,18 @@ def render(
     sphere_threshold: Optional[float] = None,
     models: Union[str, os.PathLike, None] = None,
     step_nee: str = "hits",
+    backend: str = "cpu",
 ) -> np.ndarray:
     """Render a scene to a (height, width, 3) float32 array of linear radiance.
 
     ``integrator="st"`` renders with sphere tracing; ``sphere_threshold``, ``models`` and
-    ``step_nee`` are described in render_full. Ctrl-C raises KeyboardInterrupt (use render_full to keep a
+    ``step_nee`` are described in render_full, and so is ``backend`` (``"vulkan"``: the GPU
+    path). Ctrl-C raises KeyboardInterrupt (use render_full to keep a
     partial image).
     """
     result = render_full(scene, integrator=integrator, spp=spp, seed=seed, threads=threads, nee=nee,
-                         sphere_threshold=sphere_threshold, models=models, step_nee=step_nee)
+                         sphere_threshold=sphere_threshold, models=models, step_nee=step_nee,
+                         backend=backend)
     if result.interrupted:
         raise KeyboardInterrupt
     return result.image

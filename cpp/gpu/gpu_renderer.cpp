@@ -1,0 +1,211 @@
+#include "gpu/gpu_renderer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "core/check.h"
+
+namespace sss {
+
+namespace {
+
+static const uint32_t kRenderPt[] =
+#include "shaders/render_pt.spv.h"
+    ;
+static const uint32_t kRenderSt[] =
+#include "shaders/render_st.spv.h"
+    ;
+
+static const uint32_t kSampleSteps[] =
+#include "shaders/sample_steps.spv.h"
+    ;
+static const uint32_t kTraceRays[] =
+#include "shaders/trace_rays.spv.h"
+    ;
+
+struct RenderPush {
+    uint32_t seed_lo, seed_hi, sample0;
+    int32_t max_bounces;
+};
+
+constexpr int kGroup = 8;  // the shaders' 8 x 8 workgroups
+
+template <class T>
+VulkanCompute::BufferId upload_array(VulkanCompute& vk, const std::vector<T>& v,
+                                     const std::string& source, const char* what) {
+    const size_t bytes = std::max<size_t>(4, v.size() * sizeof(T));
+    if (bytes > vk.max_storage_buffer_bytes())
+        fail(source, ": the ", what, " take ", bytes, " bytes, more than ",
+             vk.device_name(), " binds in one buffer (", vk.max_storage_buffer_bytes(),
+             ")");
+    VulkanCompute::BufferId b = vk.create_buffer(bytes);
+    if (!v.empty()) vk.upload(b, v.data(), v.size() * sizeof(T));
+    return b;
+}
+
+}  // namespace
+
+GpuRenderer::GpuRenderer(VulkanCompute& vk, const GpuSceneData& scene)
+    : vk_(vk),
+      width_(scene.width()),
+      height_(scene.height()),
+      has_model_(!scene.model.empty()) {
+    header_ = vk.create_buffer(sizeof(GpuSceneHeader));
+    vk.upload(header_, &scene.header, sizeof(GpuSceneHeader));
+    nodes_ = upload_array(vk, scene.nodes, scene.source, "BVH nodes");
+    triangles_ = upload_array(vk, scene.triangles, scene.source, "triangles");
+    grid_ = upload_array(vk, scene.grid_values, scene.source, "distance grids");
+    model_ = upload_array(vk, scene.model, scene.source, "decoders");
+    const std::vector<int32_t> shapes = gpu_model_constants(scene.model);
+    pt_ = vk.create_pipeline(kRenderPt, sizeof(kRenderPt) / 4, 7, sizeof(RenderPush),
+                             shapes);
+    st_ = vk.create_pipeline(kRenderSt, sizeof(kRenderSt) / 4, 7, sizeof(RenderPush),
+                             shapes);
+}
+
+GpuRenderResult GpuRenderer::render(const GpuRenderOptions& opt,
+                                    const GpuProgressFn& progress) {
+    const auto start = std::chrono::steady_clock::now();
+    if (opt.integrator != "pt" && opt.integrator != "st")
+        fail("integrator '", opt.integrator, "' is not allowed (allowed: 'pt', 'st')");
+    if (opt.spp < 1) fail("spp must be >= 1, got ", opt.spp);
+    if (opt.integrator == "st" && opt.max_bounces >= 0)
+        fail("max_bounces must be -1 for integrator 'st' (a sphere step is many events)");
+    const bool st = opt.integrator == "st";
+    const size_t W = size_t(width_), H = size_t(height_), pixels = W * H;
+    if (opt.record_paths && uint64_t(opt.spp) * pixels > (uint64_t(1) << 27))
+        fail("record_paths keeps at most 2^27 paths; ", opt.spp, " spp x ", pixels,
+             " pixels are more");
+    // A GPU is full at about 2^20 paths per dispatch; a software device (lavapipe) takes
+    // long over that many, so it gets at least 16 dispatches: progress and Ctrl-C are
+    // answered between dispatches.
+    int batch =
+        opt.batch > 0 ? opt.batch : int(std::max<size_t>(1, (size_t(1) << 20) / pixels));
+    if (opt.batch <= 0 && vk_.is_software()) batch = std::min(batch, (opt.spp + 15) / 16);
+    batch = std::min(batch, opt.spp);
+    const size_t max_paths = vk_.max_storage_buffer_bytes() / 16;
+    if (size_t(batch) * pixels > max_paths)
+        batch = int(std::max<size_t>(1, max_paths / pixels));
+    if (pixels > max_paths)
+        fail("a ", width_, " x ", height_, " image is more than ", vk_.device_name(),
+             " can render in one dispatch (", max_paths, " paths)");
+
+    const VulkanCompute::BufferId radiance =
+        vk_.create_buffer(size_t(batch) * pixels * 16);
+    const VulkanCompute::BufferId counts = vk_.create_buffer(size_t(batch) * pixels * 8);
+    std::vector<float> rad(size_t(batch) * pixels * 4);
+    std::vector<uint32_t> cnt(size_t(batch) * pixels * 2);
+
+    GpuRenderResult r;
+    r.width = width_;
+    r.height = height_;
+    r.device = vk_.device_name();
+    std::vector<double> sum(pixels * 3, 0.0), sum_sq(pixels * 3, 0.0);
+    std::vector<uint64_t> events(pixels, 0), steps(pixels, 0);
+    if (opt.record_paths) {
+        r.path_events.assign(size_t(opt.spp) * pixels, 0);
+        r.path_steps.assign(size_t(opt.spp) * pixels, 0);
+    }
+    int done = 0;
+    while (done < opt.spp) {
+        if (progress && !progress(double(done) / opt.spp)) {
+            r.cancelled = true;
+            break;
+        }
+        const int b = std::min(batch, opt.spp - done);
+        RenderPush push{uint32_t(opt.seed), uint32_t(opt.seed >> 32), uint32_t(done),
+                        int32_t(opt.max_bounces)};
+        r.gpu_seconds +=
+            vk_.run(st ? st_ : pt_,
+                    {header_, nodes_, triangles_, grid_, model_, radiance, counts}, &push,
+                    sizeof(push), uint32_t((W + kGroup - 1) / kGroup),
+                    uint32_t((H + kGroup - 1) / kGroup), uint32_t(b));
+        vk_.download(radiance, rad.data(), size_t(b) * pixels * 16);
+        vk_.download(counts, cnt.data(), size_t(b) * pixels * 8);
+        for (int k = 0; k < b; ++k) {
+            for (size_t p = 0; p < pixels; ++p) {
+                const size_t at = size_t(k) * pixels + p;
+                for (int c = 0; c < 3; ++c) {
+                    const double v = rad[4 * at + c];
+                    sum[3 * p + c] += v;
+                    sum_sq[3 * p + c] += v * v;
+                }
+                events[p] += cnt[2 * at];
+                steps[p] += cnt[2 * at + 1];
+                if (opt.record_paths) {
+                    r.path_events[size_t(done + k) * pixels + p] = cnt[2 * at];
+                    r.path_steps[size_t(done + k) * pixels + p] = cnt[2 * at + 1];
+                }
+            }
+        }
+        done += b;
+    }
+    if (progress && !r.cancelled) progress(1.0);
+
+    r.image.assign(pixels * 3, 0.f);
+    r.variance.assign(pixels * 3, 0.f);
+    r.events.assign(pixels, 0.f);
+    r.sphere_steps.assign(pixels, 0.f);
+    r.samples.assign(pixels, uint32_t(done));
+    const double n = done;
+    for (size_t p = 0; p < pixels; ++p) {
+        r.total_paths += uint64_t(done);
+        r.total_events += events[p];
+        r.total_sphere_steps += steps[p];
+        if (done == 0) continue;
+        r.events[p] = float(double(events[p]) / n);
+        r.sphere_steps[p] = float(double(steps[p]) / n);
+        for (int c = 0; c < 3; ++c) {
+            const double mean = sum[3 * p + c] / n;
+            r.image[3 * p + c] = float(mean);
+            const double var =
+                n > 1 ? std::max(0.0, (sum_sq[3 * p + c] - n * mean * mean) / (n - 1))
+                      : 0.0;
+            r.variance[3 * p + c] = float(var / n);
+        }
+    }
+    r.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return r;
+}
+
+std::vector<float> gpu_sample_steps(VulkanCompute& vk, const std::vector<float>& model,
+                                    const float* sigma, const float* g, size_t n,
+                                    uint64_t seed, double* gpu_seconds) {
+    if (n == 0) return {};
+    std::vector<float> in(2 * n), out(4 * n);
+    for (size_t i = 0; i < n; ++i) in[2 * i] = sigma[i], in[2 * i + 1] = g[i];
+    auto m = upload_array(vk, model, "gpu_sample_steps", "decoders");
+    auto bin = upload_array(vk, in, "gpu_sample_steps", "inputs");
+    auto bout = vk.create_buffer(out.size() * 4);
+    auto pipe = vk.create_pipeline(kSampleSteps, sizeof(kSampleSteps) / 4, 3, 12,
+                                   gpu_model_constants(model));
+    const uint32_t push[3] = {uint32_t(seed), uint32_t(seed >> 32), uint32_t(n)};
+    const double t =
+        vk.run(pipe, {m, bin, bout}, push, sizeof(push), uint32_t((n + 63) / 64));
+    if (gpu_seconds) *gpu_seconds = t;
+    vk.download(bout, out.data(), out.size() * 4);
+    return out;
+}
+
+std::vector<float> gpu_trace_rays(VulkanCompute& vk, const GpuSceneData& scene,
+                                  const float* rays, size_t n) {
+    if (n == 0) return {};
+    std::vector<float> in(rays, rays + 8 * n), out(4 * n);
+    auto header = vk.create_buffer(sizeof(GpuSceneHeader));
+    vk.upload(header, &scene.header, sizeof(GpuSceneHeader));
+    auto nodes = upload_array(vk, scene.nodes, scene.source, "BVH nodes");
+    auto tris = upload_array(vk, scene.triangles, scene.source, "triangles");
+    auto grid = upload_array(vk, scene.grid_values, scene.source, "distance grids");
+    auto bin = upload_array(vk, in, "gpu_trace_rays", "rays");
+    auto bout = vk.create_buffer(out.size() * 4);
+    auto pipe = vk.create_pipeline(kTraceRays, sizeof(kTraceRays) / 4, 6, 4);
+    const uint32_t push = uint32_t(n);
+    vk.run(pipe, {header, nodes, tris, grid, bin, bout}, &push, sizeof(push),
+           uint32_t((n + 63) / 64));
+    vk.download(bout, out.data(), out.size() * 4);
+    return out;
+}
+
+}  // namespace sss

@@ -1,0 +1,77 @@
+// Integrators "pt" and "st" on a Vulkan device (cpp/gpu/shaders/render.glsl): one GPU
+// invocation per path, paths of up to `batch` samples of every pixel per dispatch, the
+// per-path results summed on the host into the same film statistics as the CPU
+// renderer's. The GPU samples no lights (gpu_scene_bake.h says which scenes that renders
+// exactly). Depends on Vulkan and the baked scene only, not on Embree or CGAL.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "gpu/gpu_scene.h"
+#include "gpu/vulkan_compute.h"
+
+namespace sss {
+
+struct GpuRenderOptions {
+    std::string integrator = "pt";  // "pt" or "st" (the scene must be baked for it)
+    int spp = 16;
+    uint64_t seed = 0;
+    int max_bounces = -1;  // "pt" only; -1 = no limit
+    // Samples per pixel per dispatch; 0 = enough for about 2^20 paths per dispatch (a
+    // full GPU), at most spp.
+    int batch = 0;
+    bool record_paths = false;  // keep every path's event and step counts
+};
+
+struct GpuRenderResult {
+    int width = 0, height = 0;
+    std::vector<float> image;         // (height, width, 3) mean radiance
+    std::vector<float> variance;      // (height, width, 3) variance of that mean
+    std::vector<float> events;        // (height, width) mean scattering events per path
+    std::vector<float> sphere_steps;  // (height, width) mean sphere steps per path
+    std::vector<uint32_t> samples;    // (height, width) samples taken
+    std::vector<uint32_t> path_events, path_steps;  // (spp, height, width), record_paths
+    double seconds = 0.0;      // wall time of the render (uploads and sums included)
+    double gpu_seconds = 0.0;  // the dispatches alone, from GPU timestamps
+    bool cancelled = false;
+    uint64_t total_events = 0, total_sphere_steps = 0, total_paths = 0;
+    std::string device;
+};
+
+// Called between dispatches with the fraction done; false stops the render (the samples
+// of the finished dispatches are kept).
+using GpuProgressFn = std::function<bool(double)>;
+
+class GpuRenderer {
+public:
+    // Uploads the scene once; throws sss::Error when the scene does not fit the device
+    // (a buffer over max_storage_buffer_bytes()).
+    GpuRenderer(VulkanCompute& vk, const GpuSceneData& scene);
+    GpuRenderResult render(const GpuRenderOptions& options,
+                           const GpuProgressFn& progress = {});
+
+private:
+    VulkanCompute& vk_;
+    int width_, height_;
+    bool has_model_;
+    VulkanCompute::BufferId header_, nodes_, triangles_, grid_, model_;
+    VulkanCompute::PipelineId pt_, st_;
+};
+
+// For tests of the shaders' parts against the CPU's:
+// n sphere steps from packed decoders (pack_gpu_model) for per-step sigma[i], g[i], step
+// i drawn from Rng(seed, i): (N, cos_theta, alpha, beta) per step, as
+// ScatteringModel::sample_batch draws them.
+// *gpu_seconds (if given) receives the dispatch's GPU time.
+std::vector<float> gpu_sample_steps(VulkanCompute& vk, const std::vector<float>& model,
+                                    const float* sigma, const float* g, size_t n,
+                                    uint64_t seed, double* gpu_seconds = nullptr);
+// Closest hits of n rays (origin xyz, 0, unit direction xyz, tfar: 8 floats each) in the
+// scene's BVH: (t or -1, mesh index, normal x, normal y) per ray.
+std::vector<float> gpu_trace_rays(VulkanCompute& vk, const GpuSceneData& scene,
+                                  const float* rays, size_t n);
+
+}  // namespace sss

@@ -1,0 +1,171 @@
+#include "gpu/gpu_scene_bake.h"
+
+#include <cmath>
+
+#include "core/check.h"
+#include "nn/scattering_model.h"
+#include "render/sphere_tracing.h"
+
+namespace sss {
+
+namespace {
+
+void put3(float* dst, Vec3 v, float w) {
+    dst[0] = v.x, dst[1] = v.y, dst[2] = v.z, dst[3] = w;
+}
+
+}  // namespace
+
+std::vector<float> pack_gpu_model(const ScatteringModel& m) {
+    const Decoder* decoders[3] = {&m.length_gen(), &m.path_gen(), &m.event_gen()};
+    std::vector<float> out(3 * kGpuDecoderHeader, 0.f);
+    auto put_encoding = [&](size_t at, const Encoding& e) {
+        out[at] = float(int(e.kind));
+        out[at + 1] = e.a, out[at + 2] = e.b, out[at + 3] = e.s, out[at + 4] = e.c;
+        out[at + 5] = e.lo, out[at + 6] = e.hi, out[at + 7] = e.eps;
+    };
+    for (int k = 0; k < 3; ++k) {
+        const Decoder& d = *decoders[k];
+        const size_t h = size_t(k) * kGpuDecoderHeader;
+        if (int(d.layers.size()) != kGpuLayers || d.num_conditions() > 7 ||
+            d.num_outputs() > 6 || d.input_width > kGpuMaxWidth)
+            fail(d.source, ": ", d.name, " has ", d.layers.size(),
+                 " layers and input width ", d.input_width, "; the GPU path supports ",
+                 kGpuLayers, " layers (two hidden, paper Table 1) of at most ",
+                 kGpuMaxWidth, " units");
+        out[h] = float(d.layers.size());
+        out[h + 1] = float(d.input_width);
+        out[h + 2] = float(d.latent_dim);
+        out[h + 3] = float(d.num_conditions());
+        out[h + 4] = float(d.num_outputs());
+        for (size_t l = 0; l < d.layers.size(); ++l) {
+            const DenseLayer& L = d.layers[l];
+            if (L.in > kGpuMaxWidth || L.out > kGpuMaxWidth)
+                fail(d.source, ": ", d.name, " layer ", l, " (", L.in, " -> ", L.out,
+                     ") is wider than the GPU path supports (", kGpuMaxWidth, ")");
+            out[h + 8 + 4 * l] = float(L.in);
+            out[h + 9 + 4 * l] = float(L.out);
+            out[h + 10 + 4 * l] = L.softplus ? 1.f : 0.f;
+            out[h + 11 + 4 * l] = float(out.size());
+            out.insert(out.end(), L.weight.begin(), L.weight.end());
+            out.insert(out.end(), L.bias.begin(), L.bias.end());
+        }
+        for (int i = 0; i < d.num_conditions(); ++i)
+            put_encoding(h + 32 + 8 * size_t(i), d.conditions[i].encoding);
+        for (int o = 0; o < d.num_outputs(); ++o)
+            put_encoding(h + 32 + 8 * size_t(7 + o), d.outputs[o].encoding);
+    }
+    // The step's normals live in 12 registers (model.glsl).
+    if (m.length_gen().latent_dim + 1 + m.path_gen().latent_dim + 3 > 12)
+        fail(m.where(), ": LengthGen and PathGen need more than the 12 normals per step ",
+             "the GPU path supports");
+    if (out.size() >= (size_t(1) << 24))
+        fail(m.where(), ": the decoders are too large for the GPU path (offsets must be ",
+             "exact in float)");
+    return out;
+}
+
+GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, bool nee,
+                            float sphere_threshold, const std::string& models) {
+    const SceneDesc& desc = scene.desc();
+    if (integrator != "pt" && integrator != "st")
+        fail("integrator '", integrator, "' is not allowed (allowed: 'pt', 'st')");
+    if (scene.num_shapes() > kGpuMaxShapes)
+        fail(desc.source, ": ", scene.num_shapes(),
+             " shapes; the GPU path renders at most ", kGpuMaxShapes);
+    GpuSceneData out;
+    out.source = desc.source;
+    GpuSceneHeader& h = out.header;
+
+    // Camera, as PinholeCamera.
+    const Camera& c = desc.camera;
+    const Vec3 forward = normalize(c.target - c.origin);
+    const Vec3 right = normalize(cross(forward, c.up));
+    const Vec3 up = cross(right, forward);
+    put3(h.cam_origin, c.origin, std::tan(0.5f * c.fov * 0.017453292519943295f));
+    put3(h.cam_forward, forward, float(c.width) / float(c.height));
+    put3(h.cam_right, right, 0.f);
+    put3(h.cam_up, up, 0.f);
+
+    // Lights: area lights are the meshes after the shapes (Scene's order), the
+    // environment is a constant.
+    bool lit = false;
+    int emitters = 0;
+    for (size_t i = 0; i < desc.lights.size(); ++i) {
+        const Light& l = desc.lights[i];
+        lit = true;
+        if (l.is_delta())
+            fail(desc.source, ": lights[", i, "]: a ",
+                 l.type == Light::Type::Point ? "point" : "directional",
+                 " light cannot be rendered on the GPU, which samples no lights (allowed "
+                 "there: 'area' and 'environment' lights; or backend 'cpu')");
+        if (l.type == Light::Type::Environment) put3(h.environment, l.radiance, 1.f);
+        if (l.type != Light::Type::Area) continue;
+        if (emitters == kGpuMaxEmitters)
+            fail(desc.source, ": more than ", kGpuMaxEmitters,
+                 " area lights; the GPU path renders at most ", kGpuMaxEmitters);
+        put3(h.emitters[emitters++], l.radiance, 0.f);
+    }
+
+    // Shapes and their grids.
+    std::vector<const TriangleMesh*> meshes;
+    for (int i = 0; i < scene.num_shapes(); ++i) {
+        const Shape& s = desc.shapes[i];
+        meshes.push_back(&s.mesh);
+        const bool dielectric = s.boundary.type == BoundaryType::Dielectric;
+        if (nee && lit && !dielectric)
+            fail(desc.source, ": shapes[", i, "] ('", s.name,
+                 "') has an index-matched boundary, where nee = true samples lights; the "
+                 "GPU path samples none: pass nee = false (hits only, unbiased but "
+                 "noisier) or use backend 'cpu'");
+        put3(h.shapes[i].sigma_t, s.medium.sigma_t, s.medium.g);
+        put3(h.shapes[i].albedo, s.medium.albedo, dielectric ? 1.f : 0.f);
+        h.shapes[i].boundary[0] = s.boundary.ior;
+        const DistanceGrid& g = scene.grid(i);
+        GpuGrid& gg = h.grids[i];
+        put3(gg.origin, g.origin(), g.cell_size());
+        gg.scale[0] = g.cell_size() > 0.f ? 1.f / g.cell_size() : 0.f;
+        gg.scale[1] = g.guard();
+        gg.n[0] = g.nx(), gg.n[1] = g.ny(), gg.n[2] = g.nz();
+        gg.n[3] = int32_t(out.grid_values.size());
+        const auto& v = g.node_distances();
+        out.grid_values.insert(out.grid_values.end(), v.begin(), v.end());
+        if (out.grid_values.size() >= (size_t(1) << 31))
+            fail(desc.source, ": the distance grids are too large for the GPU path");
+    }
+    h.counts[0] = uint32_t(scene.num_shapes());
+    h.counts[1] = uint32_t(emitters);
+    h.counts[2] = uint32_t(c.width);
+    h.counts[3] = uint32_t(c.height);
+    // The area lights' quads, after the shapes in Scene's order (its ray tracer's).
+    std::vector<TriangleMesh> quads;
+    for (const Light& l : desc.lights) {
+        if (l.type != Light::Type::Area) continue;
+        TriangleMesh q;
+        q.positions = {l.corner, l.corner + l.edge1, l.corner + l.edge1 + l.edge2,
+                       l.corner + l.edge2};
+        q.triangles = {{0, 1, 2}, {0, 2, 3}};
+        quads.push_back(std::move(q));
+    }
+    for (const TriangleMesh& q : quads) meshes.push_back(&q);
+    FlatBvh bvh = build_flat_bvh(meshes);
+    out.nodes = std::move(bvh.nodes);
+    out.triangles = std::move(bvh.triangles);
+
+    h.params[0] = scene.ray_epsilon();
+    h.params[1] = INFINITY;  // no sphere steps ("pt")
+    h.params[2] = kWalkSigmaMax;
+    h.params[3] = scene.grey_media() ? 1.f : 0.f;
+    if (integrator == "st") {
+        // The same checks as the CPU's "st" (ranges of the models against the media).
+        SphereTracing st(scene, sphere_threshold, SphereSampler::Model, models,
+                         /*nee=*/false);
+        h.params[1] = sphere_threshold;
+        h.params[2] = st.sigma_max();
+        if (!std::isinf(sphere_threshold))
+            out.model = pack_gpu_model(ScatteringModel::load(models));
+    }
+    return out;
+}
+
+}  // namespace sss

@@ -1,0 +1,28 @@
+// From a built Scene to the GPU path's plain arrays (gpu_scene.h): the flattened BVH, the
+// distance grids, the media, lights and camera, and (for "st") the packed decoders.
+#pragma once
+
+#include <string>
+
+#include "gpu/gpu_scene.h"
+#include "render/scene.h"
+
+namespace sss {
+
+class ScatteringModel;
+
+// The decoders in the layout of gpu_scene.h ("Packed decoders"); throws sss::Error when
+// they are larger than the GPU path supports.
+std::vector<float> pack_gpu_model(const ScatteringModel& model);
+
+// Checks that the GPU path can render `scene` as asked and throws sss::Error naming the
+// field and what is allowed otherwise: at most kGpuMaxShapes shapes and kGpuMaxEmitters
+// area lights; no point or directional lights (the GPU path samples no lights, so no path
+// would ever see them); with nee, no index-matched shape lit by any light (there pt's
+// light sampling changes the estimator: pass nee = false for the plain one). With
+// integrator "st", `models` is the decoders' directory, checked against the media as
+// SphereTracing does.
+GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, bool nee,
+                            float sphere_threshold, const std::string& models);
+
+}  // namespace sss

@@ -1,0 +1,152 @@
+// The learned sphere step (cpp/nn/scattering_model.h) on the GPU: LengthGen and PathGen
+// evaluated per invocation from the packed decoders in `model` (layout: gpu_scene.h,
+// "Packed decoders"), consuming the Rng exactly as ScatteringModel's step does, so a
+// stream gives the same step on both up to float rounding (tests/test_gpu.py compares
+// them). EventGen is not used: the GPU path has no light sampling.
+// The includer declares `float model[]` (a readonly std430 buffer) first, and enables
+// GL_EXT_control_flow_attributes.
+
+// The decoders' shapes are specialization constants (set by the host from the model
+// file, gpu_renderer.cpp), so the driver compiles the loops below unrolled and keeps the
+// activations in registers: two hidden layers (paper Table 1), each at most kW wide.
+layout(constant_id = 0) const int L_IN = 4;   // LengthGen: input width
+layout(constant_id = 1) const int L_H1 = 8;   //   hidden widths
+layout(constant_id = 2) const int L_H2 = 8;
+layout(constant_id = 3) const int L_LAT = 2;  //   latent dimension (1 output)
+layout(constant_id = 4) const int P_IN = 8;   // PathGen
+layout(constant_id = 5) const int P_H1 = 16;
+layout(constant_id = 6) const int P_H2 = 16;
+layout(constant_id = 7) const int P_LAT = 5;  //   (3 outputs)
+
+const int kDecoderHeader = 160;  // floats per decoder header
+const int kLengthGen = 0, kPathGen = 1;
+const int kW = 16;  // the widest layer or input (checked on the host)
+const float kMaxScatterCount = 1099511627776.0;  // 2^40, as in scattering_model.h
+const float kFloatMax = 3.402823466e38;
+
+int mhead(int d, int i) { return int(model[d * kDecoderHeader + i]); }
+
+// e(x) (decode false) or its inverse; the encoding's 8 floats start at `at`.
+float code(int at, float x, bool decode) {
+    int kind = int(model[at]);
+    float a = model[at + 1], b = model[at + 2], s = model[at + 3], c = model[at + 4];
+    float lo = model[at + 5], hi = model[at + 6], eps = model[at + 7];
+    if (kind == 0) return decode ? (x - b) / a : a * x + b;
+    if (kind == 1) return decode ? (exp((x - b) / a) - c) / s : a * log(s * x + c) + b;
+    return decode ? lo - eps + (hi - lo + 2.0 * eps) / (1.0 + exp(-(x - b) / a))
+                  : a * log((x - lo + eps) / (hi - x + eps)) + b;
+}
+int condition_code(int d, int i) { return d * kDecoderHeader + 32 + 8 * i; }
+int output_code(int d, int o) { return d * kDecoderHeader + 32 + 8 * (7 + o); }
+
+// b = act(W a + bias) for layer l of decoder d, n_in -> n_out (constants after
+// specialization: the guards fold away).
+void dense(int d, int l, int n_in, int n_out, bool act, float a[kW], out float b[kW]) {
+    int w = mhead(d, 11 + 4 * l), bias = w + n_in * n_out;
+    [[unroll]] for (int o = 0; o < kW; ++o) {
+        float acc = 0.0;
+        if (o < n_out) {
+            acc = model[bias + o];
+            [[unroll]] for (int i = 0; i < kW; ++i)
+                if (i < n_in) acc += model[w + o * n_in + i] * a[i];
+            if (act) acc = softplus(acc);
+        }
+        b[o] = acc;
+    }
+}
+
+// Decoder d's three layers on x: the outputs u_o = mean_o + exp(logvar_o / 2) eps_o.
+void decoder_sample(int d, int n_in, int h1, int h2, int n_out, float x[kW],
+                    float eps[3], out float u[3]) {
+    float a[kW], b[kW];
+    dense(d, 0, n_in, h1, true, x, a);
+    dense(d, 1, h1, h2, true, a, b);
+    dense(d, 2, h2, 2 * n_out, false, b, a);
+    [[unroll]] for (int o = 0; o < 3; ++o)
+        u[o] = o < n_out ? a[o] + exp(0.5 * a[n_out + o]) * eps[o] : 0.0;
+}
+
+float finite_value(float x) { return isnan(x) ? 0.0 : clamp(x, -kFloatMax, kFloatMax); }
+
+struct SphereStepSample {
+    float N;  // events (>= 1; an integer, exact in float up to 2^24 and rounded beyond)
+    float cos_theta, alpha, beta;
+};
+
+// One step for optical radius sigma and anisotropy g, in the exit frame.
+SphereStepSample sample_sphere_step(float sigma, float g, inout Rng rng) {
+    SphereStepSample s;
+    s.N = 1.0;
+    s.cos_theta = 1.0;
+    s.alpha = 0.0;
+    s.beta = 0.0;
+    // N = 1 exactly with probability e^{-sigma}.
+    if (rng_uniform(rng) < exp(-sigma)) {
+        s.cos_theta = hg_sample_cos(rng_uniform(rng), g);
+        return s;
+    }
+    // The normals of LengthGen and PathGen (z, eps, z, eps), drawn in the blocks of
+    // draw_normal_uniforms / assemble_normals (simd_decoder.cpp): block b holds its k
+    // cosines, then its k sines.
+    const int n = L_LAT + 1 + P_LAT + 3;
+    const int pairs = (n + 1) / 2, blocks = (pairs + 3) / 4;
+    float z[16];
+    [[unroll]] for (int blk = 0; blk < 2; ++blk) {
+        if (blk < blocks) {
+            int k = min(4, pairs - 4 * blk);
+            float xr[4], xa[4];
+            [[unroll]] for (int j = 0; j < 4; ++j) xr[j] = j < k ? rng_uniform(rng) : 0.0;
+            [[unroll]] for (int j = 0; j < 4; ++j) xa[j] = j < k ? rng_uniform(rng) : 0.0;
+            [[unroll]] for (int j = 0; j < 4; ++j) {
+                float r = sqrt(-2.0 * log(1.0 - xr[j]));
+                float ang = 2.0 * kPi * xa[j];
+                if (j < k) {
+                    z[8 * blk + j] = r * cos(ang);
+                    z[8 * blk + k + j] = r * sin(ang);
+                }
+            }
+        }
+    }
+
+    // LengthGen(sigma, g) -> N = max(2, floor(x))
+    float x[kW], eps[3], u[3];
+    [[unroll]] for (int i = 0; i < kW; ++i) x[i] = 0.0;
+    x[0] = code(condition_code(kLengthGen, 0), sigma, false);
+    x[1] = code(condition_code(kLengthGen, 1), g, false);
+    [[unroll]] for (int l = 0; l < kW - 2; ++l)
+        if (l < L_LAT) x[2 + l] = z[l];
+    eps[0] = z[L_LAT];
+    eps[1] = eps[2] = 0.0;
+    decoder_sample(kLengthGen, L_IN, L_H1, L_H2, 1, x, eps, u);
+    float n_real = code(output_code(kLengthGen, 0), u[0], true);
+    s.N = n_real >= 2.0 ? (n_real < kMaxScatterCount ? floor(n_real) : kMaxScatterCount)
+                        : 2.0;
+
+    // PathGen(sigma, g, N) -> cos_theta clamped, (alpha, beta) into the unit disc
+    [[unroll]] for (int i = 0; i < kW; ++i) x[i] = 0.0;
+    x[0] = code(condition_code(kPathGen, 0), sigma, false);
+    x[1] = code(condition_code(kPathGen, 1), g, false);
+    x[2] = code(condition_code(kPathGen, 2), s.N, false);
+    const int zo = L_LAT + 1;
+    [[unroll]] for (int l = 0; l < kW - 3; ++l)
+        if (l < P_LAT) x[3 + l] = z[zo + l];
+    [[unroll]] for (int o = 0; o < 3; ++o) eps[o] = z[zo + P_LAT + o];
+    decoder_sample(kPathGen, P_IN, P_H1, P_H2, 3, x, eps, u);
+    s.cos_theta = clamp(finite_value(code(output_code(kPathGen, 0), u[0], true)), -1.0, 1.0);
+    float a = finite_value(code(output_code(kPathGen, 1), u[1], true));
+    float b = finite_value(code(output_code(kPathGen, 2), u[2], true));
+    // |(a, b)| > 1: onto the circle (the scale computed without overflow).
+    float m = max(abs(a), abs(b));
+    if (m > 0.0 && (a / m) * (a / m) + (b / m) * (b / m) > 1.0 / (m * m)) {
+        float f = 1.0 / (m * length(vec2(a / m, b / m)));
+        a *= f;
+        b *= f;
+        while (a * a + b * b > 1.0) {
+            a *= 0.99999994;
+            b *= 0.99999994;
+        }
+    }
+    s.alpha = a;
+    s.beta = b;
+    return s;
+}

@@ -1,0 +1,253 @@
+// Integrators "pt" and "st" on the GPU, one invocation per path (pixel, sample): the loop
+// of PathTracer::run (cpp/render/pt.cpp) without light sampling: emitters count when a
+// path hits them (RenderOptions::nee = false). In a scene whose media all have dielectric
+// boundaries that is exactly what pt and st with NEE compute (a straight shadow ray never
+// leaves such a medium). The includer defines SSS_ST (0 or 1).
+//
+// Sample k of pixel (x, y) uses Rng(seed, y * width + x, k), as on the CPU.
+
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+#extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_control_flow_attributes : require
+#extension GL_KHR_shader_subgroup_ballot : require
+#extension GL_KHR_shader_subgroup_vote : require
+
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+
+#include "gpu/shaders/rng.glsl"
+#include "gpu/shaders/math.glsl"
+#include "gpu/shaders/scene.glsl"
+
+layout(std430, binding = 4) readonly buffer Model { float model[]; };
+// Per path, at ((z * height + y) * width + x): radiance (rgb), and the ordinary
+// scattering events and sphere steps.
+layout(std430, binding = 5) writeonly buffer OutRadiance { vec4 out_radiance[]; };
+layout(std430, binding = 6) writeonly buffer OutCounts { uvec2 out_counts[]; };
+
+layout(push_constant) uniform Push {
+    uint seed_lo, seed_hi;
+    uint sample0;     // sample index of gl_GlobalInvocationID.z = 0
+    int max_bounces;  // scattering events per path; < 0: no limit ("pt" only)
+};
+
+#include "gpu/shaders/model.glsl"
+
+const float kRouletteThreshold = 0.1;  // as pt.cpp
+
+bool survives_roulette(inout vec3 beta, float beta_start, inout Rng rng) {
+    float q = max(beta.x, max(beta.y, beta.z)) / beta_start;
+    if (q < kRouletteThreshold) {
+        if (rng_uniform(rng) >= q) return false;
+        beta /= q;
+    }
+    return true;
+}
+
+vec3 offset_ray(vec3 p, vec3 n, vec3 w, float eps) {
+    return p + n * (dot(w, n) > 0.0 ? eps : -eps);
+}
+
+bool is_black(vec3 v) { return v.x == 0.0 && v.y == 0.0 && v.z == 0.0; }
+
+// One path's state between iterations of its loop.
+struct Path {
+    Rng rng;
+    vec3 o, d, L, beta;
+    float beta_start;
+    int channel;    // -1: all three (grey media)
+    int shape;      // the medium holding the photon; -1 = vacuum
+    float r_at_o;   // the grid's bound at o when known, else < 0
+    uint events, steps;
+    bool done;
+    bool pending;   // "st": waits for a sphere step at o, of bound r_step
+    float r_step;
+};
+
+// One iteration of PathTracer::run's loop: a flight in vacuum to the next surface, or a
+// free flight in a medium and what ends it (a collision or the boundary). A collision
+// deep enough for a sphere step only marks the path as pending ("st").
+void path_iterate(inout Path p) {
+    uint num_shapes = counts.x;
+    float eps = params.x;
+    Hit hit;
+    if (p.shape < 0) {
+        // Vacuum: fly to the next surface.
+        if (!intersect(p.o, p.d, kInf, hit)) {
+            if (environment.w != 0.0) p.L += p.beta * environment.rgb;
+            p.done = true;
+            return;
+        }
+        vec3 x = p.o + p.d * hit.t;
+        if (hit.mesh >= num_shapes) {  // an area light's quad: one-sided, absorbs
+            if (dot(p.d, hit.normal) < 0.0)
+                p.L += p.beta * emitters[hit.mesh - num_shapes].rgb;
+            p.done = true;
+            return;
+        }
+        GpuShape s = shapes[hit.mesh];
+        if (dot(p.d, hit.normal) >= 0.0) {
+            p.o = offset_ray(x, hit.normal, p.d, eps);
+            return;
+        }
+        if (s.albedo.w != 0.0) {  // dielectric
+            float cos_i = -dot(p.d, hit.normal), cos_t;
+            float F = fresnel_dielectric(cos_i, s.boundary.x, cos_t);
+            if (rng_uniform(p.rng) < F) {
+                p.d = p.d + hit.normal * (2.0 * cos_i);
+                p.o = offset_ray(x, hit.normal, p.d, eps);
+                return;
+            }
+            float eta = 1.0 / s.boundary.x;
+            p.d = normalize(p.d * eta + hit.normal * (eta * cos_i - cos_t));
+        }
+        p.shape = int(hit.mesh);
+        p.o = offset_ray(x, hit.normal, p.d, eps);
+        p.r_at_o = 0.0;
+        return;
+    }
+
+    // Inside a medium: a free flight; the grid tells when it cannot reach the boundary.
+    GpuShape s = shapes[p.shape];
+    float sigma_t = p.channel < 0 ? s.sigma_t.x : s.sigma_t[p.channel];
+    float t = sample_exponential(rng_uniform(p.rng), sigma_t);
+    float r_o = p.r_at_o >= 0.0 ? p.r_at_o : grid_query(p.shape, p.o);
+    p.r_at_o = -1.0;
+    vec3 end = p.o + p.d * t;
+    float r_end = -1.0;
+    bool at_boundary = false;
+    if (!(t < r_o)) {
+        if (t < kInf) r_end = grid_query(p.shape, end);
+        if (!(t < r_o + r_end)) at_boundary = intersect(p.o, p.d, t, hit);
+    }
+    if (!at_boundary && !(t < kInf)) {
+        p.shape = -1;  // numerical leak out of the mesh
+        return;
+    }
+    if (!at_boundary) {
+        p.o = end;
+        float r = r_end >= 0.0 ? r_end : grid_query(p.shape, p.o);
+#if SSS_ST
+        if (sigma_t * r >= params.y) {
+            p.pending = true;  // one sphere step replaces the events inside the sphere
+            p.r_step = r;
+            return;
+        }
+#endif
+        p.r_at_o = r;
+        // Real collision: scatter.
+        ++p.events;
+        if (max_bounces >= 0 && int(p.events) > max_bounces) {
+            p.done = true;
+            return;
+        }
+        p.beta *= s.albedo.xyz;
+        if (is_black(p.beta)) {
+            p.done = true;
+            return;
+        }
+        p.d = hg_sample(p.d, s.sigma_t.w, rng_uniform(p.rng), rng_uniform(p.rng));
+        if (!survives_roulette(p.beta, p.beta_start, p.rng)) p.done = true;
+        return;
+    }
+
+    // Reached the boundary from inside.
+    vec3 x = p.o + p.d * hit.t;
+    if (int(hit.mesh) != p.shape || dot(p.d, hit.normal) <= 0.0) {
+        p.shape = -1;  // overlapping geometry: leave to vacuum
+        p.o = offset_ray(x, hit.normal, p.d, eps);
+        return;
+    }
+    if (s.albedo.w != 0.0) {
+        float cos_i = dot(p.d, hit.normal), cos_t;
+        float F = fresnel_dielectric(cos_i, 1.0 / s.boundary.x, cos_t);
+        if (rng_uniform(p.rng) < F) {
+            p.d = p.d - hit.normal * (2.0 * cos_i);
+            p.o = offset_ray(x, hit.normal, p.d, eps);
+            p.r_at_o = 0.0;
+            return;
+        }
+        float eta = s.boundary.x;
+        p.d = normalize(p.d * eta - hit.normal * (eta * cos_i - cos_t));
+    }
+    p.shape = -1;
+    p.o = offset_ray(x, hit.normal, p.d, eps);
+}
+
+#if SSS_ST
+// The sphere step a pending path waits for: centre o, the grid's bound r_step, shrunk so
+// that sigma_t r' <= sigma_max; survival phi^N, then the exit point and direction.
+void path_step(inout Path p) {
+    GpuShape s = shapes[p.shape];
+    float sigma_t = p.channel < 0 ? s.sigma_t.x : s.sigma_t[p.channel];
+    ++p.steps;
+    p.pending = false;
+    float sigma = min(sigma_t * p.r_step, params.z);
+    float radius = min(p.r_step, sigma / sigma_t);
+    SphereStepSample st = sample_sphere_step(sigma, s.sigma_t.w, p.rng);
+    Frame f = sphere_step_frame(p.d, rng_uniform(p.rng));
+    p.beta *= vec3(survival_power(s.albedo.x, st.N), survival_power(s.albedo.y, st.N),
+                   survival_power(s.albedo.z, st.N));
+    if (is_black(p.beta)) {
+        p.done = true;
+        return;
+    }
+    p.o = p.o + frame_to_world(f, sphere_exit_point(st.cos_theta)) * radius;
+    p.d = normalize(
+        frame_to_world(f, sphere_exit_direction(st.cos_theta, st.alpha, st.beta)));
+    if (!survives_roulette(p.beta, p.beta_start, p.rng)) p.done = true;
+}
+#endif
+
+void main() {
+    uint width = counts.z, height = counts.w;
+    uvec3 id = gl_GlobalInvocationID;
+    // Invocations past the image's edge run along as finished paths (the subgroup
+    // operations below need every lane).
+    bool inside = id.x < width && id.y < height;
+
+    Path p;
+    uint64_t seed = (uint64_t(seed_hi) << 32) | uint64_t(seed_lo);
+    p.rng = rng_make(seed, uint64_t(id.y) * width + id.x, uint64_t(sample0 + id.z));
+    // Camera ray through a jittered film position (PinholeCamera::direction).
+    float fx = float(id.x) + rng_uniform(p.rng), fy = float(id.y) + rng_uniform(p.rng);
+    float u = (2.0 * fx / float(width) - 1.0) * cam_origin.w * cam_forward.w;
+    float v = (1.0 - 2.0 * fy / float(height)) * cam_origin.w;
+    p.o = cam_origin.xyz;
+    p.d = normalize(cam_forward.xyz + cam_right.xyz * u + cam_up.xyz * v);
+    p.L = vec3(0.0);
+    p.beta = vec3(1.0);
+    p.channel = -1;
+    if (params.w == 0.0) {  // RGB media: one channel per path, weight 3
+        p.channel = min(2, int(rng_uniform(p.rng) * 3.0));
+        p.beta = vec3(0.0);
+        p.beta[p.channel] = 3.0;
+    }
+    p.beta_start = max(p.beta.x, max(p.beta.y, p.beta.z));
+    p.shape = -1;
+    p.r_at_o = -1.0;
+    p.events = 0u;
+    p.steps = 0u;
+    p.done = !inside;
+    p.pending = false;
+    p.r_step = 0.0;
+
+#if SSS_ST
+    // Sphere steps in batches: a path that needs a step waits until at least half of
+    // the subgroup's unfinished paths wait too (or all do), and then the decoders run
+    // once for all of them. Run one by one, the rare step of one lane would stall its
+    // whole subgroup at nearly every iteration. Each path draws from its own stream, so
+    // the batching changes no result.
+    while (subgroupAny(!p.done)) {
+        if (!p.done && !p.pending) path_iterate(p);
+        uint waiting = subgroupBallotBitCount(subgroupBallot(p.pending));
+        uint unfinished = subgroupBallotBitCount(subgroupBallot(!p.done));
+        if (waiting > 0u && 2u * waiting >= unfinished && p.pending) path_step(p);
+    }
+#else
+    while (!p.done) path_iterate(p);
+#endif
+    if (!inside) return;
+    uint at = (id.z * height + id.y) * width + id.x;
+    out_radiance[at] = vec4(p.L, 0.0);
+    out_counts[at] = uvec2(p.events, p.steps);
+}

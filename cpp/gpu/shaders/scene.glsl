@@ -1,0 +1,143 @@
+// The scene on the GPU (cpp/gpu/gpu_scene.h lays it out): camera, shapes, emitters, the
+// flattened BVH (cpp/geometry/flat_bvh.h) and the distance grids. Closest-hit traversal
+// and the grid's conservative bound, as RayTracer::intersect and DistanceGrid::query.
+
+const int kMaxShapes = 16;
+const int kMaxEmitters = 16;
+const uint kLeafBit = 0x80000000u;
+const uint kNoChild = 0xffffffffu;
+const int kStackSize = 48;  // kBvhMaxDepth
+
+struct GpuShape {
+    vec4 sigma_t;  // xyz: sigma_t per channel; w: g
+    vec4 albedo;   // xyz: albedo; w: 1 for a dielectric boundary, 0 index-matched
+    vec4 boundary; // x: ior
+};
+
+struct GpuGrid {
+    vec4 origin;  // xyz: node (0, 0, 0); w: cell size
+    vec4 scale;   // x: 1 / cell; y: guard
+    ivec4 n;      // nodes per axis; w: offset of node (0, 0, 0) in grid_values
+};
+
+layout(std430, binding = 0) readonly buffer SceneHeader {
+    vec4 cam_origin;   // w: tan(fov / 2)
+    vec4 cam_forward;  // w: aspect
+    vec4 cam_right;
+    vec4 cam_up;
+    vec4 environment;  // rgb radiance; w: 1 when the scene has one
+    uvec4 counts;      // shapes, emitter meshes (area lights), width, height
+    vec4 params;       // ray epsilon, sphere threshold, sigma_max, 1 for grey media
+    GpuShape shapes[kMaxShapes];
+    GpuGrid grids[kMaxShapes];
+    vec4 emitters[kMaxEmitters];  // radiance of mesh counts.x + i
+};
+layout(std430, binding = 1) readonly buffer BvhNodes { vec4 nodes[]; };
+layout(std430, binding = 2) readonly buffer BvhTriangles { vec4 triangles[]; };
+layout(std430, binding = 3) readonly buffer GridValues { float grid_values[]; };
+
+struct Hit {
+    float t;
+    uint mesh;
+    vec3 normal;  // outward unit normal of the triangle
+};
+
+// Slab test of the box [lo, hi] against the ray; the entry distance, or kInf for a miss.
+float box_entry(vec3 lo, vec3 hi, vec3 o, vec3 inv_d, float tfar) {
+    vec3 t0 = (lo - o) * inv_d, t1 = (hi - o) * inv_d;
+    vec3 tmin = min(t0, t1), tmax = max(t0, t1);
+    float enter = max(max(tmin.x, tmin.y), max(tmin.z, 0.0));
+    float leave = min(min(tmax.x, tmax.y), min(tmax.z, tfar));
+    return enter <= leave ? enter : kInf;
+}
+
+// Closest hit with t in (0, tfar) (Moller-Trumbore per triangle); false if none.
+bool intersect(vec3 o, vec3 d, float tfar, out Hit hit) {
+    // Avoid 0 * inf = NaN in the slabs: a zero component gets a huge inverse.
+    vec3 inv_d = vec3(1.0) / mix(d, vec3(1e-30), equal(d, vec3(0.0)));
+    uint stack[kStackSize];
+    int sp = 0;
+    uint node = 0u;
+    int best = -1;
+    float best_t = tfar;
+    for (;;) {
+        if ((node & kLeafBit) != 0u) {
+            uint first = node & 0x07ffffffu, count = ((node >> 27) & 15u) + 1u;
+            for (uint i = first; i < first + count; ++i) {
+                vec3 v0 = triangles[4 * i].xyz, e1 = triangles[4 * i + 1].xyz,
+                     e2 = triangles[4 * i + 2].xyz;
+                vec3 pv = cross(d, e2);
+                float det = dot(e1, pv);
+                if (det == 0.0) continue;
+                float inv_det = 1.0 / det;
+                vec3 tv = o - v0;
+                float u = dot(tv, pv) * inv_det;
+                if (u < 0.0 || u > 1.0) continue;
+                vec3 qv = cross(tv, e1);
+                float v = dot(d, qv) * inv_det;
+                if (v < 0.0 || u + v > 1.0) continue;
+                float t = dot(e2, qv) * inv_det;
+                if (t > 0.0 && t < best_t) {
+                    best_t = t;
+                    best = int(i);
+                }
+            }
+        } else {
+            vec4 n0 = nodes[4 * node], n1 = nodes[4 * node + 1], n2 = nodes[4 * node + 2];
+            uvec2 child = floatBitsToUint(nodes[4 * node + 3].xy);
+            float t0 = box_entry(n0.xyz, vec3(n0.w, n1.xy), o, inv_d, best_t);
+            float t1 = child.y == kNoChild
+                           ? kInf
+                           : box_entry(vec3(n1.zw, n2.x), n2.yzw, o, inv_d, best_t);
+            if (t0 < kInf && t1 < kInf) {
+                // Both: the nearer first, the other on the stack.
+                bool swap_order = t1 < t0;
+                node = swap_order ? child.y : child.x;
+                stack[sp++] = swap_order ? child.x : child.y;
+                continue;
+            }
+            if (t0 < kInf) {
+                node = child.x;
+                continue;
+            }
+            if (t1 < kInf) {
+                node = child.y;
+                continue;
+            }
+        }
+        if (sp == 0) break;
+        node = stack[--sp];
+    }
+    if (best < 0) return false;
+    hit.t = best_t;
+    hit.mesh = floatBitsToUint(triangles[4 * best].w);
+    hit.normal = triangles[4 * best + 3].xyz;
+    return true;
+}
+
+// DistanceGrid::query: a lower bound on the distance from p to shape's surface (0
+// outside its grid): max over the cell's 8 nodes of d(node) - |p - node|, less the guard.
+float grid_query(int shape, vec3 p) {
+    GpuGrid gr = grids[shape];
+    if (gr.n.x == 0) return 0.0;
+    vec3 g = (p - gr.origin.xyz) * gr.scale.x;
+    if (!(g.x >= 0.0 && g.y >= 0.0 && g.z >= 0.0)) return 0.0;
+    if (!(g.x < float(gr.n.x - 1) && g.y < float(gr.n.y - 1) && g.z < float(gr.n.z - 1)))
+        return 0.0;
+    ivec3 c = ivec3(g);
+    if (c.x >= gr.n.x - 1 || c.y >= gr.n.y - 1 || c.z >= gr.n.z - 1) return 0.0;
+    vec3 f = g - vec3(c);
+    vec3 q0 = f * f, q1 = (1.0 - f) * (1.0 - f);
+    int base = gr.n.w + (c.z * gr.n.y + c.y) * gr.n.x + c.x;
+    int slab = gr.n.x * gr.n.y;
+    float r = -kInf;
+    for (int k = 0; k < 2; ++k) {
+        for (int j = 0; j < 2; ++j) {
+            int row = base + k * slab + j * gr.n.x;
+            float yz = (j == 0 ? q0.y : q1.y) + (k == 0 ? q0.z : q1.z);
+            r = max(r, grid_values[row] - gr.origin.w * sqrt(q0.x + yz));
+            r = max(r, grid_values[row + 1] - gr.origin.w * sqrt(q1.x + yz));
+        }
+    }
+    return max(0.0, r - gr.scale.y);
+}

@@ -1,0 +1,185 @@
+// The GPU path (cpp/gpu/) for Python: render on a Vulkan device, bake a scene for
+// `sssphere-gpu-bench`, and the shader parts the tests compare with the CPU's. Without
+// Vulkan in the build (SSSPHERE_HAVE_VULKAN unset), gpu_status() says so and the rest
+// throw.
+#include <pybind11/functional.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <optional>
+
+#include "core/check.h"
+#include "render/scene.h"
+
+#ifdef SSSPHERE_HAVE_VULKAN
+#include "gpu/gpu_renderer.h"
+#include "gpu/gpu_scene_bake.h"
+#include "nn/scattering_model.h"
+#endif
+
+namespace py = pybind11;
+using namespace sss;
+
+namespace {
+
+using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
+
+template <typename T>
+py::array_t<T> to_array(const std::vector<T>& v, std::vector<py::ssize_t> shape) {
+    py::array_t<T> a(shape);
+    std::copy(v.begin(), v.end(), a.mutable_data());
+    return a;
+}
+
+#ifdef SSSPHERE_HAVE_VULKAN
+
+py::dict render_gpu_py(const Scene& scene, const std::string& integrator, int spp,
+                       uint64_t seed, int max_bounces, bool nee, float sphere_threshold,
+                       const std::string& models, bool record_paths, int batch,
+                       py::object progress) {
+    GpuSceneData baked = bake_gpu_scene(scene, integrator, nee, sphere_threshold, models);
+    GpuRenderOptions opt;
+    opt.integrator = integrator;
+    opt.spp = spp;
+    opt.seed = seed;
+    opt.max_bounces = max_bounces;
+    opt.batch = batch;
+    opt.record_paths = record_paths;
+    bool interrupted = false;
+    std::optional<py::error_already_set> callback_error;
+    auto cb = [&](double f) -> bool {
+        py::gil_scoped_acquire gil;
+        if (PyErr_CheckSignals() != 0) {
+            PyErr_Clear();  // a pending KeyboardInterrupt: stop and report it
+            interrupted = true;
+            return false;
+        }
+        if (progress.is_none()) return true;
+        try {
+            py::object r = progress(f);
+            return r.is_none() || r.cast<bool>();
+        } catch (py::error_already_set& e) {
+            if (e.matches(PyExc_KeyboardInterrupt))
+                interrupted = true;
+            else
+                callback_error = std::move(e);
+            return false;
+        }
+    };
+    GpuRenderResult r;
+    {
+        py::gil_scoped_release release;
+        VulkanCompute vk;
+        GpuRenderer renderer(vk, baked);
+        r = renderer.render(opt, cb);
+    }
+    if (callback_error) throw *callback_error;
+    py::ssize_t H = r.height, W = r.width;
+    py::dict d;
+    d["image"] = to_array(r.image, {H, W, 3});
+    d["variance"] = to_array(r.variance, {H, W, 3});
+    d["events"] = to_array(r.events, {H, W});
+    d["sphere_steps"] = to_array(r.sphere_steps, {H, W});
+    d["samples"] = to_array(r.samples, {H, W});
+    if (record_paths) {
+        d["path_events"] = to_array(r.path_events, {py::ssize_t(spp), H, W});
+        d["path_steps"] = to_array(r.path_steps, {py::ssize_t(spp), H, W});
+    }
+    d["seconds"] = r.seconds;
+    d["gpu_seconds"] = r.gpu_seconds;
+    d["step_seconds"] = 0.0;
+    d["cancelled"] = r.cancelled;
+    d["interrupted"] = interrupted;
+    d["total_events"] = r.total_events;
+    d["total_sphere_steps"] = r.total_sphere_steps;
+    d["total_paths"] = r.total_paths;
+    d["device"] = r.device;
+    return d;
+}
+
+#endif
+
+#ifndef SSSPHERE_HAVE_VULKAN
+[[noreturn]] void no_vulkan() {
+    fail(
+        "this build of sssphere has no GPU path (built without Vulkan: install "
+        "libvulkan-dev and glslc, then reinstall)");
+}
+#endif
+
+}  // namespace
+
+void bind_gpu(py::module_& m) {
+    m.def("gpu_status", []() -> py::tuple {
+#ifdef SSSPHERE_HAVE_VULKAN
+        try {
+            VulkanCompute vk;
+            return py::make_tuple(true, vk.device_name(), vk.is_software());
+        } catch (const GpuUnavailable& e) {
+            return py::make_tuple(false, std::string(e.what()), false);
+        }
+#else
+        return py::make_tuple(false, std::string("built without Vulkan"), false);
+#endif
+    });
+#ifdef SSSPHERE_HAVE_VULKAN
+    m.def("render_gpu", &render_gpu_py, py::arg("scene"), py::arg("integrator"),
+          py::arg("spp"), py::arg("seed"), py::arg("max_bounces"), py::arg("nee"),
+          py::arg("sphere_threshold"), py::arg("models"), py::arg("record_paths") = false,
+          py::arg("batch") = 0, py::arg("progress") = py::none());
+    m.def(
+        "bake_gpu_scene",
+        [](const Scene& scene, const std::string& path, const std::string& integrator,
+           bool nee, float sphere_threshold, const std::string& models) {
+            save_gpu_scene(
+                bake_gpu_scene(scene, integrator, nee, sphere_threshold, models), path);
+        },
+        py::arg("scene"), py::arg("path"), py::arg("integrator"), py::arg("nee"),
+        py::arg("sphere_threshold"), py::arg("models"));
+    m.def(
+        "gpu_sample_steps",
+        [](const std::string& models, FloatArray sigma, FloatArray g, uint64_t seed) {
+            if (sigma.ndim() != 1 || g.ndim() != 1 || sigma.size() != g.size())
+                fail("sigma and g must be 1-d arrays of one length");
+            std::vector<float> packed = pack_gpu_model(ScatteringModel::load(models));
+            std::vector<float> out;
+            {
+                py::gil_scoped_release release;
+                VulkanCompute vk;
+                out = gpu_sample_steps(vk, packed, sigma.data(), g.data(),
+                                       size_t(sigma.size()), seed);
+            }
+            return to_array(out, {py::ssize_t(sigma.size()), 4});
+        },
+        py::arg("models"), py::arg("sigma"), py::arg("g"), py::arg("seed"));
+    m.def(
+        "gpu_trace_rays",
+        [](const Scene& scene, FloatArray origins, FloatArray directions, float tfar) {
+            if (origins.ndim() != 2 || origins.shape(1) != 3 || directions.ndim() != 2 ||
+                directions.shape(1) != 3 || origins.shape(0) != directions.shape(0))
+                fail("origins and directions must have shape (n, 3)");
+            const size_t n = size_t(origins.shape(0));
+            std::vector<float> rays(8 * n);
+            for (size_t i = 0; i < n; ++i)
+                for (int c = 0; c < 3; ++c) {
+                    rays[8 * i + c] = origins.data()[3 * i + c];
+                    rays[8 * i + 4 + c] = directions.data()[3 * i + c];
+                    rays[8 * i + 7] = tfar;
+                }
+            GpuSceneData baked = bake_gpu_scene(scene, "pt", false, INFINITY, "");
+            std::vector<float> out;
+            {
+                py::gil_scoped_release release;
+                VulkanCompute vk;
+                out = gpu_trace_rays(vk, baked, rays.data(), n);
+            }
+            return to_array(out, {py::ssize_t(n), 4});
+        },
+        py::arg("scene"), py::arg("origins"), py::arg("directions"), py::arg("tfar"));
+#else
+    for (const char* name :
+         {"render_gpu", "bake_gpu_scene", "gpu_sample_steps", "gpu_trace_rays"})
+        m.def(name, [](py::args, py::kwargs) { no_vulkan(); });
+#endif
+}

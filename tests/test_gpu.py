@@ -1,0 +1,566 @@
+"""The GPU path (backend "vulkan", cpp/gpu/) against the CPU's.
+
+Each part of the shaders is compared with an independent implementation of the same thing:
+
+* the BVH's closest hits (trace_rays.comp) with Embree's (embreex) on random rays;
+* the GLSL decoders (sample_steps.comp) with the scalar C++ reference and the SIMD decoder on
+  the same random streams, and the step's N = 1 branch with its known law;
+* renders ("pt" and "st") with the CPU's by z-tests on image means, block means and mean path
+  lengths; a furnace scene whose image is known exactly;
+* the rules of the backend (what it refuses, with which message), determinism, record_paths.
+
+Sample k of pixel (x, y) draws from the same stream on both backends, but float rounding makes
+paths diverge, so renders are compared statistically, with different seeds (independent
+estimates), never pixel by pixel.
+
+Everything runs on Mesa's lavapipe (a CPU Vulkan driver) in CI, so the images are tiny. The
+module is skipped only where no Vulkan device can be opened (or the build has no GPU path).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import sssphere
+from sssphere import SceneError, _core
+from sssphere.model import DEFAULT_MODELS
+
+_AVAILABLE, _DEVICE, _ = _core.gpu_status()  # (available, device or reason, software)
+if not _AVAILABLE:
+    pytest.skip(f"no Vulkan device: {_DEVICE}", allow_module_level=True)
+
+REPO = Path(__file__).resolve().parents[1]
+BUNNY = "/usr/share/glmark2/models/bunny.obj"
+
+AREA = {"type": "area", "corner": [-1.5, 2.5, 1.5], "edge1": [0, 0, -3.0], "edge2": [3.0, 0, 0],
+        "radiance": [1.5, 1.5, 1.5]}
+ENV = {"type": "environment", "radiance": [0.3, 0.2, 0.1]}
+DIELECTRIC = {"type": "dielectric", "ior": 1.5}
+INDEX_MATCHED = {"type": "index_matched"}
+
+# Two-sided tolerance on a z-score of an image mean or a mean path length (p ~ 6e-5 each).
+Z_MAX = 4.0
+
+
+def bunny_scene(res=(24, 16), sigma_t=50.0, albedo=(0.99, 0.95, 0.9), g=0.9,
+                boundary=DIELECTRIC, lights=None) -> dict:
+    """scenes/bunny.json (normalized bunny, area light + environment) at res = (width,
+    height) pixels (not square, so that a swapped axis shows)."""
+    d = json.loads((REPO / "scenes" / "bunny.json").read_text())
+    d["camera"].update(width=res[0], height=res[1])
+    d["shapes"][0]["mesh"] = BUNNY
+    d["shapes"][0]["medium"].update(sigma_t=sigma_t, albedo=list(albedo), g=g)
+    d["shapes"][0]["boundary"] = dict(boundary)
+    d["lights"] = [AREA, ENV] if lights is None else lights
+    d["render"] = {"grid_resolution": 32}
+    return d
+
+
+def sphere_scene(res=(16, 16), sigma_t=30.0, albedo=(0.99, 0.95, 0.9), g=0.5,
+                 boundary=DIELECTRIC, lights=None) -> dict:
+    """scenes/sphere.json (a unit sphere) at res = (width, height) pixels, lit by an area
+    light above it and the environment."""
+    d = json.loads((REPO / "scenes" / "sphere.json").read_text())
+    d["camera"].update(width=res[0], height=res[1])
+    d["shapes"][0]["sphere"]["subdivisions"] = 3
+    d["shapes"][0]["medium"].update(sigma_t=sigma_t, albedo=list(albedo), g=g)
+    d["shapes"][0]["boundary"] = dict(boundary)
+    d["lights"] = [AREA, ENV] if lights is None else lights
+    d["render"] = {"grid_resolution": 32}
+    return d
+
+
+# ---------------------------------------------------------------------------------------------
+# BVH: closest hits against Embree.
+
+
+def _quad_triangles(light):
+    """The two triangles of an area light's quad, as the scene meshes it (CCW about
+    edge1 x edge2, its emitting side)."""
+    c, e1, e2 = (np.asarray(light[k], np.float64) for k in ("corner", "edge1", "edge2"))
+    return np.array([[c, c + e1, c + e1 + e2], [c, c + e1 + e2, c + e2]])
+
+
+@pytest.fixture(scope="module")
+def bvh_scene():
+    """A transformed bunny, a small sphere beside it and an area light: meshes 0, 1, 2."""
+    d = {
+        "camera": {"origin": [0, 0.1, 2.6], "target": [0, 0, 0], "fov": 30, "width": 4,
+                   "height": 4},
+        "shapes": [
+            {"name": "bunny", "mesh": BUNNY, "normalize": True,
+             "transform": {"scale": 0.8, "rotate_deg": [10, 30, -5], "translate": [0.1, -0.05, 0]},
+             "medium": {"sigma_t": 10, "albedo": 0.9}, "boundary": DIELECTRIC},
+            {"name": "ball", "sphere": {"center": [0.9, 0.5, -0.6], "radius": 0.25,
+                                        "subdivisions": 2},
+             "medium": {"sigma_t": 10, "albedo": 0.9}},
+        ],
+        "lights": [AREA, ENV],
+        "render": {"grid_resolution": 16},
+    }
+    scene = sssphere.load_scene(d)
+    triangles = []
+    for i in range(scene.num_shapes):
+        v, f = scene.shape_mesh(i)  # after normalize and transform
+        triangles.append(np.asarray(v, np.float64)[np.asarray(f, np.int64)])
+    triangles.append(_quad_triangles(AREA))
+    return scene, triangles
+
+
+def _random_rays(triangles, n, rng):
+    """Rays of three kinds, n // 3 each (the rest of the first kind): from a sphere of radius 3
+    around the bunny towards random points of its bounds; from that sphere in uniformly random
+    directions (many miss everything); from random points inside the bunny's bounds (inside
+    or outside the mesh) in random directions, as rays from inside a medium."""
+    pts = triangles[0].reshape(-1, 3)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    centre = 0.5 * (lo + hi)
+
+    def unit(k):
+        u = rng.normal(size=(k, 3))
+        return u / np.linalg.norm(u, axis=1, keepdims=True)
+
+    k = n // 3
+    outside = centre + 3.0 * unit(n - k)
+    towards = rng.uniform(lo, hi, size=(n - 2 * k, 3)) - outside[: n - 2 * k]
+    towards /= np.linalg.norm(towards, axis=1, keepdims=True)
+    origins = np.concatenate([outside, rng.uniform(lo, hi, size=(k, 3))])
+    directions = np.concatenate([towards, unit(n - k)])
+    return origins.astype(np.float32), directions.astype(np.float32)
+
+
+def _embree_closest(triangles, origins, directions):
+    """(t or -1, mesh index, unit geometric normal) of Embree's closest hits."""
+    from embreex import rtcore_scene
+    from embreex.mesh_construction import TriangleMesh
+
+    es = rtcore_scene.EmbreeScene()
+    for tri in triangles:  # geometry ids 0, 1, ... in this order
+        TriangleMesh(es, np.ascontiguousarray(tri, np.float32))
+    r = es.run(origins, directions, output=1)
+    hit = r["geomID"] >= 0
+    t = np.where(hit, r["tfar"], -1.0)
+    ng = np.asarray(r["Ng"], np.float64)
+    norm = np.linalg.norm(ng, axis=1, keepdims=True)
+    normal = np.divide(ng, norm, out=np.zeros_like(ng), where=norm > 0)
+    return t, r["geomID"], normal
+
+
+def test_bvh_closest_hits_agree_with_embree(bvh_scene):
+    """Every ray's closest hit (or miss), its distance, mesh and outward normal.
+
+    Both sides intersect float32 triangles, Embree with its watertight test, the shader with
+    Moller-Trumbore: a ray that grazes a shared edge or a silhouette within rounding can hit
+    on one side and miss (or pass to the next surface) on the other. 1e-3 of the rays may
+    disagree for that reason; none did when this was written. Elsewhere t agrees to float
+    rounding (relative 1e-4) and the normals to 1e-3 (float32 cross products of the small,
+    thin triangles of the bunny; a wrong or flipped normal is off by O(1))."""
+    scene, triangles = bvh_scene
+    rng = np.random.default_rng(20240601)
+    n = 6000
+    origins, directions = _random_rays(triangles, n, rng)
+    gpu = _core.gpu_trace_rays(scene, origins, directions, 100.0)
+    assert gpu.shape == (n, 4) and gpu.dtype == np.float32
+    t_ref, mesh_ref, normal_ref = _embree_closest(triangles, origins, directions)
+
+    gpu_t = gpu[:, 0].astype(np.float64)
+    gpu_mesh = gpu[:, 1].view(np.uint32).astype(np.int64)
+    hit_ref, hit_gpu = t_ref >= 0, gpu_t >= 0
+    both = hit_ref & hit_gpu
+    same = np.zeros(n, bool)
+    same[both] = (gpu_mesh[both] == mesh_ref[both]) & (
+        np.abs(gpu_t[both] - t_ref[both]) <= 1e-4 * t_ref[both])
+    same |= ~hit_ref & ~hit_gpu
+    bad = np.flatnonzero(~same)
+    assert bad.size <= 1e-3 * n, (
+        f"{bad.size} of {n} rays disagree with Embree; first: "
+        + "; ".join(f"ray {i}: gpu t {gpu_t[i]:.6g} mesh {gpu_mesh[i]}, embree t {t_ref[i]:.6g} "
+                    f"mesh {mesh_ref[i]}" for i in bad[:5]))
+    # The rays exercise every kind of outcome.
+    for m in range(len(triangles)):
+        assert np.count_nonzero(same & hit_ref & (mesh_ref == m)) >= 20, m
+    assert np.count_nonzero(same & ~hit_ref) >= 200
+    # Normals (x and y returned) of the agreeing hits: outward, unit.
+    ok = same & hit_ref
+    err = np.abs(gpu[ok, 2:4] - normal_ref[ok, :2]).max(axis=1)
+    assert err.max() <= 1e-3, f"normal off by {err.max():.3g} at ray {np.flatnonzero(ok)[err.argmax()]}"
+
+
+def test_bvh_respects_tfar(bvh_scene):
+    """With tfar = 2.5 a ray reports its closest hit when that is nearer, and a miss when it
+    is farther (rays whose hit lies within rounding of tfar are left out)."""
+    scene, triangles = bvh_scene
+    rng = np.random.default_rng(7)
+    origins, directions = _random_rays(triangles, 3000, rng)
+    tfar = 2.5
+    gpu = _core.gpu_trace_rays(scene, origins, directions, tfar)
+    t_ref, mesh_ref, _ = _embree_closest(triangles, origins, directions)
+    clear = (t_ref < 0) | (np.abs(t_ref - tfar) > 1e-4 * tfar)
+    nearer = clear & (t_ref >= 0) & (t_ref < tfar)
+    farther = clear & ~nearer
+    assert nearer.sum() >= 500 and (farther & (t_ref >= 0)).sum() >= 500
+    wrong_side = np.count_nonzero(nearer & (gpu[:, 0] < 0)) + np.count_nonzero(farther & (gpu[:, 0] >= 0))
+    assert wrong_side <= 1e-3 * len(t_ref), wrong_side
+    hits = nearer & (gpu[:, 0] >= 0)
+    assert np.all(gpu[hits, 0] < tfar)
+    np.testing.assert_allclose(gpu[hits, 0], t_ref[hits], rtol=1e-4)
+
+
+# ---------------------------------------------------------------------------------------------
+# Decoders: the GLSL sphere step against the C++ ones.
+
+
+@pytest.fixture(scope="module")
+def model_dir() -> str:
+    return str(DEFAULT_MODELS)
+
+
+@pytest.fixture(scope="module")
+def step_inputs():
+    """A few thousand (sigma, g) spanning the renderer's range: sigma log-uniform in
+    [0.5, 200] (from mostly N = 1 to ~1e5 events), g uniform in [-0.9, 0.9]."""
+    rng = np.random.default_rng(11)
+    n = 4000
+    sigma = np.exp(rng.uniform(math.log(0.5), math.log(200.0), n)).astype(np.float32)
+    g = rng.uniform(-0.9, 0.9, n).astype(np.float32)
+    return sigma, g
+
+
+@pytest.fixture(scope="module")
+def gpu_steps(model_dir, step_inputs):
+    sigma, g = step_inputs
+    return _core.gpu_sample_steps(model_dir, sigma, g, 1234)
+
+
+@pytest.mark.parametrize("impl", ["scalar", "simd"])
+def test_gpu_decoders_match_cpu_on_the_same_streams(model_dir, step_inputs, gpu_steps, impl):
+    """Step i from Rng(1234, i) on both sides: the same N (floor of a decoded float: exp/log
+    rounding can move it across an integer, so up to 1 % of the items may differ by one), and
+    where N agrees the same exit (cos_theta, alpha, beta) to 1e-3 (float rounding through two
+    small networks; a wrong weight, encoding or latent order is off by O(0.1))."""
+    sigma, g = step_inputs
+    n = sigma.size
+    model = sssphere.ScatteringModel.load(model_dir)
+    # EventGen (event=True) draws after LengthGen and PathGen from the same stream; the GPU
+    # never runs it, so the CPU leaves it out.
+    cpu = model._core.sample(sigma, g, np.ones(n, np.float32), n, 1234, 1, event=False,
+                             impl=impl)
+    assert gpu_steps.shape == (n, 4) and gpu_steps.dtype == np.float32
+    gpu_n = gpu_steps[:, 0].astype(np.int64)
+    assert np.all(gpu_steps[:, 0] == gpu_n), "N is not an integer"
+    agree = gpu_n == cpu["N"]
+    assert agree.mean() >= 0.99, f"N agrees for {agree.mean():.4f} of the items"
+    off = np.abs(gpu_n - cpu["N"])[~agree]
+    assert np.all(off == 1), f"N differs by {off.max()} (not a rounding flip of floor)"
+    # Both branches are exercised: N = 1 (no network) and the networks.
+    assert 100 <= np.count_nonzero(agree & (gpu_n == 1)) <= n - 1000
+    assert np.count_nonzero(gpu_n >= 100) >= 1000
+    for k, name in enumerate(["cos_theta", "alpha", "beta"], start=1):
+        err = np.abs(gpu_steps[agree, k].astype(np.float64) - cpu[name][agree])
+        i = int(np.flatnonzero(agree)[err.argmax()])
+        assert err.max() <= 1e-3, (f"{name}: |gpu - cpu| = {err.max():.3g} at sigma {sigma[i]}, "
+                                   f"g {g[i]}, N {gpu_n[i]}")
+    # The exit stays on the unit disc and cos_theta in [-1, 1].
+    assert np.all(np.abs(gpu_steps[:, 1]) <= 1)
+    assert np.all(gpu_steps[:, 2] ** 2 + gpu_steps[:, 3] ** 2 <= 1)
+
+
+def test_gpu_single_event_steps_follow_their_law(model_dir):
+    """N = 1 with probability e^{-sigma} (binomial, |z| < 4 per sigma), and then the photon
+    leaves along its first Henyey-Greenstein direction: cos_theta has the HG law for g
+    (Kolmogorov-Smirnov, p > 1e-3)."""
+    from scipy import stats
+
+    g = 0.6
+    per = 4000
+    levels = np.array([0.5, 1.0, 2.0], np.float32)
+    sigma = np.repeat(levels, per)
+    out = _core.gpu_sample_steps(model_dir, sigma, np.full(sigma.size, g, np.float32), 99)
+    single = out[:, 0] == 1
+    for s in levels:
+        k = np.count_nonzero(single[sigma == s])
+        p = math.exp(-float(s))
+        z = (k - per * p) / math.sqrt(per * p * (1 - p))
+        assert abs(z) < Z_MAX, f"sigma {s}: {k} of {per} steps with N = 1, expected {per * p:.0f}"
+
+    def hg_cdf(x):
+        x = np.clip(x, -1.0, 1.0)
+        return (1 - g * g) / (2 * g) * (1 / np.sqrt(1 + g * g - 2 * g * x) - 1 / (1 + g))
+
+    cos_theta = out[single, 1].astype(np.float64)
+    assert cos_theta.size > 3000
+    p_value = stats.kstest(cos_theta, hg_cdf).pvalue
+    assert p_value > 1e-3, f"cos_theta of N = 1 steps is not HG({g}): KS p = {p_value:.2g}"
+
+
+# ---------------------------------------------------------------------------------------------
+# Renders: the GPU against the CPU.
+
+
+def _mean_z(a, b):
+    """Per channel, z-score of the difference of the two images' means, with their variance
+    estimates (sum of per-pixel variances of the mean / pixels^2)."""
+    npix = a.image.shape[0] * a.image.shape[1]
+    diff = a.image.reshape(-1, 3).astype(np.float64).mean(axis=0) - \
+        b.image.reshape(-1, 3).astype(np.float64).mean(axis=0)
+    var = (a.variance.reshape(-1, 3).astype(np.float64).sum(axis=0)
+           + b.variance.reshape(-1, 3).astype(np.float64).sum(axis=0)) / npix ** 2
+    return diff / np.sqrt(var)
+
+
+def _block_z(a, b, block=4):
+    """z-scores of 4x4-block means of two renders, one array per channel (blocks where both
+    are exact left out)."""
+    h, w = a.image.shape[:2]
+    h, w = h - h % block, w - w % block
+
+    def blocks(x):
+        x = np.asarray(x[:h, :w], np.float64)
+        return x.reshape(h // block, block, w // block, block, -1).sum(axis=(1, 3))
+
+    diff = blocks(a.image) - blocks(b.image)
+    var = blocks(a.variance) + blocks(b.variance)
+    return [diff[..., c][var[..., c] > 0] / np.sqrt(var[..., c][var[..., c] > 0])
+            for c in range(3)]
+
+
+def _count_z(a, b, counts):
+    """z-score of the difference of the mean per-path count (`counts`: "path_events" or
+    "path_steps") of two renders, from their recorded paths. The standard error uses the
+    spread over all paths of the image, which includes the spread between pixels: it
+    overstates the error of a mean over equal samples per pixel, so the test is conservative."""
+    x, y = (np.asarray(getattr(r, counts), np.float64).ravel() for r in (a, b))
+    se2 = x.var(ddof=1) / x.size + y.var(ddof=1) / y.size
+    diff = x.mean() - y.mean()
+    if se2 == 0:
+        return 0.0 if diff == 0 else math.inf
+    return diff / math.sqrt(se2)
+
+
+# p-value below which the block tests fail: 10 comparisons x 3 channels x 2 tests on a device
+# whose rounding gives other paths than this one's (the seeds are fixed, the paths are not)
+# stay below a 1 % chance of a false failure.
+P_BLOCKS = 1e-4
+
+
+def assert_renders_agree(cpu, gpu, what):
+    """Image means per channel (|z| < Z_MAX); 4x4-block means per channel, by a chi-square
+    test of their z-scores and a Bonferroni bound on max |z| (p = P_BLOCKS each: channels are
+    tested separately, as in a grey medium they carry the same samples); the mean ordinary
+    events and sphere steps per path (|z| < Z_MAX)."""
+    from scipy import stats
+
+    z = _mean_z(cpu, gpu)
+    assert np.all(np.abs(z) < Z_MAX), f"{what}: image means differ, z per channel {z}"
+    for c, zc in enumerate(_block_z(cpu, gpu)):
+        n = zc.size
+        assert n >= 8, (what, c, n)
+        chi2 = float((zc ** 2).sum())
+        assert stats.chi2.sf(chi2, n) > P_BLOCKS, \
+            f"{what}, channel {c}: chi2 {chi2:.1f} over {n} blocks"
+        assert np.abs(zc).max() < stats.norm.isf(P_BLOCKS / (2 * n)), \
+            f"{what}, channel {c}: max |z| {np.abs(zc).max():.2f}"
+    z_events = _count_z(cpu, gpu, "path_events")
+    assert abs(z_events) < Z_MAX, (f"{what}: events per path {cpu.mean_events_per_path:.3f} (cpu) "
+                                   f"vs {gpu.mean_events_per_path:.3f} (gpu), z {z_events:.2f}")
+    z_steps = _count_z(cpu, gpu, "path_steps")
+    assert abs(z_steps) < Z_MAX, (f"{what}: sphere steps per path "
+                                  f"{cpu.mean_sphere_steps_per_path:.4f} (cpu) vs "
+                                  f"{gpu.mean_sphere_steps_per_path:.4f} (gpu), z {z_steps:.2f}")
+
+
+RENDER_CASES = {
+    # The scene of scenes/bunny.json, less dense, at 24x16 pixels: dielectric, so the GPU's
+    # estimator (no light sampling) is the CPU's with NEE (nee=True on both).
+    "bunny_dielectric": (lambda: bunny_scene(sigma_t=50.0, g=0.9), True),
+    # Chromatic extinction: one channel per path, weight 3; many sphere steps (sigma*r ~ 20-40).
+    "sphere_dielectric_chromatic": (
+        lambda: sphere_scene(sigma_t=[20.0, 30.0, 40.0], albedo=(0.99, 0.98, 0.97), g=0.5), True),
+    # Index-matched: the GPU needs nee=False; so does the CPU to compute the same estimator.
+    "sphere_index_matched": (lambda: sphere_scene(sigma_t=30.0, g=0.7, boundary=INDEX_MATCHED),
+                             False),
+    # Dense: sigma*r up to 300, beyond the models' range (200), so steps are clipped to it.
+    "sphere_dense": (lambda: sphere_scene(sigma_t=300.0, albedo=(0.99, 0.98, 0.95), g=0.7), True),
+}
+
+
+def _render_pair(scene, spp=128, **kw):
+    """A CPU and a GPU render of `scene` with independent seeds, every path recorded."""
+    cpu = sssphere.render_full(scene, spp=spp, seed=1, record_paths=True, **kw)
+    gpu = sssphere.render_full(scene, spp=spp, seed=2, record_paths=True, backend="vulkan", **kw)
+    assert gpu.backend == "vulkan" and cpu.backend == "cpu"
+    assert gpu.image.shape == cpu.image.shape and gpu.events.shape == cpu.events.shape
+    assert np.all(gpu.samples == spp) and not gpu.interrupted
+    assert np.all(np.isfinite(gpu.image)) and np.all(gpu.image >= 0)
+    return cpu, gpu
+
+
+@pytest.mark.parametrize("integrator", ["pt", "st"])
+@pytest.mark.parametrize("case", list(RENDER_CASES))
+def test_gpu_render_agrees_with_cpu(case, integrator, model_dir):
+    """CPU and GPU renders of one scene with independent seeds agree (assert_renders_agree):
+    image means, block means, mean events and sphere steps per path."""
+    make, nee = RENDER_CASES[case]
+    scene = sssphere.load_scene(make())
+    cpu, gpu = _render_pair(scene, integrator=integrator, nee=nee, models=model_dir)
+    if integrator == "st":
+        assert gpu.mean_sphere_steps_per_path > 0.05, gpu.mean_sphere_steps_per_path
+    else:
+        assert gpu.mean_sphere_steps_per_path == 0 and not gpu.path_steps.any()
+    assert_renders_agree(cpu, gpu, f"{case} {integrator}")
+
+
+@pytest.mark.parametrize("max_bounces", [0, 2])
+def test_gpu_max_bounces_agrees_with_cpu(max_bounces):
+    """max_bounces counts scattering events the same way on both backends: the images agree,
+    and the longest path has the same count (the collision that ends it included)."""
+    scene = sssphere.load_scene(sphere_scene(sigma_t=30.0, g=0.7, boundary=INDEX_MATCHED))
+    cpu, gpu = _render_pair(scene, integrator="pt", nee=False, max_bounces=max_bounces)
+    assert_renders_agree(cpu, gpu, f"max_bounces {max_bounces}")
+    assert gpu.path_events.max() == cpu.path_events.max() == max_bounces + 1
+
+
+def test_camera_samples_use_the_cpus_streams():
+    """Sample k of pixel (x, y) draws from the CPU's stream Rng(seed, y * width + x, k).
+
+    A one-pixel-high image across the tilted lower edge of an area light (the medium is
+    behind the camera): each sample sees the light or nothing, decided by its film jitter
+    alone, so every pixel counts the samples whose jitter falls above the edge. With the CPU's
+    seed the GPU must count the same in (nearly) every pixel: only a sample within rounding
+    of the edge can flip. With another seed most pixels differ."""
+    d = {
+        "camera": {"origin": [0, 0, 0], "target": [0, 1, 0], "up": [0, 0, 1], "fov": 10,
+                   "width": 48, "height": 1},
+        "shapes": [{"name": "behind", "sphere": {"center": [0, -5, 0], "radius": 0.5,
+                                                 "subdivisions": 1},
+                    "medium": {"sigma_t": 1, "albedo": 0.5}, "boundary": DIELECTRIC}],
+        "lights": [{"type": "area", "corner": [-5, 1, -0.03], "edge1": [10, 0, 0.06],
+                    "edge2": [0, 0, 1], "radiance": [1, 1, 1]}],
+    }
+    scene = sssphere.load_scene(d)
+    cpu = sssphere.render_full(scene, spp=16, seed=9)
+    partial = (cpu.image[..., 0] > 0) & (cpu.image[..., 0] < 1)
+    assert partial.mean() > 0.9  # the edge crosses the pixels
+    same = sssphere.render_full(scene, spp=16, seed=9, backend="vulkan")
+    other = sssphere.render_full(scene, spp=16, seed=10, backend="vulkan")
+    assert (same.image == cpu.image).all(axis=2).mean() >= 0.95
+    assert (other.image == cpu.image).all(axis=2).mean() <= 0.5
+
+
+@pytest.mark.parametrize("integrator", ["pt", "st"])
+def test_gpu_furnace(integrator, model_dir):
+    """Albedo 1 under a constant environment: every path leaves the medium with throughput 1
+    (no absorption, so no roulette), so every pixel is the environment's radiance exactly,
+    with zero variance, however many events or sphere steps the path took."""
+    env = {"type": "environment", "radiance": [0.5, 0.25, 1.0]}
+    scene = sssphere.load_scene(bunny_scene(sigma_t=50.0, albedo=(1, 1, 1), g=0.7, lights=[env]))
+    r = sssphere.render_full(scene, integrator=integrator, spp=8, seed=3, backend="vulkan",
+                             models=model_dir)
+    np.testing.assert_array_equal(r.image, np.broadcast_to(np.float32(env["radiance"]), r.image.shape))
+    assert not r.variance.any()
+    assert r.mean_events_per_path > 1
+    if integrator == "st":
+        assert r.mean_sphere_steps_per_path > 0.05
+
+
+# ---------------------------------------------------------------------------------------------
+# What the backend refuses.
+
+
+@pytest.mark.parametrize("light, kind", [
+    ({"type": "point", "position": [3, 3, 3], "intensity": [20, 20, 20]}, "point"),
+    ({"type": "directional", "direction": [0, -1, 0], "irradiance": [1, 1, 1]}, "directional"),
+])
+def test_delta_lights_are_refused(light, kind):
+    scene = sssphere.load_scene(sphere_scene(res=(4, 4), lights=[ENV, light]))
+    with pytest.raises(SceneError, match=rf"lights\[1\]: a {kind} light cannot be rendered on "
+                                         r"the GPU"):
+        sssphere.render_full(scene, spp=1, nee=False, backend="vulkan")
+    sssphere.render_full(scene, spp=1, nee=False)  # the CPU renders it
+
+
+def test_index_matched_with_nee_is_refused():
+    """With nee=True (the default) an index-matched medium in a lit scene would need light
+    sampling; the message names the shape and the way out (nee = false)."""
+    scene = sssphere.load_scene(sphere_scene(res=(4, 4), boundary=INDEX_MATCHED))
+    with pytest.raises(SceneError, match=r"shapes\[0\] \('sphere'\) has an index-matched "
+                                         r"boundary.*pass nee = false"):
+        sssphere.render_full(scene, spp=1, backend="vulkan")
+    r = sssphere.render_full(scene, spp=1, nee=False, backend="vulkan")
+    assert r.image.shape == (4, 4, 3)
+    # Dielectric media receive no NEE on the CPU either: nee=True is accepted.
+    dielectric = sssphere.load_scene(sphere_scene(res=(4, 4)))
+    assert sssphere.render_full(dielectric, spp=1, backend="vulkan").backend == "vulkan"
+
+
+@pytest.mark.parametrize("kwargs, expected", [
+    ({"backend": "cuda"}, r"backend 'cuda' is not allowed \(allowed: 'cpu', 'vulkan'\)"),
+    ({"backend": "vulkan", "integrator": "st", "sphere_sampler": "walk"},
+     r"sphere_sampler 'walk' is CPU-only"),
+    ({"backend": "vulkan", "threads": 2}, r"threads=2 is CPU-only"),
+    ({"backend": "vulkan", "integrator": "st", "step_nee": "event"},
+     r"step_nee 'event' is CPU-only"),
+    ({"backend": "vulkan", "integrator": "st", "max_bounces": 3}, r"max_bounces must be -1 for "
+     r"integrator 'st'"),
+    # 16 pixels at 2^23 + 1 spp: 16 paths more than record_paths holds (2^27).
+    ({"backend": "vulkan", "spp": (1 << 23) + 1, "record_paths": True},
+     r"record_paths keeps at most 2\^27 paths; 8388609 spp x 16 pixels are more"),
+])
+def test_bad_arguments(kwargs, expected):
+    scene = sssphere.load_scene(sphere_scene(res=(4, 4)))
+    kwargs.setdefault("spp", 1)
+    with pytest.raises(SceneError, match=expected):
+        sssphere.render_full(scene, **kwargs)
+
+
+# ---------------------------------------------------------------------------------------------
+# Determinism and the result's fields.
+
+
+@pytest.mark.parametrize("integrator", ["pt", "st"])
+def test_gpu_render_is_deterministic(integrator, model_dir):
+    """The same seed gives the same image whatever the batching of samples into dispatches
+    (sample k of a pixel has its own stream); another seed gives another image."""
+    scene = sssphere.load_scene(sphere_scene(res=(12, 8), sigma_t=30.0))
+    kw = dict(integrator=integrator, spp=6, backend="vulkan", models=model_dir)
+    a = sssphere.render_full(scene, seed=5, **kw)
+    b = sssphere.render_full(scene, seed=5, **kw)
+    c = sssphere.render_full(scene, seed=6, **kw)
+    np.testing.assert_array_equal(a.image, b.image)
+    np.testing.assert_array_equal(a.events, b.events)
+    np.testing.assert_array_equal(a.sphere_steps, b.sphere_steps)
+    assert not np.array_equal(a.image, c.image)
+    # Two samples per dispatch instead of all six at once.
+    tau = scene.sphere_threshold if integrator == "st" else math.inf
+    batched = _core.render_gpu(scene, integrator, 6, 5, -1, True, tau,
+                               model_dir if integrator == "st" else "", batch=2)
+    np.testing.assert_array_equal(batched["image"], a.image)
+    np.testing.assert_array_equal(batched["events"], a.events)
+
+
+def test_gpu_record_paths(model_dir):
+    scene = sssphere.load_scene(sphere_scene(res=(12, 8), sigma_t=30.0, boundary=INDEX_MATCHED))
+    assert sssphere.render_full(scene, spp=2, nee=False, backend="vulkan").path_events is None
+    r = sssphere.render_full(scene, integrator="st", spp=6, seed=3, nee=False, backend="vulkan",
+                             record_paths=True, models=model_dir)
+    assert r.path_events.shape == r.path_steps.shape == (6, 8, 12)  # (spp, height, width)
+    assert r.path_events.dtype == r.path_steps.dtype == np.uint32
+    np.testing.assert_allclose(r.path_events.mean(axis=0), r.events, rtol=1e-6)
+    np.testing.assert_allclose(r.path_steps.mean(axis=0), r.sphere_steps, rtol=1e-6)
+    assert r.path_events.mean() == pytest.approx(r.mean_events_per_path, rel=1e-12)
+    assert r.path_steps.mean() == pytest.approx(r.mean_sphere_steps_per_path, rel=1e-12)
+    assert r.path_steps.any() and r.path_events.any()
+    # Paths differ: the samples of the centre pixel are not copies of each other.
+    assert len(np.unique(r.path_events[:, 4, 6])) > 1
+    # The same paths with and without recording.
+    plain = sssphere.render_full(scene, integrator="st", spp=6, seed=3, nee=False,
+                                 backend="vulkan", models=model_dir)
+    np.testing.assert_array_equal(plain.image, r.image)
+    # Where it ran.
+    assert r.backend == "vulkan" and r.device == _DEVICE
+    assert r.gpu_seconds is not None and 0 < r.gpu_seconds
