@@ -9,7 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sssphere.render import DEFAULT_SPHERE_THRESHOLD, INTEGRATORS, STEP_NEE, render_full, write_image
+from sssphere.render import (BACKENDS, DEFAULT_SPHERE_THRESHOLD, INTEGRATORS, STEP_NEE, render_full,
+                             write_image)
 from sssphere.scene import SceneError, load_scene
 
 IMAGE_SUFFIXES = (".exr", ".png")
@@ -81,7 +82,8 @@ def _cmd_render(args: argparse.Namespace) -> int:
         result = render_full(
             scene, integrator=args.integrator, spp=args.spp, seed=args.seed,
             threads=args.threads, progress=bar, sphere_threshold=args.sphere_threshold,
-            models=args.models, step_nee=args.step_nee,
+            models=args.models, step_nee=args.step_nee, nee=not args.no_nee,
+            backend=args.backend,
         )
     finally:
         bar.close()
@@ -97,7 +99,8 @@ def _cmd_render(args: argparse.Namespace) -> int:
     steps = ""
     if result.mean_sphere_steps_per_path > 0:
         step_ns = 1e9 * result.step_seconds / (result.mean_sphere_steps_per_path * result.samples.sum())
-        steps = f" + {result.mean_sphere_steps_per_path:.1f} sphere steps ({step_ns:.0f} ns each)"
+        steps = f" + {result.mean_sphere_steps_per_path:.1f} sphere steps" + (
+            f" ({step_ns:.0f} ns each)" if result.step_seconds > 0 else "")
     print(
         f"{what} {out} ({scene.width}x{scene.height}, {spp_done}"
         f"{'' if not result.interrupted else '+'} spp; scene built in {load_s:.2f}s, "
@@ -225,6 +228,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="st: the direct light of a sphere step's events: hits (default: from its "
                         "exit flight; EventGen only for point and directional lights) or event "
                         "(EventGen's representative event connects to every light)")
+    r.add_argument("--no-nee", action="store_true",
+                   help="no light sampling: emitters count only when paths hit them")
+    r.add_argument("--backend", choices=BACKENDS, default="cpu",
+                   help="cpu (default) or vulkan: the GPU path, which samples no lights "
+                        "(docs/gpu.md; index-matched media in lit scenes need --no-nee)")
     r.add_argument("--aovs", action="store_true",
                    help="also write OUT_variance.exr, OUT_events.exr (scattering events per path) "
                         "and, for st, OUT_sphere_steps.exr")
