@@ -7,9 +7,11 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <functional>
 #include <optional>
 
 #include "core/check.h"
+#include "python/render_progress.h"
 #include "render/scene.h"
 
 #ifdef SSSPHERE_HAVE_VULKAN
@@ -25,13 +27,6 @@ namespace {
 
 using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
 
-template <typename T>
-py::array_t<T> to_array(const std::vector<T>& v, std::vector<py::ssize_t> shape) {
-    py::array_t<T> a(shape);
-    std::copy(v.begin(), v.end(), a.mutable_data());
-    return a;
-}
-
 #ifdef SSSPHERE_HAVE_VULKAN
 
 py::dict render_gpu_py(const Scene& scene, const std::string& integrator, int spp,
@@ -46,35 +41,15 @@ py::dict render_gpu_py(const Scene& scene, const std::string& integrator, int sp
     opt.max_bounces = max_bounces;
     opt.batch = batch;
     opt.record_paths = record_paths;
-    bool interrupted = false;
-    std::optional<py::error_already_set> callback_error;
-    auto cb = [&](double f) -> bool {
-        py::gil_scoped_acquire gil;
-        if (PyErr_CheckSignals() != 0) {
-            PyErr_Clear();  // a pending KeyboardInterrupt: stop and report it
-            interrupted = true;
-            return false;
-        }
-        if (progress.is_none()) return true;
-        try {
-            py::object r = progress(f);
-            return r.is_none() || r.cast<bool>();
-        } catch (py::error_already_set& e) {
-            if (e.matches(PyExc_KeyboardInterrupt))
-                interrupted = true;
-            else
-                callback_error = std::move(e);
-            return false;
-        }
-    };
+    RenderProgress cb(progress);
     GpuRenderResult r;
     {
         py::gil_scoped_release release;
         VulkanCompute vk;
         GpuRenderer renderer(vk, baked);
-        r = renderer.render(opt, cb);
+        r = renderer.render(opt, std::ref(cb));
     }
-    if (callback_error) throw *callback_error;
+    cb.rethrow();
     py::ssize_t H = r.height, W = r.width;
     py::dict d;
     d["image"] = to_array(r.image, {H, W, 3});
@@ -90,7 +65,7 @@ py::dict render_gpu_py(const Scene& scene, const std::string& integrator, int sp
     d["gpu_seconds"] = r.gpu_seconds;
     d["step_seconds"] = 0.0;
     d["cancelled"] = r.cancelled;
-    d["interrupted"] = interrupted;
+    d["interrupted"] = cb.interrupted;
     d["total_events"] = r.total_events;
     d["total_sphere_steps"] = r.total_sphere_steps;
     d["total_paths"] = r.total_paths;

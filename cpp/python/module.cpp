@@ -5,11 +5,13 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <functional>
 #include <optional>
 #include <sstream>
 
 #include "core/check.h"
 #include "geometry/distance_grid.h"
+#include "python/render_progress.h"
 #include "render/image_io.h"
 #include "render/renderer.h"
 #include "render/scene.h"
@@ -22,13 +24,6 @@ void bind_nn(py::module_& m);     // bind_nn.cpp
 void bind_gpu(py::module_& m);    // bind_gpu.cpp
 
 namespace {
-
-template <typename T>
-py::array_t<T> to_array(const std::vector<T>& v, std::vector<py::ssize_t> shape) {
-    py::array_t<T> a(shape);
-    std::copy(v.begin(), v.end(), a.mutable_data());
-    return a;
-}
 
 std::vector<Vec3> points_from(
     const py::array_t<float, py::array::c_style | py::array::forcecast>& p) {
@@ -69,33 +64,13 @@ py::dict render_py(const Scene& scene, const std::string& integrator, int spp,
              "' is not allowed (allowed: 'model', 'walk')");
     opt.step_nee = parse_step_nee(step_nee, "step_nee");
     opt.record_paths = record_paths;
-    bool interrupted = false;
-    std::optional<py::error_already_set> callback_error;
-    auto cb = [&](double f) -> bool {
-        py::gil_scoped_acquire gil;
-        if (PyErr_CheckSignals() != 0) {
-            PyErr_Clear();  // a pending KeyboardInterrupt: stop and report it
-            interrupted = true;
-            return false;
-        }
-        if (progress.is_none()) return true;
-        try {
-            py::object r = progress(f);
-            return r.is_none() || r.cast<bool>();
-        } catch (py::error_already_set& e) {
-            if (e.matches(PyExc_KeyboardInterrupt))
-                interrupted = true;
-            else
-                callback_error = std::move(e);
-            return false;
-        }
-    };
+    RenderProgress cb(progress);
     RenderResult r;
     {
         py::gil_scoped_release release;
-        r = render(scene, opt, cb);
+        r = render(scene, opt, std::ref(cb));
     }
-    if (callback_error) throw *callback_error;
+    cb.rethrow();
     py::ssize_t H = r.height, W = r.width;
     py::dict d;
     d["image"] = to_array(r.image, {H, W, 3});
@@ -110,7 +85,7 @@ py::dict render_py(const Scene& scene, const std::string& integrator, int spp,
     d["seconds"] = r.seconds;
     d["step_seconds"] = r.step_seconds;
     d["cancelled"] = r.cancelled;
-    d["interrupted"] = interrupted;
+    d["interrupted"] = cb.interrupted;
     d["total_events"] = r.total_events;
     d["total_sphere_steps"] = r.total_sphere_steps;
     d["total_paths"] = r.total_paths;

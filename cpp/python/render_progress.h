@@ -1,0 +1,56 @@
+// What the render bindings share: numpy arrays from vectors, and the progress callback a
+// render calls without the GIL (Python's progress function, Ctrl-C, and the exception a
+// callback raised, kept to be rethrown once the render returned).
+#pragma once
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <optional>
+#include <vector>
+
+namespace sss {
+
+template <typename T>
+pybind11::array_t<T> to_array(const std::vector<T>& v,
+                              std::vector<pybind11::ssize_t> shape) {
+    pybind11::array_t<T> a(shape);
+    std::copy(v.begin(), v.end(), a.mutable_data());
+    return a;
+}
+
+// Hidden like pybind11's own types, which it holds.
+struct __attribute__((visibility("hidden"))) RenderProgress {
+    explicit RenderProgress(pybind11::object callback) : progress(std::move(callback)) {}
+
+    pybind11::object progress;  // None or progress(fraction) -> bool or None
+    bool interrupted = false;   // Ctrl-C (or KeyboardInterrupt from the callback)
+    std::optional<pybind11::error_already_set> error;  // another exception it raised
+
+    // Called by the renderer (GIL released): false stops the render.
+    bool operator()(double fraction) {
+        pybind11::gil_scoped_acquire gil;
+        if (PyErr_CheckSignals() != 0) {
+            PyErr_Clear();  // a pending KeyboardInterrupt: stop and report it
+            interrupted = true;
+            return false;
+        }
+        if (progress.is_none()) return true;
+        try {
+            pybind11::object r = progress(fraction);
+            return r.is_none() || r.cast<bool>();
+        } catch (pybind11::error_already_set& e) {
+            if (e.matches(PyExc_KeyboardInterrupt))
+                interrupted = true;
+            else
+                error = std::move(e);
+            return false;
+        }
+    }
+    // After the render, with the GIL held: rethrows the callback's exception.
+    void rethrow() {
+        if (error) throw *error;
+    }
+};
+
+}  // namespace sss
