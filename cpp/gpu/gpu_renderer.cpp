@@ -56,12 +56,17 @@ GpuRenderer::GpuRenderer(VulkanCompute& vk, const GpuSceneData& scene)
     nodes_ = upload_array(vk, scene.nodes, scene.source, "BVH nodes");
     triangles_ = upload_array(vk, scene.triangles, scene.source, "triangles");
     grid_ = upload_array(vk, scene.grid_values, scene.source, "distance grids");
-    model_ = upload_array(vk, scene.model, scene.source, "decoders");
+    // The uniform block of model.glsl: kGpuModelFloats, zeros after the decoders.
+    std::vector<float> model(size_t(kGpuModelFloats), 0.f);
+    SSS_CHECK(scene.model.size() <= model.size());
+    std::copy(scene.model.begin(), scene.model.end(), model.begin());
+    model_ = upload_array(vk, model, scene.source, "decoders");
     const std::vector<int32_t> shapes = gpu_model_constants(scene.model);
+    constexpr uint32_t kModelUniform = 1u << 4;  // binding 4 is a uniform block
     pt_ = vk.create_pipeline(kRenderPt, sizeof(kRenderPt) / 4, 7, sizeof(RenderPush),
-                             shapes);
+                             shapes, kModelUniform);
     st_ = vk.create_pipeline(kRenderSt, sizeof(kRenderSt) / 4, 7, sizeof(RenderPush),
-                             shapes);
+                             shapes, kModelUniform);
 }
 
 GpuRenderResult GpuRenderer::render(const GpuRenderOptions& opt,
@@ -176,11 +181,16 @@ std::vector<float> gpu_sample_steps(VulkanCompute& vk, const std::vector<float>&
     if (n == 0) return {};
     std::vector<float> in(2 * n), out(4 * n);
     for (size_t i = 0; i < n; ++i) in[2 * i] = sigma[i], in[2 * i + 1] = g[i];
-    auto m = upload_array(vk, model, "gpu_sample_steps", "decoders");
+    std::vector<float> padded(size_t(kGpuModelFloats), 0.f);
+    if (model.size() > padded.size())
+        fail("gpu_sample_steps: ", model.size(), " floats of decoders; at most ",
+             kGpuModelFloats);
+    std::copy(model.begin(), model.end(), padded.begin());
+    auto m = upload_array(vk, padded, "gpu_sample_steps", "decoders");
     auto bin = upload_array(vk, in, "gpu_sample_steps", "inputs");
     auto bout = vk.create_buffer(out.size() * 4);
     auto pipe = vk.create_pipeline(kSampleSteps, sizeof(kSampleSteps) / 4, 3, 12,
-                                   gpu_model_constants(model));
+                                   gpu_model_constants(model), 1u);
     const uint32_t push[3] = {uint32_t(seed), uint32_t(seed >> 32), uint32_t(n)};
     const double t =
         vk.run(pipe, {m, bin, bout}, push, sizeof(push), uint32_t((n + 63) / 64));

@@ -49,6 +49,8 @@ struct GpuSceneHeader {
 constexpr int kGpuDecoderHeader = 160;
 constexpr int kGpuLayers = 3;
 constexpr int kGpuMaxWidth = 16;
+// The shaders read the packed decoders from a uniform block of this many floats.
+constexpr int kGpuModelFloats = 4096;
 
 struct GpuSceneData {
     std::string source;  // the scene file, for messages

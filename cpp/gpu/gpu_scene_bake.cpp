@@ -59,9 +59,9 @@ std::vector<float> pack_gpu_model(const ScatteringModel& m) {
     if (m.length_gen().latent_dim + 1 + m.path_gen().latent_dim + 3 > 12)
         fail(m.where(), ": LengthGen and PathGen need more than the 12 normals per step ",
              "the GPU path supports");
-    if (out.size() >= (size_t(1) << 24))
-        fail(m.where(), ": the decoders are too large for the GPU path (offsets must be ",
-             "exact in float)");
+    if (out.size() > size_t(kGpuModelFloats))
+        fail(m.where(), ": the decoders take ", out.size(),
+             " floats; the GPU path holds at most ", kGpuModelFloats);
     return out;
 }
 

@@ -16,6 +16,7 @@ constexpr VkDeviceSize kStagingBytes = VkDeviceSize(64) << 20;
 // Most storage buffers one pipeline may bind (also capped by the device's limits).
 constexpr uint32_t kMaxBindings = 32;
 constexpr uint32_t kMaxPushBytes = 128;
+constexpr uint32_t kMaxUniformBindings = 4;
 constexpr uint32_t kSpirvMagic = 0x07230203;
 // The only stages that touch buffers here: copies and fills, and compute shaders
 constexpr VkPipelineStageFlags kStages =
@@ -123,6 +124,7 @@ struct VulkanCompute::Impl {
         VkPipeline pipeline = VK_NULL_HANDLE;
         int num_buffers = 0;
         uint32_t push_bytes = 0;
+        uint32_t uniform_mask = 0;  // bit i: binding i is a uniform buffer
     };
 
     Options options;
@@ -329,12 +331,14 @@ void VulkanCompute::Impl::create_device() {
         check(vkCreateQueryPool(device, &qpinfo, nullptr, &query_pool),
               "vkCreateQueryPool");
     }
-    VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, max_bindings};
+    const VkDescriptorPoolSize sizes[2] = {
+        {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, max_bindings},
+        {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, kMaxUniformBindings}};
     VkDescriptorPoolCreateInfo dinfo{};
     dinfo.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
     dinfo.maxSets = 1;
-    dinfo.poolSizeCount = 1;
-    dinfo.pPoolSizes = &size;
+    dinfo.poolSizeCount = 2;
+    dinfo.pPoolSizes = sizes;
     check(vkCreateDescriptorPool(device, &dinfo, nullptr, &descriptor_pool),
           "vkCreateDescriptorPool");
 }
@@ -502,9 +506,9 @@ size_t VulkanCompute::max_storage_buffer_bytes() const {
 VulkanCompute::BufferId VulkanCompute::create_buffer(size_t bytes) {
     if (bytes < 4) fail("VulkanCompute::create_buffer: ", bytes, " bytes (at least 4)");
     if (bytes > SIZE_MAX - 3) fail("VulkanCompute::create_buffer: ", bytes, " bytes");
-    const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
-                                     VK_BUFFER_USAGE_TRANSFER_SRC_BIT |
-                                     VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    const VkBufferUsageFlags usage =
+        VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT |
+        VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
     m_->buffers.push_back(m_->make_buffer((bytes + 3) / 4 * 4, usage, m_->direct));
     return BufferId(m_->buffers.size() - 1);
 }
@@ -570,7 +574,7 @@ void VulkanCompute::fill_zero(BufferId b) {
 
 VulkanCompute::PipelineId VulkanCompute::create_pipeline(
     const uint32_t* spirv, size_t words, int num_buffers, uint32_t push_bytes,
-    const std::vector<int32_t>& constants) {
+    const std::vector<int32_t>& constants, uint32_t uniform_bindings) {
     if (!spirv || words < 5 || spirv[0] != kSpirvMagic)
         fail("VulkanCompute::create_pipeline: not SPIR-V (", words,
              " words; the first must be 0x07230203)");
@@ -583,9 +587,14 @@ VulkanCompute::PipelineId VulkanCompute::create_pipeline(
         fail("VulkanCompute::create_pipeline: ", push_bytes,
              " bytes of push constants (a multiple of 4, at most ", max_push, ")");
 
+    if ((num_buffers < 32 && (uniform_bindings >> num_buffers) != 0) ||
+        uint32_t(__builtin_popcount(uniform_bindings)) > kMaxUniformBindings)
+        fail("VulkanCompute::create_pipeline: uniform bindings mask ", uniform_bindings,
+             " (at most ", kMaxUniformBindings, " of the ", num_buffers, " bindings)");
     VkDevice device = m_->device;
     Impl::Pipeline p;
     p.num_buffers = num_buffers;
+    p.uniform_mask = uniform_bindings;
     p.push_bytes = push_bytes;
     VkShaderModule module = VK_NULL_HANDLE;
     try {
@@ -593,7 +602,9 @@ VulkanCompute::PipelineId VulkanCompute::create_pipeline(
             static_cast<size_t>(num_buffers));
         for (int i = 0; i < num_buffers; ++i) {
             bindings[size_t(i)].binding = uint32_t(i);
-            bindings[size_t(i)].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+            bindings[size_t(i)].descriptorType = (uniform_bindings >> i) & 1u
+                                                     ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER
+                                                     : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
             bindings[size_t(i)].descriptorCount = 1;
             bindings[size_t(i)].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
         }
@@ -670,10 +681,16 @@ double VulkanCompute::run(PipelineId pipeline, const std::vector<BufferId>& buff
     std::vector<VkDescriptorBufferInfo> infos(buffers.size());
     for (size_t i = 0; i < buffers.size(); ++i) {
         const Impl::Buffer& b = m_->buffer(buffers[i], "run");
-        if (b.size > lim.maxStorageBufferRange)
+        if ((p.uniform_mask >> i) & 1u) {
+            if (b.size > lim.maxUniformBufferRange)
+                fail("VulkanCompute::run: buffer ", buffers[i], " at binding ", i,
+                     " has ", b.size, " bytes; '", m_->name, "' binds at most ",
+                     lim.maxUniformBufferRange, " as a uniform buffer");
+        } else if (b.size > lim.maxStorageBufferRange) {
             fail("VulkanCompute::run: buffer ", buffers[i], " at binding ", i, " has ",
                  b.size, " bytes; '", m_->name, "' binds at most ",
                  lim.maxStorageBufferRange, " (maxStorageBufferRange)");
+        }
         infos[i] = {b.buffer, 0, VK_WHOLE_SIZE};
     }
 
@@ -696,7 +713,9 @@ double VulkanCompute::run(PipelineId pipeline, const std::vector<BufferId>& buff
             writes[i].dstSet = set;
             writes[i].dstBinding = uint32_t(i);
             writes[i].descriptorCount = 1;
-            writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+            writes[i].descriptorType = (p.uniform_mask >> i) & 1u
+                                           ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER
+                                           : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
             writes[i].pBufferInfo = &infos[i];
         }
         vkUpdateDescriptorSets(device, uint32_t(writes.size()), writes.data(), 0,

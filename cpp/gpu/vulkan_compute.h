@@ -72,10 +72,13 @@ public:
     // `num_buffers` storage buffers at bindings 0 .. num_buffers-1, plus `push_bytes`
     // (<= 128, a multiple of 4) of push constants at offset 0. The words are copied.
     // `constants` are the shader's specialization constants, constant_id i = constants[i]
-    // (32-bit ints); the driver compiles the pipeline with their values.
+    // (32-bit ints); the driver compiles the pipeline with their values. Bit i of
+    // `uniform_bindings` makes binding i a uniform buffer instead (at most 4; for small
+    // read-only data that every invocation reads alike, such as network weights).
     PipelineId create_pipeline(const uint32_t* spirv, size_t words, int num_buffers,
                                uint32_t push_bytes,
-                               const std::vector<int32_t>& constants = {});
+                               const std::vector<int32_t>& constants = {},
+                               uint32_t uniform_bindings = 0);
     // Dispatches groups_x * groups_y * groups_z workgroups of `pipeline` with buffers[i]
     // (whole) at binding i and `push_bytes` of push constants (exactly the pipeline's),
     // waits for completion and returns the GPU time of the dispatch in seconds from

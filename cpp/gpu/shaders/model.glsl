@@ -3,8 +3,10 @@
 // "Packed decoders"), consuming the Rng exactly as ScatteringModel's step does, so a
 // stream gives the same step on both up to float rounding (tests/test_gpu.py compares
 // them). EventGen is not used: the GPU path has no light sampling.
-// The includer declares `float model[]` (a readonly std430 buffer) first, and enables
-// GL_EXT_control_flow_attributes.
+// The includer declares the uniform block `vec4 model_v[kModelVec4]` (the packed floats,
+// four per vec4) first, and enables GL_EXT_control_flow_attributes. A uniform block: every
+// invocation reads the same weights, which NVIDIA's compiler then takes straight from its
+// constant cache as operands.
 
 // The decoders' shapes are specialization constants (set by the host from the model
 // file, gpu_renderer.cpp), so the driver compiles the loops below unrolled and keeps the
@@ -24,13 +26,23 @@ const int kW = 16;  // the widest layer or input (checked on the host)
 const float kMaxScatterCount = 1099511627776.0;  // 2^40, as in scattering_model.h
 const float kFloatMax = 3.402823466e38;
 
-int mhead(int d, int i) { return int(model[d * kDecoderHeader + i]); }
+float mval(int i) { return model_v[i >> 2][i & 3]; }
+int mhead(int d, int i) { return int(mval(d * kDecoderHeader + i)); }
+
+// Where each layer's weights start (its bias follows them), as pack_gpu_model lays them
+// out: constants once the shapes are specialized (checked on the host).
+const int kL0 = 3 * kDecoderHeader;
+const int kL1 = kL0 + L_IN * L_H1 + L_H1;
+const int kL2 = kL1 + L_H1 * L_H2 + L_H2;
+const int kP0 = kL2 + L_H2 * 2 + 2;  // LengthGen's last layer: mean and log-variance of N
+const int kP1 = kP0 + P_IN * P_H1 + P_H1;
+const int kP2 = kP1 + P_H1 * P_H2 + P_H2;
 
 // e(x) (decode false) or its inverse; the encoding's 8 floats start at `at`.
 float code(int at, float x, bool decode) {
-    int kind = int(model[at]);
-    float a = model[at + 1], b = model[at + 2], s = model[at + 3], c = model[at + 4];
-    float lo = model[at + 5], hi = model[at + 6], eps = model[at + 7];
+    int kind = int(mval(at));
+    float a = mval(at + 1), b = mval(at + 2), s = mval(at + 3), c = mval(at + 4);
+    float lo = mval(at + 5), hi = mval(at + 6), eps = mval(at + 7);
     if (kind == 0) return decode ? (x - b) / a : a * x + b;
     if (kind == 1) return decode ? (exp((x - b) / a) - c) / s : a * log(s * x + c) + b;
     return decode ? lo - eps + (hi - lo + 2.0 * eps) / (1.0 + exp(-(x - b) / a))
@@ -39,29 +51,30 @@ float code(int at, float x, bool decode) {
 int condition_code(int d, int i) { return d * kDecoderHeader + 32 + 8 * i; }
 int output_code(int d, int o) { return d * kDecoderHeader + 32 + 8 * (7 + o); }
 
-// b = act(W a + bias) for layer l of decoder d, n_in -> n_out (constants after
-// specialization: the guards fold away).
-void dense(int d, int l, int n_in, int n_out, bool act, float a[kW], out float b[kW]) {
-    int w = mhead(d, 11 + 4 * l), bias = w + n_in * n_out;
+// b = act(W a + bias) for the layer whose weights start at w, n_in -> n_out (constants
+// after specialization: the guards fold away).
+void dense(int w, int n_in, int n_out, bool act, float a[kW], out float b[kW]) {
+    int bias = w + n_in * n_out;
     [[unroll]] for (int o = 0; o < kW; ++o) {
         float acc = 0.0;
         if (o < n_out) {
-            acc = model[bias + o];
+            acc = mval(bias + o);
             [[unroll]] for (int i = 0; i < kW; ++i)
-                if (i < n_in) acc += model[w + o * n_in + i] * a[i];
+                if (i < n_in) acc += mval(w + o * n_in + i) * a[i];
             if (act) acc = softplus(acc);
         }
         b[o] = acc;
     }
 }
 
-// Decoder d's three layers on x: the outputs u_o = mean_o + exp(logvar_o / 2) eps_o.
-void decoder_sample(int d, int n_in, int h1, int h2, int n_out, float x[kW],
-                    float eps[3], out float u[3]) {
+// A decoder's three layers (weights at w0, w1, w2) on x: the outputs
+// u_o = mean_o + exp(logvar_o / 2) eps_o.
+void decoder_sample(int w0, int w1, int w2, int n_in, int h1, int h2, int n_out,
+                    float x[kW], float eps[3], out float u[3]) {
     float a[kW], b[kW];
-    dense(d, 0, n_in, h1, true, x, a);
-    dense(d, 1, h1, h2, true, a, b);
-    dense(d, 2, h2, 2 * n_out, false, b, a);
+    dense(w0, n_in, h1, true, x, a);
+    dense(w1, h1, h2, true, a, b);
+    dense(w2, h2, 2 * n_out, false, b, a);
     [[unroll]] for (int o = 0; o < 3; ++o)
         u[o] = o < n_out ? a[o] + exp(0.5 * a[n_out + o]) * eps[o] : 0.0;
 }
@@ -117,7 +130,7 @@ SphereStepSample sample_sphere_step(float sigma, float g, inout Rng rng) {
         if (l < L_LAT) x[2 + l] = z[l];
     eps[0] = z[L_LAT];
     eps[1] = eps[2] = 0.0;
-    decoder_sample(kLengthGen, L_IN, L_H1, L_H2, 1, x, eps, u);
+    decoder_sample(kL0, kL1, kL2, L_IN, L_H1, L_H2, 1, x, eps, u);
     float n_real = code(output_code(kLengthGen, 0), u[0], true);
     s.N = n_real >= 2.0 ? (n_real < kMaxScatterCount ? floor(n_real) : kMaxScatterCount)
                         : 2.0;
@@ -131,7 +144,7 @@ SphereStepSample sample_sphere_step(float sigma, float g, inout Rng rng) {
     [[unroll]] for (int l = 0; l < kW - 3; ++l)
         if (l < P_LAT) x[3 + l] = z[zo + l];
     [[unroll]] for (int o = 0; o < 3; ++o) eps[o] = z[zo + P_LAT + o];
-    decoder_sample(kPathGen, P_IN, P_H1, P_H2, 3, x, eps, u);
+    decoder_sample(kP0, kP1, kP2, P_IN, P_H1, P_H2, 3, x, eps, u);
     s.cos_theta = clamp(finite_value(code(output_code(kPathGen, 0), u[0], true)), -1.0, 1.0);
     float a = finite_value(code(output_code(kPathGen, 1), u[1], true));
     float b = finite_value(code(output_code(kPathGen, 2), u[2], true));

@@ -18,7 +18,8 @@ layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 #include "gpu/shaders/math.glsl"
 #include "gpu/shaders/scene.glsl"
 
-layout(std430, binding = 4) readonly buffer Model { float model[]; };
+const int kModelVec4 = 1024;  // kGpuModelFloats / 4
+layout(std140, binding = 4) uniform Model { vec4 model_v[kModelVec4]; };
 // Per path, at ((z * height + y) * width + x): radiance (rgb), and the ordinary
 // scattering events and sphere steps.
 layout(std430, binding = 5) writeonly buffer OutRadiance { vec4 out_radiance[]; };

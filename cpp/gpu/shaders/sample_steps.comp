@@ -10,7 +10,8 @@ layout(local_size_x = 64) in;
 #include "gpu/shaders/rng.glsl"
 #include "gpu/shaders/math.glsl"
 
-layout(std430, binding = 0) readonly buffer Model { float model[]; };
+const int kModelVec4 = 1024;  // kGpuModelFloats / 4
+layout(std140, binding = 0) uniform Model { vec4 model_v[kModelVec4]; };
 layout(std430, binding = 1) readonly buffer Inputs { vec2 inputs[]; };  // sigma, g
 layout(std430, binding = 2) writeonly buffer Outputs { vec4 outputs[]; };  // N, cos, a, b
 
