@@ -102,8 +102,10 @@ def reference(shape, boundary, sigma):
 
 def report(args) -> int:
     d = Path(args.results)
-    rows = [json.loads(line) for line in (d / "gpu_bench.jsonl").read_text().splitlines()
-            if line.startswith("{")]
+    lines = [json.loads(line) for line in (d / "gpu_bench.jsonl").read_text().splitlines()
+             if line.startswith("{")]
+    rows = [r for r in lines if "scene" in r]
+    step_rows = [r for r in lines if "ns_per_step" in r]
     images = np.load(d / "images.npz")
     results = []
     for name, shape, boundary, sigma in runs():
@@ -128,13 +130,28 @@ def report(args) -> int:
         if "pt" in entry and "st" in entry:
             entry["speedup"] = entry["pt"]["gpu_seconds_median"] / entry["st"]["gpu_seconds_median"]
         results.append(entry)
+    # Runs outside the sweep (bench/gpu_device_run.sh with RUNS=...), e.g. threshold=inf.
+    known = {name for name, *_ in runs()}
+    extra = {}
+    for r in rows:
+        if r["scene"] not in known:
+            extra.setdefault(r["scene"], {}).setdefault(r["integrator"], []).append(
+                r["gpu_seconds"])
+    extra = {k: {i: sorted(t)[len(t) // 2] for i, t in v.items()} for k, v in extra.items()}
     out = {"date": datetime.date.today().isoformat(), "resolution": RES,
+           "extra_runs_gpu_seconds_median": extra,
+           "step_alone_ns": (sorted(r["ns_per_step"] for r in step_rows)[len(step_rows) // 2]
+                             if step_rows else None),
            "threshold": DEFAULT_SPHERE_THRESHOLD, "runs": results,
            "device": results[0].get("device") if results else None,
            "note": "GPU time of the dispatches (timestamps), median of the repeats; no light "
                    "sampling on the GPU (nee=False estimator)"}
     Path(args.output).write_text(json.dumps(out, indent=1) + "\n")
     print(table(out))
+    if out["step_alone_ns"] is not None:
+        print(f"one sphere step sampled alone: {out['step_alone_ns']:.3f} ns")
+    for k, v in extra.items():
+        print(k, {i: f"{1e3 * t:.1f} ms" for i, t in v.items()})
     return 0
 
 
