@@ -96,9 +96,14 @@ GpuRenderResult GpuRenderer::render(const GpuRenderOptions& opt,
         fail("a ", width_, " x ", height_, " image is more than ", vk_.device_name(),
              " can render in one dispatch (", max_paths, " paths)");
 
-    const VulkanCompute::BufferId radiance =
-        vk_.create_buffer(size_t(batch) * pixels * 16);
-    const VulkanCompute::BufferId counts = vk_.create_buffer(size_t(batch) * pixels * 8);
+    // The output buffers live as long as the device (VulkanCompute frees none before):
+    // kept and reused by later renders, grown only when a batch needs more.
+    if (size_t(batch) * pixels > out_paths_) {
+        out_paths_ = size_t(batch) * pixels;
+        radiance_ = vk_.create_buffer(out_paths_ * 16);
+        counts_ = vk_.create_buffer(out_paths_ * 8);
+    }
+    const VulkanCompute::BufferId radiance = radiance_, counts = counts_;
     std::vector<float> rad(size_t(batch) * pixels * 4);
     std::vector<uint32_t> cnt(size_t(batch) * pixels * 2);
 

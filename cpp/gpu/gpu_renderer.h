@@ -59,6 +59,9 @@ private:
     bool has_model_;
     VulkanCompute::BufferId header_, nodes_, triangles_, grid_, model_;
     VulkanCompute::PipelineId pt_, st_;
+    // Per-path outputs, reused across renders (room for out_paths_ paths).
+    VulkanCompute::BufferId radiance_ = -1, counts_ = -1;
+    size_t out_paths_ = 0;
 };
 
 // For tests of the shaders' parts against the CPU's:

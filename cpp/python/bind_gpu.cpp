@@ -50,25 +50,9 @@ py::dict render_gpu_py(const Scene& scene, const std::string& integrator, int sp
         r = renderer.render(opt, std::ref(cb));
     }
     cb.rethrow();
-    py::ssize_t H = r.height, W = r.width;
-    py::dict d;
-    d["image"] = to_array(r.image, {H, W, 3});
-    d["variance"] = to_array(r.variance, {H, W, 3});
-    d["events"] = to_array(r.events, {H, W});
-    d["sphere_steps"] = to_array(r.sphere_steps, {H, W});
-    d["samples"] = to_array(r.samples, {H, W});
-    if (record_paths) {
-        d["path_events"] = to_array(r.path_events, {py::ssize_t(spp), H, W});
-        d["path_steps"] = to_array(r.path_steps, {py::ssize_t(spp), H, W});
-    }
-    d["seconds"] = r.seconds;
+    py::dict d = film_dict(r, spp, record_paths, cb.interrupted);
     d["gpu_seconds"] = r.gpu_seconds;
     d["step_seconds"] = 0.0;
-    d["cancelled"] = r.cancelled;
-    d["interrupted"] = cb.interrupted;
-    d["total_events"] = r.total_events;
-    d["total_sphere_steps"] = r.total_sphere_steps;
-    d["total_paths"] = r.total_paths;
     d["device"] = r.device;
     return d;
 }

@@ -71,24 +71,8 @@ py::dict render_py(const Scene& scene, const std::string& integrator, int spp,
         r = render(scene, opt, std::ref(cb));
     }
     cb.rethrow();
-    py::ssize_t H = r.height, W = r.width;
-    py::dict d;
-    d["image"] = to_array(r.image, {H, W, 3});
-    d["variance"] = to_array(r.variance, {H, W, 3});
-    d["events"] = to_array(r.events, {H, W});
-    d["sphere_steps"] = to_array(r.sphere_steps, {H, W});
-    d["samples"] = to_array(r.samples, {H, W});
-    if (record_paths) {
-        d["path_events"] = to_array(r.path_events, {py::ssize_t(spp), H, W});
-        d["path_steps"] = to_array(r.path_steps, {py::ssize_t(spp), H, W});
-    }
-    d["seconds"] = r.seconds;
+    py::dict d = film_dict(r, spp, record_paths, cb.interrupted);
     d["step_seconds"] = r.step_seconds;
-    d["cancelled"] = r.cancelled;
-    d["interrupted"] = cb.interrupted;
-    d["total_events"] = r.total_events;
-    d["total_sphere_steps"] = r.total_sphere_steps;
-    d["total_paths"] = r.total_paths;
     return d;
 }
 

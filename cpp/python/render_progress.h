@@ -1,6 +1,7 @@
-// What the render bindings share: numpy arrays from vectors, and the progress callback a
-// render calls without the GIL (Python's progress function, Ctrl-C, and the exception a
-// callback raised, kept to be rethrown once the render returned).
+// What the render bindings share: numpy arrays from vectors, the film statistics of a
+// CPU or GPU render as a dict, and the progress callback a render calls without the GIL
+// (Python's progress function, Ctrl-C, and the exception a callback raised, kept to be
+// rethrown once the render returned).
 #pragma once
 
 #include <pybind11/numpy.h>
@@ -20,6 +21,31 @@ pybind11::array_t<T> to_array(const std::vector<T>& v,
 }
 
 // Hidden like pybind11's own types, which it holds.
+// The fields RenderResult and GpuRenderResult share, as the dict
+// python/sssphere/render.py reads: images (H, W, ...), per-path counts with record_paths
+// (spp, H, W), time, totals.
+template <typename Result>
+pybind11::dict film_dict(const Result& r, int spp, bool record_paths, bool interrupted) {
+    const pybind11::ssize_t H = r.height, W = r.width;
+    pybind11::dict d;
+    d["image"] = to_array(r.image, {H, W, 3});
+    d["variance"] = to_array(r.variance, {H, W, 3});
+    d["events"] = to_array(r.events, {H, W});
+    d["sphere_steps"] = to_array(r.sphere_steps, {H, W});
+    d["samples"] = to_array(r.samples, {H, W});
+    if (record_paths) {
+        d["path_events"] = to_array(r.path_events, {pybind11::ssize_t(spp), H, W});
+        d["path_steps"] = to_array(r.path_steps, {pybind11::ssize_t(spp), H, W});
+    }
+    d["seconds"] = r.seconds;
+    d["cancelled"] = r.cancelled;
+    d["interrupted"] = interrupted;
+    d["total_events"] = r.total_events;
+    d["total_sphere_steps"] = r.total_sphere_steps;
+    d["total_paths"] = r.total_paths;
+    return d;
+}
+
 struct __attribute__((visibility("hidden"))) RenderProgress {
     explicit RenderProgress(pybind11::object callback) : progress(std::move(callback)) {}
 
