@@ -30,7 +30,7 @@ import sssphere
 from sssphere import SceneError, _core
 from sssphere.model import DEFAULT_MODELS
 
-_AVAILABLE, _DEVICE, _ = _core.gpu_status()  # (available, device or reason, software)
+_AVAILABLE, _DEVICE, _SOFTWARE = _core.gpu_status()  # (available, device or reason, software)
 if not _AVAILABLE:
     pytest.skip(f"no Vulkan device: {_DEVICE}", allow_module_level=True)
 
@@ -537,10 +537,35 @@ def test_gpu_render_is_deterministic(integrator, model_dir):
     assert not np.array_equal(a.image, c.image)
     # Two samples per dispatch instead of all six at once.
     tau = scene.sphere_threshold if integrator == "st" else math.inf
-    batched = _core.render_gpu(scene, integrator, 6, 5, -1, True, tau,
-                               model_dir if integrator == "st" else "", batch=2)
+    models = model_dir if integrator == "st" else ""
+    batched = _core.render_gpu(scene, integrator, 6, 5, -1, True, tau, models, batch=2)
     np.testing.assert_array_equal(batched["image"], a.image)
     np.testing.assert_array_equal(batched["events"], a.events)
+    # 100 lanes for the 576 paths: a lane renders every 100th path, starting the next when
+    # one ends (path regeneration; "st" batches steps among the lanes still running).
+    for lanes in (100, 576 + 64):
+        regenerated = _core.render_gpu(scene, integrator, 6, 5, -1, True, tau, models,
+                                       record_paths=True, lanes=lanes)
+        np.testing.assert_array_equal(regenerated["image"], a.image)
+        np.testing.assert_array_equal(regenerated["events"], a.events)
+        np.testing.assert_array_equal(regenerated["sphere_steps"], a.sphere_steps)
+
+
+def test_paths_that_do_not_end_fail_the_render():
+    """Every path's result carries a mark the host checks. Mesa's lavapipe silently ends all
+    loops of a shader invocation after 65535 iterations; one lane rendering all 1024 paths
+    of a dense medium in one dispatch (~240,000 scattering events) needs more, and the
+    render must then fail by name, not return the paths it finished. On a GPU (no such
+    limit) the same render equals the default one."""
+    scene = sssphere.load_scene(sphere_scene(res=(8, 8), sigma_t=300.0, albedo=(0.999,) * 3))
+    args = (scene, "pt", 16, 1, -1, True, math.inf, "")
+    if _SOFTWARE:
+        with pytest.raises(SceneError, match=r"of 1024 paths did not end on the Vulkan device "
+                                             r".*65535 iterations.*backend 'cpu'"):
+            _core.render_gpu(*args, batch=16, lanes=1)
+    else:
+        np.testing.assert_array_equal(_core.render_gpu(*args, batch=16, lanes=1)["image"],
+                                      _core.render_gpu(*args)["image"])
 
 
 def test_gpu_record_paths(model_dir):

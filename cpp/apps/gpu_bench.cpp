@@ -2,14 +2,16 @@
 // bench/gpu_st_vs_pt.py) with "pt" and "st" on the Vulkan device and reports the times.
 // Needs only Vulkan, so it runs on a GPU machine without the renderer's other libraries.
 //
-//   sssphere-gpu-bench --spp N [--batch B] [--repeat R] [--out DIR]
+//   sssphere-gpu-bench --spp N [--batch B] [--lanes L] [--repeat R] [--out DIR]
 //                      NAME=SCENE.bin[,OVERRIDE...] ...
 //
 // --batch: samples per pixel per dispatch (default: about 2^20 paths per dispatch).
+// --lanes: invocations per dispatch, each rendering every lanes-th path (default: one per
+// path; GpuRenderOptions::lanes).
 //
 // An override changes every shape's medium or boundary before rendering, so one baked
-// file (geometry, grids, decoders) serves a density sweep: sigma_t=X (all channels),
-// threshold=X (the sphere threshold tau; inf: "st" takes no step) or
+// file (geometry, grids, decoders) serves a density sweep: sigma_t=X and albedo=X (all
+// channels), threshold=X (the sphere threshold tau; inf: "st" takes no step) or
 // boundary=dielectric|index_matched.
 //
 // --steps N: also times N sphere steps sampled alone (sample_steps.comp, sigma uniform in
@@ -33,7 +35,7 @@
 using namespace sss;
 
 int main(int argc, char** argv) {
-    int spp = 16, repeat = 1, batch = 0;
+    int spp = 16, repeat = 1, batch = 0, lanes = 0;
     long step_count = 0;
     std::string out_dir;
     std::vector<std::pair<std::string, std::string>> scenes;
@@ -52,6 +54,8 @@ int main(int argc, char** argv) {
             step_count = std::stol(value());
         } else if (a == "--batch") {
             batch = std::stoi(value());
+        } else if (a == "--lanes") {
+            lanes = std::stoi(value());
         } else if (a == "--repeat") {
             repeat = std::stoi(value());
         } else if (a == "--out") {
@@ -61,8 +65,8 @@ int main(int argc, char** argv) {
         } else {
             std::fprintf(
                 stderr,
-                "usage: sssphere-gpu-bench --spp N [--batch B] [--repeat R] [--out DIR] "
-                "NAME=SCENE.bin ...\n");
+                "usage: sssphere-gpu-bench --spp N [--batch B] [--lanes L] [--repeat R] "
+                "[--out DIR] NAME=SCENE.bin ...\n");
             return 2;
         }
     }
@@ -110,6 +114,8 @@ int main(int argc, char** argv) {
                     GpuShape& s = scene.header.shapes[i];
                     if (key == "sigma_t")
                         s.sigma_t[0] = s.sigma_t[1] = s.sigma_t[2] = std::stof(val);
+                    else if (key == "albedo")
+                        s.albedo[0] = s.albedo[1] = s.albedo[2] = std::stof(val);
                     else if (key == "threshold")
                         scene.header.params[1] = std::stof(val);
                     else if (key == "boundary" &&
@@ -117,7 +123,7 @@ int main(int argc, char** argv) {
                         s.albedo[3] = val == "dielectric" ? 1.f : 0.f;
                     else
                         fail("override '", kv, "' is not allowed (allowed: sigma_t=X, ",
-                             "threshold=X, boundary=dielectric|index_matched)");
+                             "albedo=X, threshold=X, boundary=dielectric|index_matched)");
                 }
             }
             GpuRenderer renderer(vk, scene);
@@ -130,17 +136,19 @@ int main(int argc, char** argv) {
                 renderer.render(opt);  // warm-up: pipeline and caches
                 opt.spp = spp;
                 opt.batch = batch;
+                opt.lanes = lanes;
                 GpuRenderResult r;
                 for (int k = 0; k < repeat; ++k) {
                     r = renderer.render(opt);
                     std::printf(
                         "{\"scene\": \"%s\", \"integrator\": \"%s\", \"device\": \"%s\", "
                         "\"width\": %d, \"height\": %d, \"spp\": %d, \"repeat\": %d, "
-                        "\"batch\": %d, \"gpu_seconds\": %.6f, \"seconds\": %.6f, "
+                        "\"batch\": %d, \"lanes\": %d, \"gpu_seconds\": %.6f, "
+                        "\"seconds\": %.6f, "
                         "\"events_per_path\": "
                         "%.4f, \"steps_per_path\": %.4f}\n",
                         name.c_str(), integrator, r.device.c_str(), r.width, r.height,
-                        spp, k, batch, r.gpu_seconds, r.seconds,
+                        spp, k, batch, lanes, r.gpu_seconds, r.seconds,
                         double(r.total_events) / double(r.total_paths),
                         double(r.total_sphere_steps) / double(r.total_paths));
                     std::fflush(stdout);

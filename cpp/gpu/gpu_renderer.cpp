@@ -27,9 +27,11 @@ static const uint32_t kTraceRays[] =
 struct RenderPush {
     uint32_t seed_lo, seed_hi, sample0;
     int32_t max_bounces;
+    uint32_t num_paths;
 };
 
-constexpr int kGroup = 8;  // the shaders' 8 x 8 workgroups
+constexpr uint32_t kGroup = 64;             // render.glsl's workgroup size
+constexpr uint32_t kWritten = 0x80000000u;  // render.glsl: set in a written path's steps
 
 template <class T>
 VulkanCompute::BufferId upload_array(VulkanCompute& vk, const std::vector<T>& v,
@@ -75,6 +77,7 @@ GpuRenderResult GpuRenderer::render(const GpuRenderOptions& opt,
     if (opt.integrator != "pt" && opt.integrator != "st")
         fail("integrator '", opt.integrator, "' is not allowed (allowed: 'pt', 'st')");
     if (opt.spp < 1) fail("spp must be >= 1, got ", opt.spp);
+    if (opt.lanes < 0) fail("lanes must be >= 0 (0: automatic), got ", opt.lanes);
     if (opt.integrator == "st" && opt.max_bounces >= 0)
         fail("max_bounces must be -1 for integrator 'st' (a sphere step is many events)");
     const bool st = opt.integrator == "st";
@@ -124,15 +127,32 @@ GpuRenderResult GpuRenderer::render(const GpuRenderOptions& opt,
             break;
         }
         const int b = std::min(batch, opt.spp - done);
+        const size_t paths = size_t(b) * pixels;
         RenderPush push{uint32_t(opt.seed), uint32_t(opt.seed >> 32), uint32_t(done),
-                        int32_t(opt.max_bounces)};
+                        int32_t(opt.max_bounces), uint32_t(paths)};
+        // One lane per path unless asked otherwise, and no more than one dispatch holds.
+        const size_t lanes = std::min({opt.lanes > 0 ? size_t(opt.lanes) : paths, paths,
+                                       size_t(vk_.max_workgroups_x()) * kGroup});
+        vk_.fill_zero(counts);
         r.gpu_seconds +=
             vk_.run(st ? st_ : pt_,
                     {header_, nodes_, triangles_, grid_, model_, radiance, counts}, &push,
-                    sizeof(push), uint32_t((W + kGroup - 1) / kGroup),
-                    uint32_t((H + kGroup - 1) / kGroup), uint32_t(b));
+                    sizeof(push), uint32_t((lanes + kGroup - 1) / kGroup));
         vk_.download(radiance, rad.data(), size_t(b) * pixels * 16);
         vk_.download(counts, cnt.data(), size_t(b) * pixels * 8);
+        size_t unfinished = 0;
+        for (size_t i = 0; i < paths; ++i) {
+            unfinished += (cnt[2 * i + 1] & kWritten) == 0;
+            cnt[2 * i + 1] &= ~kWritten;
+        }
+        if (unfinished > 0)
+            fail(unfinished, " of ", paths, " paths did not end on the Vulkan device '",
+                 vk_.device_name(), "'",
+                 vk_.is_software()
+                     ? ". Mesa's lavapipe stops all loops of a shader invocation after "
+                       "65535 iterations, which paths in this medium need: render on the "
+                       "CPU (backend 'cpu') or on a GPU"
+                     : "");
         for (int k = 0; k < b; ++k) {
             for (size_t p = 0; p < pixels; ++p) {
                 const size_t at = size_t(k) * pixels + p;

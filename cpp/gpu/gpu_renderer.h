@@ -1,8 +1,9 @@
 // Integrators "pt" and "st" on a Vulkan device (cpp/gpu/shaders/render.glsl): one GPU
-// invocation per path, paths of up to `batch` samples of every pixel per dispatch, the
-// per-path results summed on the host into the same film statistics as the CPU
-// renderer's. The GPU samples no lights (gpu_scene_bake.h says which scenes that renders
-// exactly). Depends on Vulkan and the baked scene only, not on Embree or CGAL.
+// invocation per path (or per `lanes`-th path), paths of up to `batch` samples of every
+// pixel per dispatch, the per-path results summed on the host into the same film
+// statistics as the CPU renderer's. The GPU samples no lights (gpu_scene_bake.h says
+// which scenes that renders exactly). Depends on Vulkan and the baked scene only, not on
+// Embree or CGAL.
 #pragma once
 
 #include <cstdint>
@@ -24,6 +25,10 @@ struct GpuRenderOptions {
     // full GPU), at most spp.
     int batch = 0;
     bool record_paths = false;  // keep every path's event and step counts
+    // Invocations per dispatch; each renders every lanes-th path of the dispatch, one
+    // after the other (render.glsl). 0: one path each. For benchmarks: no result depends
+    // on it.
+    int lanes = 0;
 };
 
 struct GpuRenderResult {

@@ -499,6 +499,9 @@ bool VulkanCompute::is_software() const {
 uint32_t VulkanCompute::max_workgroup_invocations() const {
     return m_->props.limits.maxComputeWorkGroupInvocations;
 }
+uint32_t VulkanCompute::max_workgroups_x() const {
+    return m_->props.limits.maxComputeWorkGroupCount[0];
+}
 size_t VulkanCompute::max_storage_buffer_bytes() const {
     return m_->props.limits.maxStorageBufferRange;
 }

@@ -52,6 +52,7 @@ public:
     const std::string& device_name() const;
     bool is_software() const;                    // VK_PHYSICAL_DEVICE_TYPE_CPU (lavapipe)
     uint32_t max_workgroup_invocations() const;  // maxComputeWorkGroupInvocations
+    uint32_t max_workgroups_x() const;           // maxComputeWorkGroupCount[0]
     // The largest buffer run() can bind (maxStorageBufferRange; 128 MiB on lavapipe).
     size_t max_storage_buffer_bytes() const;
 

@@ -47,6 +47,7 @@ struct AxpyPush {
 TEST_P(VulkanComputeTest, DescribesDevice) {
     EXPECT_FALSE(vk->device_name().empty());
     EXPECT_GE(vk->max_workgroup_invocations(), 128u);  // Vulkan's minimum
+    EXPECT_GE(vk->max_workgroups_x(), 65535u);         // Vulkan's minimum
     EXPECT_GE(vk->max_storage_buffer_bytes(), size_t(1) << 27);
     RecordProperty("device", vk->device_name());
 }

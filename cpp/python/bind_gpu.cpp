@@ -32,7 +32,7 @@ using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>
 py::dict render_gpu_py(const Scene& scene, const std::string& integrator, int spp,
                        uint64_t seed, int max_bounces, bool nee, float sphere_threshold,
                        const std::string& models, bool record_paths, int batch,
-                       py::object progress) {
+                       int lanes, py::object progress) {
     GpuSceneData baked = bake_gpu_scene(scene, integrator, nee, sphere_threshold, models);
     GpuRenderOptions opt;
     opt.integrator = integrator;
@@ -40,6 +40,7 @@ py::dict render_gpu_py(const Scene& scene, const std::string& integrator, int sp
     opt.seed = seed;
     opt.max_bounces = max_bounces;
     opt.batch = batch;
+    opt.lanes = lanes;
     opt.record_paths = record_paths;
     RenderProgress cb(progress);
     GpuRenderResult r;
@@ -86,7 +87,7 @@ void bind_gpu(py::module_& m) {
     m.def("render_gpu", &render_gpu_py, py::arg("scene"), py::arg("integrator"),
           py::arg("spp"), py::arg("seed"), py::arg("max_bounces"), py::arg("nee"),
           py::arg("sphere_threshold"), py::arg("models"), py::arg("record_paths") = false,
-          py::arg("batch") = 0, py::arg("progress") = py::none());
+          py::arg("batch") = 0, py::arg("lanes") = 0, py::arg("progress") = py::none());
     m.def(
         "bake_gpu_scene",
         [](const Scene& scene, const std::string& path, const std::string& integrator,

@@ -1,18 +1,23 @@
-// Integrators "pt" and "st" on the GPU, one invocation per path (pixel, sample): the loop
-// of PathTracer::run (cpp/render/pt.cpp) without light sampling: emitters count when a
-// path hits them (RenderOptions::nee = false). In a scene whose media all have dielectric
-// boundaries that is exactly what pt and st with NEE compute (a straight shadow ray never
-// leaves such a medium). The includer defines SSS_ST (0 or 1).
+// Integrators "pt" and "st" on the GPU: the loop of PathTracer::run (cpp/render/pt.cpp)
+// without light sampling: emitters count when a path hits them (RenderOptions::nee =
+// false). In a scene whose media all have dielectric boundaries that is exactly what pt
+// and st with NEE compute (a straight shadow ray never leaves such a medium). The includer
+// defines SSS_ST (0 or 1).
 //
-// Sample k of pixel (x, y) uses Rng(seed, y * width + x, k), as on the CPU.
+// A dispatch renders paths 0 .. num_paths-1, path i being sample sample0 + i / (W H) of
+// pixel i % (W H) (row-major), on L lanes (invocations): lane l takes paths l, l + L,
+// l + 2L, ... one after the other. With L < num_paths a lane whose path ends starts its
+// next one while the other lanes of its subgroup go on, so a long path holds up its own
+// lane rather than its subgroup (path regeneration). The paths are dealt out in this fixed
+// order, not from an atomic counter: Mesa 22's lavapipe lost paths that way. Sample k of
+// pixel (x, y) uses Rng(seed, y * width + x, k), as on the CPU, so L changes no result.
 
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
 #extension GL_KHR_shader_subgroup_ballot : require
-#extension GL_KHR_shader_subgroup_vote : require
 
-layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+layout(local_size_x = 64) in;
 
 #include "gpu/shaders/rng.glsl"
 #include "gpu/shaders/math.glsl"
@@ -20,15 +25,19 @@ layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
 const int kModelVec4 = 1024;  // kGpuModelFloats / 4
 layout(std140, binding = 4) uniform Model { vec4 model_v[kModelVec4]; };
-// Per path, at ((z * height + y) * width + x): radiance (rgb), and the ordinary
-// scattering events and sphere steps.
+// Per path i: radiance (rgb), and the ordinary scattering events and sphere steps, the
+// latter with bit 31 set: the host zeroes the buffer before a dispatch and so finds paths
+// that never ended (Mesa's lavapipe ends all loops of an invocation after 65535 iterations
+// in all, silently; a GPU does not).
 layout(std430, binding = 5) writeonly buffer OutRadiance { vec4 out_radiance[]; };
 layout(std430, binding = 6) writeonly buffer OutCounts { uvec2 out_counts[]; };
+const uint kWritten = 0x80000000u;
 
 layout(push_constant) uniform Push {
     uint seed_lo, seed_hi;
-    uint sample0;     // sample index of gl_GlobalInvocationID.z = 0
+    uint sample0;     // sample index of path 0
     int max_bounces;  // scattering events per path; < 0: no limit ("pt" only)
+    uint num_paths;   // paths of this dispatch
 };
 
 #include "gpu/shaders/model.glsl"
@@ -199,18 +208,14 @@ void path_step(inout Path p) {
 }
 #endif
 
-void main() {
+// Path i of the dispatch from its camera ray (PinholeCamera::direction).
+Path start_path(uint i) {
     uint width = counts.z, height = counts.w;
-    uvec3 id = gl_GlobalInvocationID;
-    // Invocations past the image's edge run along as finished paths (the subgroup
-    // operations below need every lane).
-    bool inside = id.x < width && id.y < height;
-
+    uint pixel = i % (width * height), x = pixel % width, y = pixel / width;
     Path p;
     uint64_t seed = (uint64_t(seed_hi) << 32) | uint64_t(seed_lo);
-    p.rng = rng_make(seed, uint64_t(id.y) * width + id.x, uint64_t(sample0 + id.z));
-    // Camera ray through a jittered film position (PinholeCamera::direction).
-    float fx = float(id.x) + rng_uniform(p.rng), fy = float(id.y) + rng_uniform(p.rng);
+    p.rng = rng_make(seed, uint64_t(pixel), uint64_t(sample0 + i / (width * height)));
+    float fx = float(x) + rng_uniform(p.rng), fy = float(y) + rng_uniform(p.rng);
     float u = (2.0 * fx / float(width) - 1.0) * cam_origin.w * cam_forward.w;
     float v = (1.0 - 2.0 * fy / float(height)) * cam_origin.w;
     p.o = cam_origin.xyz;
@@ -228,27 +233,39 @@ void main() {
     p.r_at_o = -1.0;
     p.events = 0u;
     p.steps = 0u;
-    p.done = !inside;
+    p.done = false;
     p.pending = false;
     p.r_step = 0.0;
+    return p;
+}
 
+void main() {
+    const uint lanes = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+    uint id = gl_GlobalInvocationID.x;
+    Path p;
+    p.done = true;
+    p.pending = false;
+    if (id < num_paths) p = start_path(id);
+    while (id < num_paths) {
+        if (p.done) {
+            out_radiance[id] = vec4(p.L, 0.0);
+            out_counts[id] = uvec2(p.events, p.steps | kWritten);
+            id += lanes;
+            if (id >= num_paths) break;
+            p = start_path(id);
+        }
 #if SSS_ST
-    // Sphere steps in batches: a path that needs a step waits until at least half of
-    // the subgroup's unfinished paths wait too (or all do), and then the decoders run
-    // once for all of them. Run one by one, the rare step of one lane would stall its
-    // whole subgroup at nearly every iteration. Each path draws from its own stream, so
-    // the batching changes no result.
-    while (subgroupAny(!p.done)) {
-        if (!p.done && !p.pending) path_iterate(p);
+        if (!p.pending) path_iterate(p);
+        // Sphere steps in batches: a path that needs a step waits until at least half of
+        // the subgroup's lanes still in the loop wait too, and then the decoders run once
+        // for all of them. Run one by one, the rare step of one lane would stall its
+        // whole subgroup at nearly every iteration. Each path draws from its own stream,
+        // so the batching changes no result.
         uint waiting = subgroupBallotBitCount(subgroupBallot(p.pending));
-        uint unfinished = subgroupBallotBitCount(subgroupBallot(!p.done));
-        if (waiting > 0u && 2u * waiting >= unfinished && p.pending) path_step(p);
-    }
+        uint busy = subgroupBallotBitCount(subgroupBallot(true));
+        if (waiting > 0u && 2u * waiting >= busy && p.pending) path_step(p);
 #else
-    while (!p.done) path_iterate(p);
+        path_iterate(p);
 #endif
-    if (!inside) return;
-    uint at = (id.z * height + id.y) * width + id.x;
-    out_radiance[at] = vec4(p.L, 0.0);
-    out_counts[at] = uvec2(p.events, p.steps);
+    }
 }
