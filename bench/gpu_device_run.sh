@@ -13,7 +13,7 @@ cd .devbench
 for f in *.gz; do gunzip -kf "$f"; done
 mkdir -p images
 spp=$(cat spp.txt)
-./sssphere-gpu-bench --spp "$spp" --batch "${BATCH:-0}" --repeat "${REPEAT:-3}" \
+./sssphere-gpu-bench --spp "$spp" --batch "${BATCH:-0}" --lanes "${LANES:-0}" --repeat "${REPEAT:-3}" \
   --steps "${STEPS:-0}" --out images ${RUNS:-$(cat runs.txt)} \
   | tee "$OUT/gpu_bench.jsonl"
 python3 - "$OUT/images.npz" <<'PY'
