@@ -551,6 +551,18 @@ def test_gpu_render_is_deterministic(integrator, model_dir):
         np.testing.assert_array_equal(regenerated["sphere_steps"], a.sphere_steps)
 
 
+def test_st_without_possible_steps_is_pt(model_dir):
+    """Where the grid's bound times sigma_t stays under the threshold everywhere, "st"
+    takes no step and renders pt's paths exactly (the renderer then runs the pt kernel)."""
+    scene = sssphere.load_scene(sphere_scene(res=(12, 8), sigma_t=5.0))  # unit sphere: sigma_t r <= 5
+    kw = dict(spp=4, seed=2, backend="vulkan", models=model_dir)
+    st = sssphere.render_full(scene, integrator="st", **kw)
+    pt = sssphere.render_full(scene, integrator="pt", **kw)
+    assert st.mean_sphere_steps_per_path == 0 and st.mean_events_per_path > 0.5
+    np.testing.assert_array_equal(st.image, pt.image)
+    np.testing.assert_array_equal(st.events, pt.events)
+
+
 def test_paths_that_do_not_end_fail_the_render():
     """Every path's result carries a mark the host checks. Mesa's lavapipe silently ends all
     loops of a shader invocation after 65535 iterations; one lane rendering all 1024 paths

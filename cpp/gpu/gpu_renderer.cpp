@@ -46,13 +46,32 @@ VulkanCompute::BufferId upload_array(VulkanCompute& vk, const std::vector<T>& v,
     return b;
 }
 
+// Whether "st" can take a sphere step anywhere in the scene: some medium's grid bound
+// times its largest sigma_t reaches the threshold. The bound at a point is at most the
+// largest value of the grid's nodes.
+bool can_take_steps(const GpuSceneData& scene) {
+    const GpuSceneHeader& h = scene.header;
+    for (uint32_t i = 0; i < h.counts[0]; ++i) {
+        const GpuGrid& g = h.grids[i];
+        if (g.n[0] == 0) continue;
+        const size_t first = size_t(g.n[3]), count = size_t(g.n[0]) * g.n[1] * g.n[2];
+        if (first + count > scene.grid_values.size()) return true;  // cannot tell
+        const float r = *std::max_element(scene.grid_values.begin() + first,
+                                          scene.grid_values.begin() + first + count);
+        const float* s = h.shapes[i].sigma_t;
+        if (std::max({s[0], s[1], s[2]}) * r >= h.params[1]) return true;
+    }
+    return false;
+}
+
 }  // namespace
 
 GpuRenderer::GpuRenderer(VulkanCompute& vk, const GpuSceneData& scene)
     : vk_(vk),
       width_(scene.width()),
       height_(scene.height()),
-      has_model_(!scene.model.empty()) {
+      has_model_(!scene.model.empty()),
+      st_steps_(can_take_steps(scene)) {
     header_ = vk.create_buffer(sizeof(GpuSceneHeader));
     vk.upload(header_, &scene.header, sizeof(GpuSceneHeader));
     nodes_ = upload_array(vk, scene.nodes, scene.source, "BVH nodes");
@@ -134,8 +153,9 @@ GpuRenderResult GpuRenderer::render(const GpuRenderOptions& opt,
         const size_t lanes = std::min({opt.lanes > 0 ? size_t(opt.lanes) : paths, paths,
                                        size_t(vk_.max_workgroups_x()) * kGroup});
         vk_.fill_zero(counts);
+        // Where no step can happen "st" is "pt", path for path: the lighter kernel runs.
         r.gpu_seconds +=
-            vk_.run(st ? st_ : pt_,
+            vk_.run(st && st_steps_ ? st_ : pt_,
                     {header_, nodes_, triangles_, grid_, model_, radiance, counts}, &push,
                     sizeof(push), uint32_t((lanes + kGroup - 1) / kGroup));
         vk_.download(radiance, rad.data(), size_t(b) * pixels * 16);

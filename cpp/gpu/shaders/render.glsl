@@ -246,6 +246,30 @@ void main() {
     p.done = true;
     p.pending = false;
     if (id < num_paths) p = start_path(id);
+#if SSS_ST
+    // Sphere steps in batches: a path that needs a step waits until at least half of the
+    // subgroup's lanes still running wait too; then they leave the inner loop together and
+    // the decoders run once for all of them. Run one by one, the rare step of one lane
+    // would stall its whole subgroup at nearly every iteration. The decoders stay out of
+    // the inner loop, which is then as light as pt's. Each path draws from its own stream,
+    // so the batching changes no result.
+    while (id < num_paths) {
+        while (true) {
+            if (p.done) {
+                out_radiance[id] = vec4(p.L, 0.0);
+                out_counts[id] = uvec2(p.events, p.steps | kWritten);
+                id += lanes;
+                if (id >= num_paths) break;
+                p = start_path(id);
+            }
+            if (!p.pending) path_iterate(p);
+            uint waiting = subgroupBallotBitCount(subgroupBallot(p.pending));
+            uint busy = subgroupBallotBitCount(subgroupBallot(true));
+            if (waiting > 0u && 2u * waiting >= busy) break;
+        }
+        if (p.pending) path_step(p);
+    }
+#else
     while (id < num_paths) {
         if (p.done) {
             out_radiance[id] = vec4(p.L, 0.0);
@@ -254,18 +278,7 @@ void main() {
             if (id >= num_paths) break;
             p = start_path(id);
         }
-#if SSS_ST
-        if (!p.pending) path_iterate(p);
-        // Sphere steps in batches: a path that needs a step waits until at least half of
-        // the subgroup's lanes still in the loop wait too, and then the decoders run once
-        // for all of them. Run one by one, the rare step of one lane would stall its
-        // whole subgroup at nearly every iteration. Each path draws from its own stream,
-        // so the batching changes no result.
-        uint waiting = subgroupBallotBitCount(subgroupBallot(p.pending));
-        uint busy = subgroupBallotBitCount(subgroupBallot(true));
-        if (waiting > 0u && 2u * waiting >= busy && p.pending) path_step(p);
-#else
         path_iterate(p);
-#endif
     }
+#endif
 }
