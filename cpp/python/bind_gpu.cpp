@@ -31,8 +31,8 @@ using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>
 
 py::dict render_gpu_py(const Scene& scene, const std::string& integrator, int spp,
                        uint64_t seed, int max_bounces, bool nee, float sphere_threshold,
-                       const std::string& models, bool record_paths, int batch,
-                       int lanes, py::object progress) {
+                       const std::string& models, bool record_paths, int batch, int lanes,
+                       py::object progress) {
     GpuSceneData baked = bake_gpu_scene(scene, integrator, nee, sphere_threshold, models);
     GpuRenderOptions opt;
     opt.integrator = integrator;
