@@ -239,6 +239,17 @@ Path start_path(uint i) {
     return p;
 }
 
+// A lane whose path has ended writes it and starts its next, path id + lanes; false when
+// it has none left.
+bool next_path(inout Path p, inout uint id, uint lanes) {
+    out_radiance[id] = vec4(p.L, 0.0);
+    out_counts[id] = uvec2(p.events, p.steps | kWritten);
+    id += lanes;
+    if (id >= num_paths) return false;
+    p = start_path(id);
+    return true;
+}
+
 void main() {
     const uint lanes = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
     uint id = gl_GlobalInvocationID.x;
@@ -255,13 +266,7 @@ void main() {
     // so the batching changes no result.
     while (id < num_paths) {
         while (true) {
-            if (p.done) {
-                out_radiance[id] = vec4(p.L, 0.0);
-                out_counts[id] = uvec2(p.events, p.steps | kWritten);
-                id += lanes;
-                if (id >= num_paths) break;
-                p = start_path(id);
-            }
+            if (p.done && !next_path(p, id, lanes)) break;
             if (!p.pending) path_iterate(p);
             uint waiting = subgroupBallotBitCount(subgroupBallot(p.pending));
             uint busy = subgroupBallotBitCount(subgroupBallot(true));
@@ -271,13 +276,7 @@ void main() {
     }
 #else
     while (id < num_paths) {
-        if (p.done) {
-            out_radiance[id] = vec4(p.L, 0.0);
-            out_counts[id] = uvec2(p.events, p.steps | kWritten);
-            id += lanes;
-            if (id >= num_paths) break;
-            p = start_path(id);
-        }
+        if (p.done && !next_path(p, id, lanes)) break;
         path_iterate(p);
     }
 #endif
