@@ -133,16 +133,17 @@ def test_ctrl_c_writes_partial_image_cpp_cli(tmp_path, slow_scene):
 
 @pytest.mark.skipif(not sssphere._core.gpu_status()[0], reason="no Vulkan device")
 def test_backend_option_renders_on_the_gpu(tmp_path, small_scene):
-    # The GPU samples no lights: drop the point light and turn NEE off for the
-    # index-matched sphere; then the CLI's image is the Python API's on the same backend.
-    small_scene["lights"] = [lt for lt in small_scene["lights"] if lt["type"] != "point"]
+    # The CLI's image is the Python API's on the same backend, with NEE and without.
     (tmp_path / "s.json").write_text(json.dumps(small_scene))
-    r = run_cli("render", tmp_path / "s.json", "-o", tmp_path / "gpu.exr", "--spp", 2,
-                "--backend", "vulkan", "--no-nee", "--quiet")
-    assert r.returncode == 0, r.stderr
-    expected = sssphere.render(sssphere.load_scene(small_scene), spp=2, nee=False,
-                               backend="vulkan")
-    np.testing.assert_array_equal(sssphere.read_image(tmp_path / "gpu.exr"), expected)
-    # With NEE (the default) the index-matched medium is refused with the way out named.
-    r = run_cli("render", tmp_path / "s.json", "-o", tmp_path / "x.exr", "--backend", "vulkan")
-    assert r.returncode != 0 and "nee = false" in r.stderr
+    for flags, nee in ((["--no-nee"], False), ([], True)):
+        r = run_cli("render", tmp_path / "s.json", "-o", tmp_path / "gpu.exr", "--spp", 2,
+                    "--backend", "vulkan", "--quiet", *flags)
+        assert r.returncode == 0, r.stderr
+        expected = sssphere.render(sssphere.load_scene(small_scene), spp=2, nee=nee,
+                                   backend="vulkan")
+        np.testing.assert_array_equal(sssphere.read_image(tmp_path / "gpu.exr"), expected)
+    # st with NEE cannot light a step's events from the point light on the GPU: refused,
+    # with the ways out named.
+    r = run_cli("render", tmp_path / "s.json", "-o", tmp_path / "x.exr", "--backend", "vulkan",
+                "--integrator", "st")
+    assert r.returncode != 0 and "nee = false or backend 'cpu'" in r.stderr

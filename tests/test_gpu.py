@@ -342,7 +342,7 @@ def _count_z(a, b, counts):
     return diff / math.sqrt(se2)
 
 
-# p-value below which the block tests fail: 10 comparisons x 3 channels x 2 tests on a device
+# p-value below which the block tests fail: 15 comparisons x 3 channels x 2 tests on a device
 # whose rounding gives other paths than this one's (the seeds are fixed, the paths are not)
 # stay below a 1 % chance of a false failure.
 P_BLOCKS = 1e-4
@@ -381,9 +381,15 @@ RENDER_CASES = {
     # Chromatic extinction: one channel per path, weight 3; many sphere steps (sigma*r ~ 20-40).
     "sphere_dielectric_chromatic": (
         lambda: sphere_scene(sigma_t=[20.0, 30.0, 40.0], albedo=(0.99, 0.98, 0.97), g=0.5), True),
-    # Index-matched: the GPU needs nee=False; so does the CPU to compute the same estimator.
+    # Index-matched, without and with light sampling (area light and environment, MIS).
     "sphere_index_matched": (lambda: sphere_scene(sigma_t=30.0, g=0.7, boundary=INDEX_MATCHED),
                              False),
+    "sphere_index_matched_nee": (
+        lambda: sphere_scene(sigma_t=30.0, g=0.7, boundary=INDEX_MATCHED), True),
+    # Shadow rays that leave and re-enter the medium (the ears and the body), chromatic
+    # extinction: one channel per path, shadow roulette by that channel's bound.
+    "bunny_index_matched_nee": (
+        lambda: bunny_scene(sigma_t=[60.0, 80.0, 100.0], boundary=INDEX_MATCHED), True),
     # Dense: sigma*r up to 300, beyond the models' range (200), so steps are clipped to it.
     "sphere_dense": (lambda: sphere_scene(sigma_t=300.0, albedo=(0.99, 0.98, 0.95), g=0.7), True),
 }
@@ -472,30 +478,48 @@ def test_gpu_furnace(integrator, model_dir):
 # What the backend refuses.
 
 
-@pytest.mark.parametrize("light, kind", [
-    ({"type": "point", "position": [3, 3, 3], "intensity": [20, 20, 20]}, "point"),
-    ({"type": "directional", "direction": [0, -1, 0], "irradiance": [1, 1, 1]}, "directional"),
-])
-def test_delta_lights_are_refused(light, kind):
-    scene = sssphere.load_scene(sphere_scene(res=(4, 4), lights=[ENV, light]))
-    with pytest.raises(SceneError, match=rf"lights\[1\]: a {kind} light cannot be rendered on "
-                                         r"the GPU"):
-        sssphere.render_full(scene, spp=1, nee=False, backend="vulkan")
-    sssphere.render_full(scene, spp=1, nee=False)  # the CPU renders it
+POINT = {"type": "point", "position": [2, 3, 2.5], "intensity": [12, 10, 12]}
+DIRECTIONAL = {"type": "directional", "direction": [-0.3, -1, -0.2], "irradiance": [0.8, 1.0, 1.5]}
 
 
-def test_index_matched_with_nee_is_refused():
-    """With nee=True (the default) an index-matched medium in a lit scene would need light
-    sampling; the message names the shape and the way out (nee = false)."""
-    scene = sssphere.load_scene(sphere_scene(res=(4, 4), boundary=INDEX_MATCHED))
+def test_gpu_delta_lights_agree_with_cpu():
+    """Point and directional lights, seen only by light sampling, beside an area light and the
+    environment (one light chosen per event, MIS for the two that paths also hit): "pt" with
+    NEE in an index-matched medium agrees with the CPU's."""
+    scene = sssphere.load_scene(sphere_scene(sigma_t=30.0, g=0.7, boundary=INDEX_MATCHED,
+                                             lights=[POINT, AREA, DIRECTIONAL, ENV]))
+    cpu, gpu = _render_pair(scene, integrator="pt", nee=True)
+    assert_renders_agree(cpu, gpu, "delta lights")
+    # The test has power: those lights add much light (without NEE, which misses them, the
+    # image is darker by many standard errors in every channel).
+    dark = sssphere.render_full(scene, spp=128, seed=3, nee=False, backend="vulkan")
+    z = _mean_z(gpu, dark)
+    assert np.all(z > 3 * Z_MAX), z
+
+
+def test_st_refuses_delta_lights_it_cannot_sample():
+    """With NEE a sphere step's events see point and directional lights only through
+    EventGen's event, which the GPU does not evaluate: "st" refuses them where a medium is
+    index-matched, names the shape and the ways out; "pt", nee=False, and dielectric media
+    (no shadow ray leaves them) are rendered."""
+    lights = [ENV, POINT]
+    scene = sssphere.load_scene(sphere_scene(res=(4, 4), boundary=INDEX_MATCHED, lights=lights))
     with pytest.raises(SceneError, match=r"shapes\[0\] \('sphere'\) has an index-matched "
-                                         r"boundary.*pass nee = false"):
+                                         r"boundary and the scene point or directional lights.*"
+                                         r"use integrator 'pt', nee = false or backend 'cpu'"):
+        sssphere.render_full(scene, integrator="st", spp=1, backend="vulkan")
+    for kw in ({"integrator": "pt"}, {"integrator": "st", "nee": False}):
+        assert sssphere.render_full(scene, spp=1, backend="vulkan", **kw).backend == "vulkan"
+    dielectric = sssphere.load_scene(sphere_scene(res=(4, 4), lights=lights))
+    r = sssphere.render_full(dielectric, integrator="st", spp=1, backend="vulkan")
+    assert r.backend == "vulkan"
+
+
+def test_too_many_lights_are_refused():
+    lights = [dict(AREA, corner=[-1.5, 2.5 + 0.01 * i, 1.5]) for i in range(17)]
+    scene = sssphere.load_scene(sphere_scene(res=(4, 4), lights=lights))
+    with pytest.raises(SceneError, match=r"17 lights; the GPU path renders at most 16"):
         sssphere.render_full(scene, spp=1, backend="vulkan")
-    r = sssphere.render_full(scene, spp=1, nee=False, backend="vulkan")
-    assert r.image.shape == (4, 4, 3)
-    # Dielectric media receive no NEE on the CPU either: nee=True is accepted.
-    dielectric = sssphere.load_scene(sphere_scene(res=(4, 4)))
-    assert sssphere.render_full(dielectric, spp=1, backend="vulkan").backend == "vulkan"
 
 
 @pytest.mark.parametrize("kwargs, expected", [

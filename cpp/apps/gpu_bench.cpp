@@ -11,8 +11,9 @@
 //
 // An override changes every shape's medium or boundary before rendering, so one baked
 // file (geometry, grids, decoders) serves a density sweep: sigma_t=X and albedo=X (all
-// channels), threshold=X (the sphere threshold tau; inf: "st" takes no step) or
-// boundary=dielectric|index_matched.
+// channels), threshold=X (the sphere threshold tau; inf: "st" takes no step),
+// boundary=dielectric|index_matched, or nee=0|1 (light sampling in the shaders; the bake
+// turns it on only for index-matched media, where it changes the estimator).
 //
 // --steps N: also times N sphere steps sampled alone (sample_steps.comp, sigma uniform in
 // [6, 200], g = 0.9) with the first scene's decoders: the cost of one step without
@@ -118,12 +119,16 @@ int main(int argc, char** argv) {
                         s.albedo[0] = s.albedo[1] = s.albedo[2] = std::stof(val);
                     else if (key == "threshold")
                         scene.header.params[1] = std::stof(val);
+                    else if (key == "nee" && (val == "0" || val == "1"))
+                        scene.header.lighting[1] =
+                            val == "1" && scene.header.lighting[0] > 0 ? 1u : 0u;
                     else if (key == "boundary" &&
                              (val == "dielectric" || val == "index_matched"))
                         s.albedo[3] = val == "dielectric" ? 1.f : 0.f;
                     else
                         fail("override '", kv, "' is not allowed (allowed: sigma_t=X, ",
-                             "albedo=X, threshold=X, boundary=dielectric|index_matched)");
+                             "albedo=X, threshold=X, boundary=dielectric|index_matched, "
+                             "nee=0|1)");
                 }
             }
             GpuRenderer renderer(vk, scene);

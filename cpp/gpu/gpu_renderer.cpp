@@ -82,12 +82,15 @@ GpuRenderer::GpuRenderer(VulkanCompute& vk, const GpuSceneData& scene)
     SSS_CHECK(scene.model.size() <= model.size());
     std::copy(scene.model.begin(), scene.model.end(), model.begin());
     model_ = upload_array(vk, model, scene.source, "decoders");
-    const std::vector<int32_t> shapes = gpu_model_constants(scene.model);
+    // Specialization constants: the decoders' shapes (model.glsl, ids 0-7), then whether
+    // the shaders sample lights (render.glsl's NEE, id 8).
+    std::vector<int32_t> constants = gpu_model_constants(scene.model);
+    constants.push_back(scene.header.lighting[1] != 0 ? 1 : 0);
     constexpr uint32_t kModelUniform = 1u << 4;  // binding 4 is a uniform block
     pt_ = vk.create_pipeline(kRenderPt, sizeof(kRenderPt) / 4, 7, sizeof(RenderPush),
-                             shapes, kModelUniform);
+                             constants, kModelUniform);
     st_ = vk.create_pipeline(kRenderSt, sizeof(kRenderSt) / 4, 7, sizeof(RenderPush),
-                             shapes, kModelUniform);
+                             constants, kModelUniform);
 }
 
 GpuRenderResult GpuRenderer::render(const GpuRenderOptions& opt,

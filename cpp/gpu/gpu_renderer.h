@@ -1,8 +1,8 @@
 // Integrators "pt" and "st" on a Vulkan device (cpp/gpu/shaders/render.glsl): one GPU
 // invocation per path (or per `lanes`-th path), paths of up to `batch` samples of every
 // pixel per dispatch, the per-path results summed on the host into the same film
-// statistics as the CPU renderer's. The GPU samples no lights (gpu_scene_bake.h says
-// which scenes that renders exactly). Depends on Vulkan and the baked scene only, not on
+// statistics as the CPU renderer's. Lights are sampled as the baked scene says
+// (gpu_scene_bake.h). Depends on Vulkan and the baked scene only, not on
 // Embree or CGAL.
 #pragma once
 

@@ -14,6 +14,7 @@ namespace sss {
 
 constexpr int kGpuMaxShapes = 16;
 constexpr int kGpuMaxEmitters = 16;
+constexpr int kGpuMaxLights = 16;
 
 // std430 mirrors of scene.glsl's structs (field comments there).
 struct GpuShape {
@@ -26,6 +27,15 @@ struct GpuGrid {
     float scale[4];   // x: 1 / cell, y: guard
     int32_t n[4];     // nodes per axis, w: offset in grid_values
 };
+// A light for NEE (scene.glsl's GpuLight).
+enum class GpuLightType : int { Point = 0, Directional = 1, Area = 2, Environment = 3 };
+struct GpuLight {
+    float a[4];         // xyz: point position, directional travel direction, area
+                        // corner; w: GpuLightType
+    float edge1[4];     // area: edge1
+    float edge2[4];     // area: edge2; w: the quad's area
+    float radiance[4];  // point: intensity; directional: irradiance; else radiance
+};
 struct GpuSceneHeader {
     float cam_origin[4];   // w: tan(fov / 2)
     float cam_forward[4];  // w: aspect
@@ -36,7 +46,9 @@ struct GpuSceneHeader {
     float params[4];       // ray epsilon, sphere threshold, sigma_max, grey media (1/0)
     GpuShape shapes[kGpuMaxShapes];
     GpuGrid grids[kGpuMaxShapes];
-    float emitters[kGpuMaxEmitters][4];
+    float emitters[kGpuMaxEmitters][4];  // rgb radiance, w: its index in lights
+    uint32_t lighting[4];  // x: lights; y: 1 when the shaders sample lights (NEE)
+    GpuLight lights[kGpuMaxLights];
 };
 
 // Packed decoders (model.glsl): decoder d (0 LengthGen, 1 PathGen, 2 EventGen) has a
@@ -68,8 +80,9 @@ struct GpuSceneData {
 // `model` is empty (no steps are taken then).
 std::vector<int32_t> gpu_model_constants(const std::vector<float>& model);
 
-// Binary file: magic "SSSGPU01", then the header and the four arrays (each a uint64
-// count then its elements), little-endian as in memory. Errors name the file.
+// Binary file: magic "SSSGPU02" (01: before NEE, refused), then the header and the four
+// arrays (each a uint64 count then its elements), little-endian as in memory. Errors name
+// the file.
 void save_gpu_scene(const GpuSceneData& scene, const std::string& path);
 GpuSceneData load_gpu_scene(const std::string& path);
 

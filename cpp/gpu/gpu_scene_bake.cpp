@@ -87,37 +87,56 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
     put3(h.cam_right, right, 0.f);
     put3(h.cam_up, up, 0.f);
 
-    // Lights: area lights are the meshes after the shapes (Scene's order), the
-    // environment is a constant.
-    bool lit = false;
+    // Lights, for NEE in the shaders; area lights are also the meshes after the shapes
+    // (Scene's order), hit by paths, and the environment a constant seen by escaping
+    // ones.
+    if (desc.lights.size() > size_t(kGpuMaxLights))
+        fail(desc.source, ": ", desc.lights.size(),
+             " lights; the GPU path renders at most ", kGpuMaxLights);
+    bool has_delta = false;
     int emitters = 0;
     for (size_t i = 0; i < desc.lights.size(); ++i) {
         const Light& l = desc.lights[i];
-        lit = true;
-        if (l.is_delta())
-            fail(desc.source, ": lights[", i, "]: a ",
-                 l.type == Light::Type::Point ? "point" : "directional",
-                 " light cannot be rendered on the GPU, which samples no lights (allowed "
-                 "there: 'area' and 'environment' lights; or backend 'cpu')");
-        if (l.type == Light::Type::Environment) put3(h.environment, l.radiance, 1.f);
-        if (l.type != Light::Type::Area) continue;
-        if (emitters == kGpuMaxEmitters)
-            fail(desc.source, ": more than ", kGpuMaxEmitters,
-                 " area lights; the GPU path renders at most ", kGpuMaxEmitters);
-        put3(h.emitters[emitters++], l.radiance, 0.f);
+        GpuLight& gl = h.lights[i];
+        switch (l.type) {
+            case Light::Type::Point:
+                put3(gl.a, l.position, float(GpuLightType::Point));
+                put3(gl.radiance, l.intensity, 0.f);
+                break;
+            case Light::Type::Directional:
+                put3(gl.a, l.direction, float(GpuLightType::Directional));
+                put3(gl.radiance, l.irradiance, 0.f);
+                break;
+            case Light::Type::Area:
+                put3(gl.a, l.corner, float(GpuLightType::Area));
+                put3(gl.edge1, l.edge1, 0.f);
+                put3(gl.edge2, l.edge2, length(cross(l.edge1, l.edge2)));
+                put3(gl.radiance, l.radiance, 0.f);
+                put3(h.emitters[emitters++], l.radiance, float(i));
+                break;
+            case Light::Type::Environment:
+                put3(gl.a, Vec3(0.f), float(GpuLightType::Environment));
+                put3(gl.radiance, l.radiance, 0.f);
+                put3(h.environment, l.radiance, 1.f);
+                break;
+        }
+        has_delta = has_delta || l.is_delta();
     }
 
     // Shapes and their grids.
     std::vector<const TriangleMesh*> meshes;
+    bool index_matched = false;
     for (int i = 0; i < scene.num_shapes(); ++i) {
         const Shape& s = desc.shapes[i];
         meshes.push_back(&s.mesh);
         const bool dielectric = s.boundary.type == BoundaryType::Dielectric;
-        if (nee && lit && !dielectric)
+        index_matched = index_matched || !dielectric;
+        if (nee && has_delta && !dielectric && integrator == "st")
             fail(desc.source, ": shapes[", i, "] ('", s.name,
-                 "') has an index-matched boundary, where nee = true samples lights; the "
-                 "GPU path samples none: pass nee = false (hits only, unbiased but "
-                 "noisier) or use backend 'cpu'");
+                 "') has an index-matched boundary and the scene point or directional "
+                 "lights: integrator 'st' with nee = true lights a sphere step's events "
+                 "from them through EventGen's representative event, which the GPU path "
+                 "does not evaluate: use integrator 'pt', nee = false or backend 'cpu'");
         put3(h.shapes[i].sigma_t, s.medium.sigma_t, s.medium.g);
         put3(h.shapes[i].albedo, s.medium.albedo, dielectric ? 1.f : 0.f);
         h.shapes[i].boundary[0] = s.boundary.ior;
@@ -137,6 +156,10 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
     h.counts[1] = uint32_t(emitters);
     h.counts[2] = uint32_t(c.width);
     h.counts[3] = uint32_t(c.height);
+    h.lighting[0] = uint32_t(desc.lights.size());
+    // A straight shadow ray never leaves a dielectric boundary (DESIGN §2): with only
+    // those, NEE finds nothing and the shaders skip it (the same estimator).
+    h.lighting[1] = nee && index_matched && !desc.lights.empty() ? 1u : 0u;
     // The area lights' quads, after the shapes in Scene's order (its ray tracer's).
     std::vector<TriangleMesh> quads;
     for (const Light& l : desc.lights) {

@@ -231,8 +231,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--no-nee", action="store_true",
                    help="no light sampling: emitters count only when paths hit them")
     r.add_argument("--backend", choices=BACKENDS, default="cpu",
-                   help="cpu (default) or vulkan: the GPU path, which samples no lights "
-                        "(docs/gpu.md; index-matched media in lit scenes need --no-nee)")
+                   help="cpu (default) or vulkan: the GPU path (docs/gpu.md; st with NEE "
+                        "there refuses point and directional lights on index-matched media)")
     r.add_argument("--aovs", action="store_true",
                    help="also write OUT_variance.exr, OUT_events.exr (scattering events per path) "
                         "and, for st, OUT_sphere_steps.exr")

@@ -146,10 +146,11 @@ def render_full(
     lengths, not only their means.
 
     ``backend="vulkan"`` renders on a Vulkan device (a GPU, or Mesa's lavapipe on the CPU;
-    docs/gpu.md): ``"pt"`` and ``"st"`` without light sampling, the estimator of
-    ``nee=False``. Scenes whose media all have dielectric boundaries get the same image as
-    with NEE (no shadow ray leaves such a medium); elsewhere pass ``nee=False``. Point and
-    directional lights, ``sphere_sampler="walk"`` and ``threads`` are CPU-only.
+    docs/gpu.md): ``"pt"`` and ``"st"`` with the CPU's estimators (light sampling with
+    ``nee=True``, ``step_nee="hits"`` for ``"st"``). ``"st"`` with ``nee=True`` is refused
+    where a scene has point or directional lights and an index-matched medium (a step's
+    events see those lights only through EventGen, which the GPU does not evaluate).
+    ``step_nee="event"``, ``sphere_sampler="walk"`` and ``threads`` are CPU-only.
     """
     if backend not in BACKENDS:
         raise SceneError(f"backend {backend!r} is not allowed "
@@ -164,8 +165,8 @@ def render_full(
         if threads not in (0,):
             raise SceneError(f"threads={threads!r} is CPU-only (backend 'vulkan' uses the GPU's own)")
         if step_nee != "hits":
-            raise SceneError(f"step_nee {step_nee!r} is CPU-only (backend 'vulkan' samples no "
-                             "lights)")
+            raise SceneError(f"step_nee {step_nee!r} is CPU-only (backend 'vulkan' has "
+                             "step_nee 'hits' only: it does not evaluate EventGen)")
         if sampler != "model":
             raise SceneError(f"sphere_sampler {sampler!r} is CPU-only (backend 'vulkan' "
                              "samples steps with the models)")

@@ -45,6 +45,18 @@ vec3 hg_sample(vec3 wi, float g, float u1, float u2) {
     return frame_to_world(frame_from_z(wi), vec3(s * cos(phi), s * sin(phi), c));
 }
 
+vec3 sample_uniform_sphere(float u1, float u2) {
+    float z = 1.0 - 2.0 * u1;
+    float r = sqrt(max(0.0, 1.0 - z * z));
+    float phi = 2.0 * kPi * u2;
+    return vec3(r * cos(phi), r * sin(phi), z);
+}
+
+float power_heuristic(float pdf_a, float pdf_b) {
+    float a = pdf_a * pdf_a, b = pdf_b * pdf_b;
+    return a + b > 0.0 ? a / (a + b) : 0.0;
+}
+
 // -ln(1 - u) / sigma_t (log1p(-u) in C++; u < 1 keeps it finite).
 float sample_exponential(float u, float sigma_t) { return -log(1.0 - u) / sigma_t; }
 

@@ -1,8 +1,11 @@
-// Integrators "pt" and "st" on the GPU: the loop of PathTracer::run (cpp/render/pt.cpp)
-// without light sampling: emitters count when a path hits them (RenderOptions::nee =
-// false). In a scene whose media all have dielectric boundaries that is exactly what pt
-// and st with NEE compute (a straight shadow ray never leaves such a medium). The includer
-// defines SSS_ST (0 or 1).
+// Integrators "pt" and "st" on the GPU: the loop of PathTracer::run (cpp/render/pt.cpp).
+// With the specialization constant NEE (the baked scene's lighting.y) every scattering
+// event samples one light, as PathTracer::direct_light with MIS, and a sphere step's exit
+// flight counts the lights it hits with weight 1 (StepNee::Hits; the bake refuses point and
+// directional lights there, which need EventGen). Without it emitters count only when a
+// path hits them (nee = false), which in a scene whose media all have dielectric
+// boundaries is also what NEE computes (a straight shadow ray never leaves such a
+// medium). The includer defines SSS_ST (0 or 1).
 //
 // A dispatch renders paths 0 .. num_paths-1, path i being sample sample0 + i / (W H) of
 // pixel i % (W H) (row-major), on L lanes (invocations): lane l takes paths l, l + L,
@@ -42,7 +45,12 @@ layout(push_constant) uniform Push {
 
 #include "gpu/shaders/model.glsl"
 
-const float kRouletteThreshold = 0.1;  // as pt.cpp
+layout(constant_id = 8) const bool NEE = false;
+
+// As pt.cpp.
+const float kRouletteThreshold = 0.1;
+const float kShadowRoulette = 0.1;
+const int kMaxShadowCrossings = 64;
 
 bool survives_roulette(inout vec3 beta, float beta_start, inout Rng rng) {
     float q = max(beta.x, max(beta.y, beta.z)) / beta_start;
@@ -59,6 +67,90 @@ vec3 offset_ray(vec3 p, vec3 n, vec3 w, float eps) {
 
 bool is_black(vec3 v) { return v.x == 0.0 && v.y == 0.0 && v.z == 0.0; }
 
+// Per channel exp(-sigma_t d); a zero extinction gives 1 even for d = inf.
+vec3 beer(vec3 sigma_t, float d) {
+    return mix(vec3(1.0), exp(-sigma_t * d), greaterThan(sigma_t, vec3(0.0)));
+}
+
+// The solid-angle pdf at p of a uniform point on an area light of that area, seen at
+// distance t along w from a surface of normal n.
+float area_light_pdf(float area, vec3 w, float t, vec3 n) {
+    float cos_l = abs(dot(w, n));
+    return cos_l > 0.0 ? t * t / (cos_l * area) : 0.0;
+}
+
+// PathTracer::transmittance from p along w over dist, starting in `shape` (-1: vacuum):
+// Beer's law through the media it crosses at index-matched boundaries; 0 when a dielectric
+// boundary or an emitter is in the way, or after kMaxShadowCrossings boundaries.
+vec3 transmittance(vec3 p, vec3 w, float dist, int shape) {
+    vec3 tr = vec3(1.0);
+    float t_prev = 0.0;
+    for (int i = 0; i < kMaxShadowCrossings; ++i) {
+        Hit h;
+        bool hit = intersect_between(p, w, t_prev, dist, h);
+        if (shape >= 0) tr *= beer(shapes[shape].sigma_t.xyz, (hit ? h.t : dist) - t_prev);
+        if (!hit || is_black(tr)) return tr;
+        if (h.mesh >= counts.x || shapes[h.mesh].albedo.w != 0.0) return vec3(0.0);
+        shape = dot(w, h.normal) < 0.0 ? int(h.mesh) : -1;
+        t_prev = h.t;
+    }
+    return vec3(0.0);
+}
+
+// PathTracer::direct_light with MIS at a scattering event at p (grid bound r) in `shape`,
+// the photon travelling along d: one light chosen uniformly, weighted by the number of
+// lights. A shadow ray whose transmittance the bound puts below kShadowRoulette is traced
+// with probability bound / kShadowRoulette and reweighted.
+vec3 direct_light(vec3 p, float r, vec3 d, int shape, int channel, inout Rng rng) {
+    GpuShape s = shapes[shape];
+    if (s.albedo.w != 0.0) return vec3(0.0);  // no shadow ray leaves a dielectric
+    float sigma_min =
+        channel < 0 ? min(s.sigma_t.x, min(s.sigma_t.y, s.sigma_t.z)) : s.sigma_t[channel];
+    float bound = exp(-sigma_min * r);
+    float shadow_weight = 1.0;
+    if (bound < kShadowRoulette) {
+        shadow_weight = roulette_weight(bound / kShadowRoulette, rng_uniform(rng));
+        if (shadow_weight == 0.0) return vec3(0.0);
+    }
+    float n_lights = float(lighting.x);
+    uint i = min(lighting.x - 1u, uint(rng_uniform(rng) * n_lights));
+    GpuLight l = lights[i];
+    int type = int(l.a.w);
+    float g = s.sigma_t.w;
+    vec3 sum = vec3(0.0);
+    if (type == kPointLight) {
+        vec3 to = l.a.xyz - p;
+        float dist = length(to);
+        if (dist > 0.0) {
+            vec3 w = to / dist;
+            sum = l.radiance.rgb * transmittance(p, w, dist, shape) *
+                  (hg_eval(dot(d, w), g) / (dist * dist));
+        }
+    } else if (type == kDirectionalLight) {
+        vec3 w = -l.a.xyz;
+        sum = l.radiance.rgb * transmittance(p, w, kInf, shape) * hg_eval(dot(d, w), g);
+    } else if (type == kAreaLight) {
+        float u1 = rng_uniform(rng), u2 = rng_uniform(rng);
+        vec3 q = l.a.xyz + l.edge1.xyz * u1 + l.edge2.xyz * u2;
+        vec3 n = normalize(cross(l.edge1.xyz, l.edge2.xyz));
+        vec3 to = q - p;
+        float dist = length(to);
+        vec3 w = to / dist;
+        if (dist > 0.0 && dot(w, n) < 0.0) {  // in front of the one-sided emitter
+            float pdf = area_light_pdf(l.edge2.w, w, dist, n);
+            float phase = hg_eval(dot(d, w), g);
+            vec3 tr = transmittance(p, w, dist * (1.0 - 1e-4), shape);
+            sum = l.radiance.rgb * tr * (phase * power_heuristic(pdf / n_lights, phase) / pdf);
+        }
+    } else {  // environment: uniform directions, MIS with the phase function
+        vec3 w = sample_uniform_sphere(rng_uniform(rng), rng_uniform(rng));
+        float phase = hg_eval(dot(d, w), g);
+        sum = l.radiance.rgb * transmittance(p, w, kInf, shape) *
+              (phase * power_heuristic(kInvFourPi / n_lights, phase) / kInvFourPi);
+    }
+    return sum * (shadow_weight * n_lights);
+}
+
 // One path's state between iterations of its loop.
 struct Path {
     Rng rng;
@@ -67,6 +159,12 @@ struct Path {
     int channel;    // -1: all three (grey media)
     int shape;      // the medium holding the photon; -1 = vacuum
     float r_at_o;   // the grid's bound at o when known, else < 0
+    // NEE's MIS (PathState): whether the last vertex was specular (camera, dielectric
+    // boundary, sphere step), else the phase pdf of the direction sampled at the last
+    // scattering event and where that was.
+    bool specular;
+    float phase_pdf;
+    vec3 scatter_pos;
     uint events, steps;
     bool done;
     bool pending;   // "st": waits for a sphere step at o, of bound r_step
@@ -83,14 +181,29 @@ void path_iterate(inout Path p) {
     if (p.shape < 0) {
         // Vacuum: fly to the next surface.
         if (!intersect(p.o, p.d, kInf, hit)) {
-            if (environment.w != 0.0) p.L += p.beta * environment.rgb;
+            if (environment.w != 0.0) {
+                float w = NEE && !p.specular
+                              ? power_heuristic(p.phase_pdf, kInvFourPi / float(lighting.x))
+                              : 1.0;
+                p.L += p.beta * environment.rgb * w;
+            }
             p.done = true;
             return;
         }
         vec3 x = p.o + p.d * hit.t;
         if (hit.mesh >= num_shapes) {  // an area light's quad: one-sided, absorbs
-            if (dot(p.d, hit.normal) < 0.0)
-                p.L += p.beta * emitters[hit.mesh - num_shapes].rgb;
+            if (dot(p.d, hit.normal) < 0.0) {
+                vec4 e = emitters[hit.mesh - num_shapes];
+                float w = 1.0;
+                if (NEE && !p.specular) {
+                    // NEE's pdf at the last scattering event, across index-matched
+                    // boundaries.
+                    float pdf = area_light_pdf(lights[int(e.w)].edge2.w, p.d,
+                                               length(x - p.scatter_pos), hit.normal);
+                    w = power_heuristic(p.phase_pdf, pdf / float(lighting.x));
+                }
+                p.L += p.beta * e.rgb * w;
+            }
             p.done = true;
             return;
         }
@@ -102,6 +215,7 @@ void path_iterate(inout Path p) {
         if (s.albedo.w != 0.0) {  // dielectric
             float cos_i = -dot(p.d, hit.normal), cos_t;
             float F = fresnel_dielectric(cos_i, s.boundary.x, cos_t);
+            p.specular = true;
             if (rng_uniform(p.rng) < F) {
                 p.d = p.d + hit.normal * (2.0 * cos_i);
                 p.o = offset_ray(x, hit.normal, p.d, eps);
@@ -155,7 +269,14 @@ void path_iterate(inout Path p) {
             p.done = true;
             return;
         }
-        p.d = hg_sample(p.d, s.sigma_t.w, rng_uniform(p.rng), rng_uniform(p.rng));
+        if (NEE) p.L += p.beta * direct_light(p.o, r, p.d, p.shape, p.channel, p.rng);
+        vec3 d_new = hg_sample(p.d, s.sigma_t.w, rng_uniform(p.rng), rng_uniform(p.rng));
+        if (NEE) {  // for the MIS weight of a light this direction may hit
+            p.phase_pdf = hg_eval(dot(p.d, d_new), s.sigma_t.w);
+            p.scatter_pos = p.o;
+            p.specular = false;
+        }
+        p.d = d_new;
         if (!survives_roulette(p.beta, p.beta_start, p.rng)) p.done = true;
         return;
     }
@@ -170,6 +291,7 @@ void path_iterate(inout Path p) {
     if (s.albedo.w != 0.0) {
         float cos_i = dot(p.d, hit.normal), cos_t;
         float F = fresnel_dielectric(cos_i, 1.0 / s.boundary.x, cos_t);
+        p.specular = true;
         if (rng_uniform(p.rng) < F) {
             p.d = p.d - hit.normal * (2.0 * cos_i);
             p.o = offset_ray(x, hit.normal, p.d, eps);
@@ -204,6 +326,7 @@ void path_step(inout Path p) {
     p.o = p.o + frame_to_world(f, sphere_exit_point(st.cos_theta)) * radius;
     p.d = normalize(
         frame_to_world(f, sphere_exit_direction(st.cos_theta, st.alpha, st.beta)));
+    p.specular = true;  // the exit flight's light hits count with weight 1
     if (!survives_roulette(p.beta, p.beta_start, p.rng)) p.done = true;
 }
 #endif
@@ -231,6 +354,9 @@ Path start_path(uint i) {
     p.beta_start = max(p.beta.x, max(p.beta.y, p.beta.z));
     p.shape = -1;
     p.r_at_o = -1.0;
+    p.specular = true;
+    p.phase_pdf = 0.0;
+    p.scatter_pos = vec3(0.0);
     p.events = 0u;
     p.steps = 0u;
     p.done = false;

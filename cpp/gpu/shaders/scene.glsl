@@ -4,6 +4,7 @@
 
 const int kMaxShapes = 16;
 const int kMaxEmitters = 16;
+const int kMaxLights = 16;
 const uint kLeafBit = 0x80000000u;
 const uint kNoChild = 0xffffffffu;
 const int kStackSize = 48;  // kBvhMaxDepth
@@ -20,6 +21,14 @@ struct GpuGrid {
     ivec4 n;      // nodes per axis; w: offset of node (0, 0, 0) in grid_values
 };
 
+// A light for NEE; a.w: 0 point (a.xyz position, radiance = intensity), 1 directional
+// (a.xyz travel direction, radiance = irradiance), 2 area (a.xyz corner, edges, edge2.w its
+// area), 3 environment.
+struct GpuLight {
+    vec4 a, edge1, edge2, radiance;
+};
+const int kPointLight = 0, kDirectionalLight = 1, kAreaLight = 2, kEnvironmentLight = 3;
+
 layout(std430, binding = 0) readonly buffer SceneHeader {
     vec4 cam_origin;   // w: tan(fov / 2)
     vec4 cam_forward;  // w: aspect
@@ -30,7 +39,9 @@ layout(std430, binding = 0) readonly buffer SceneHeader {
     vec4 params;       // ray epsilon, sphere threshold, sigma_max, 1 for grey media
     GpuShape shapes[kMaxShapes];
     GpuGrid grids[kMaxShapes];
-    vec4 emitters[kMaxEmitters];  // radiance of mesh counts.x + i
+    vec4 emitters[kMaxEmitters];  // mesh counts.x + i: radiance; w: its index in lights
+    uvec4 lighting;               // x: lights; y: 1 when the shaders sample lights (NEE)
+    GpuLight lights[kMaxLights];
 };
 layout(std430, binding = 1) readonly buffer BvhNodes { vec4 nodes[]; };
 layout(std430, binding = 2) readonly buffer BvhTriangles { vec4 triangles[]; };
@@ -43,16 +54,16 @@ struct Hit {
 };
 
 // Slab test of the box [lo, hi] against the ray; the entry distance, or kInf for a miss.
-float box_entry(vec3 lo, vec3 hi, vec3 o, vec3 inv_d, float tfar) {
+float box_entry(vec3 lo, vec3 hi, vec3 o, vec3 inv_d, float tnear, float tfar) {
     vec3 t0 = (lo - o) * inv_d, t1 = (hi - o) * inv_d;
     vec3 tmin = min(t0, t1), tmax = max(t0, t1);
-    float enter = max(max(tmin.x, tmin.y), max(tmin.z, 0.0));
+    float enter = max(max(tmin.x, tmin.y), max(tmin.z, tnear));
     float leave = min(min(tmax.x, tmax.y), min(tmax.z, tfar));
     return enter <= leave ? enter : kInf;
 }
 
-// Closest hit with t in (0, tfar) (Moller-Trumbore per triangle); false if none.
-bool intersect(vec3 o, vec3 d, float tfar, out Hit hit) {
+// Closest hit with t in (tnear, tfar) (Moller-Trumbore per triangle); false if none.
+bool intersect_between(vec3 o, vec3 d, float tnear, float tfar, out Hit hit) {
     // Avoid 0 * inf = NaN in the slabs: a zero component gets a huge inverse.
     vec3 inv_d = vec3(1.0) / mix(d, vec3(1e-30), equal(d, vec3(0.0)));
     uint stack[kStackSize];
@@ -77,7 +88,7 @@ bool intersect(vec3 o, vec3 d, float tfar, out Hit hit) {
                 float v = dot(d, qv) * inv_det;
                 if (v < 0.0 || u + v > 1.0) continue;
                 float t = dot(e2, qv) * inv_det;
-                if (t > 0.0 && t < best_t) {
+                if (t > tnear && t < best_t) {
                     best_t = t;
                     best = int(i);
                 }
@@ -85,10 +96,10 @@ bool intersect(vec3 o, vec3 d, float tfar, out Hit hit) {
         } else {
             vec4 n0 = nodes[4 * node], n1 = nodes[4 * node + 1], n2 = nodes[4 * node + 2];
             uvec2 child = floatBitsToUint(nodes[4 * node + 3].xy);
-            float t0 = box_entry(n0.xyz, vec3(n0.w, n1.xy), o, inv_d, best_t);
+            float t0 = box_entry(n0.xyz, vec3(n0.w, n1.xy), o, inv_d, tnear, best_t);
             float t1 = child.y == kNoChild
                            ? kInf
-                           : box_entry(vec3(n1.zw, n2.x), n2.yzw, o, inv_d, best_t);
+                           : box_entry(vec3(n1.zw, n2.x), n2.yzw, o, inv_d, tnear, best_t);
             if (t0 < kInf && t1 < kInf) {
                 // Both: the nearer first, the other on the stack.
                 bool swap_order = t1 < t0;
@@ -113,6 +124,11 @@ bool intersect(vec3 o, vec3 d, float tfar, out Hit hit) {
     hit.mesh = floatBitsToUint(triangles[4 * best].w);
     hit.normal = triangles[4 * best + 3].xyz;
     return true;
+}
+
+// Closest hit with t in (0, tfar).
+bool intersect(vec3 o, vec3 d, float tfar, out Hit hit) {
+    return intersect_between(o, d, 0.0, tfar, hit);
 }
 
 // DistanceGrid::query: a lower bound on the distance from p to shape's surface (0
