@@ -246,11 +246,12 @@ def test_gpu_decoders_match_cpu_on_the_same_streams(model_dir, step_inputs, gpu_
     sigma, g = step_inputs
     n = sigma.size
     model = sssphere.ScatteringModel.load(model_dir)
-    # EventGen (event=True) draws after LengthGen and PathGen from the same stream; the GPU
-    # never runs it, so the CPU leaves it out.
+    # Without phi the GPU draws no event (EventGen's normals would follow LengthGen's and
+    # PathGen's on the stream), so the CPU leaves it out too.
     cpu = model._core.sample(sigma, g, np.ones(n, np.float32), n, 1234, 1, event=False,
                              impl=impl)
-    assert gpu_steps.shape == (n, 4) and gpu_steps.dtype == np.float32
+    assert gpu_steps.shape == (n, 12) and gpu_steps.dtype == np.float32
+    assert not gpu_steps[:, 4:7].any() and np.all(gpu_steps[:, 8:11] == [0, 0, 1])
     gpu_n = gpu_steps[:, 0].astype(np.int64)
     assert np.all(gpu_steps[:, 0] == gpu_n), "N is not an integer"
     agree = gpu_n == cpu["N"]
@@ -268,6 +269,44 @@ def test_gpu_decoders_match_cpu_on_the_same_streams(model_dir, step_inputs, gpu_
     # The exit stays on the unit disc and cos_theta in [-1, 1].
     assert np.all(np.abs(gpu_steps[:, 1]) <= 1)
     assert np.all(gpu_steps[:, 2] ** 2 + gpu_steps[:, 3] ** 2 <= 1)
+
+
+@pytest.mark.parametrize("impl", ["scalar", "simd"])
+def test_gpu_eventgen_matches_cpu_on_the_same_streams(model_dir, step_inputs, impl):
+    """With the albedo phi (1 - phi log-uniform in [5e-5, 0.1]) both sides also draw the
+    representative event from Rng(1234, i): the same choice of the first event (the centre,
+    X = 0, W = +z; a uniform against (1 - phi) / (1 - phi^N), computed with log1p and expm1
+    on both), and where N and that choice agree the same X and W to 1e-3 (a wrong weight,
+    encoding, condition or latent order is off by O(0.1)). LengthGen and PathGen are
+    unchanged by the event (their normals come first)."""
+    sigma, g = step_inputs
+    n = sigma.size
+    rng = np.random.default_rng(12)
+    phi = (1 - np.exp(rng.uniform(math.log(5e-5), math.log(0.1), n))).astype(np.float32)
+    gpu = _core.gpu_sample_steps(model_dir, sigma, g, 1234, phi)
+    model = sssphere.ScatteringModel.load(model_dir)
+    cpu = model._core.sample(sigma, g, phi, n, 1234, 1, event=True, impl=impl)
+    gpu_n = gpu[:, 0].astype(np.int64)
+    agree = gpu_n == cpu["N"]
+    assert agree.mean() >= 0.99, f"N agrees for {agree.mean():.4f} of the items"
+    X, W = gpu[:, 4:7].astype(np.float64), gpu[:, 8:11].astype(np.float64)
+    first_gpu = np.all(X == 0, axis=1) & np.all(W == [0, 0, 1], axis=1)
+    first_cpu = np.all(cpu["X"] == 0, axis=1) & np.all(cpu["W"] == [0, 0, 1], axis=1)
+    same_choice = first_gpu == first_cpu
+    assert same_choice[agree].mean() >= 0.99, same_choice[agree].mean()
+    # Both kinds of event occur: the centre, and EventGen's away from it.
+    networks = agree & (gpu_n >= 2) & same_choice
+    assert 100 <= np.count_nonzero(networks & first_gpu) <= np.count_nonzero(networks) - 1000
+    ok = networks & ~first_gpu
+    for name, got in (("X", X), ("W", W)):
+        err = np.abs(got[ok] - cpu[name][ok]).max(axis=1)
+        i = int(np.flatnonzero(ok)[err.argmax()])
+        assert err.max() <= 1e-3, (f"{name}: |gpu - cpu| = {err.max():.3g} at sigma {sigma[i]}, "
+                                   f"g {g[i]}, phi {phi[i]}, N {gpu_n[i]}")
+    assert np.all(np.linalg.norm(X, axis=1) <= 1 + 1e-6)
+    np.testing.assert_allclose(np.linalg.norm(W, axis=1), 1, atol=1e-6)
+    without = _core.gpu_sample_steps(model_dir, sigma, g, 1234)
+    np.testing.assert_array_equal(without[:, :4], gpu[:, :4])
 
 
 def test_gpu_single_event_steps_follow_their_law(model_dir):
@@ -342,7 +381,7 @@ def _count_z(a, b, counts):
     return diff / math.sqrt(se2)
 
 
-# p-value below which the block tests fail: 15 comparisons x 3 channels x 2 tests on a device
+# p-value below which the block tests fail: 16 comparisons x 3 channels x 2 tests on a device
 # whose rounding gives other paths than this one's (the seeds are fixed, the paths are not)
 # stay below a 1 % chance of a false failure.
 P_BLOCKS = 1e-4
@@ -482,37 +521,25 @@ POINT = {"type": "point", "position": [2, 3, 2.5], "intensity": [12, 10, 12]}
 DIRECTIONAL = {"type": "directional", "direction": [-0.3, -1, -0.2], "irradiance": [0.8, 1.0, 1.5]}
 
 
-def test_gpu_delta_lights_agree_with_cpu():
+@pytest.mark.parametrize("integrator", ["pt", "st"])
+def test_gpu_delta_lights_agree_with_cpu(integrator, model_dir):
     """Point and directional lights, seen only by light sampling, beside an area light and the
-    environment (one light chosen per event, MIS for the two that paths also hit): "pt" with
-    NEE in an index-matched medium agrees with the CPU's."""
+    environment (one light chosen per event, MIS for the two that paths also hit), in an
+    index-matched medium with a chromatic albedo: "pt" with NEE agrees with the CPU's, and so
+    does "st", whose steps connect EventGen's representative event to the point and
+    directional lights (weighted by Lambda, for a channel picked per step)."""
     scene = sssphere.load_scene(sphere_scene(sigma_t=30.0, g=0.7, boundary=INDEX_MATCHED,
                                              lights=[POINT, AREA, DIRECTIONAL, ENV]))
-    cpu, gpu = _render_pair(scene, integrator="pt", nee=True)
-    assert_renders_agree(cpu, gpu, "delta lights")
+    cpu, gpu = _render_pair(scene, integrator=integrator, nee=True, models=model_dir)
+    if integrator == "st":
+        assert gpu.mean_sphere_steps_per_path > 0.05, gpu.mean_sphere_steps_per_path
+    assert_renders_agree(cpu, gpu, f"delta lights, {integrator}")
     # The test has power: those lights add much light (without NEE, which misses them, the
     # image is darker by many standard errors in every channel).
-    dark = sssphere.render_full(scene, spp=128, seed=3, nee=False, backend="vulkan")
+    dark = sssphere.render_full(scene, integrator=integrator, spp=128, seed=3, nee=False,
+                                backend="vulkan", models=model_dir)
     z = _mean_z(gpu, dark)
     assert np.all(z > 3 * Z_MAX), z
-
-
-def test_st_refuses_delta_lights_it_cannot_sample():
-    """With NEE a sphere step's events see point and directional lights only through
-    EventGen's event, which the GPU does not evaluate: "st" refuses them where a medium is
-    index-matched, names the shape and the ways out; "pt", nee=False, and dielectric media
-    (no shadow ray leaves them) are rendered."""
-    lights = [ENV, POINT]
-    scene = sssphere.load_scene(sphere_scene(res=(4, 4), boundary=INDEX_MATCHED, lights=lights))
-    with pytest.raises(SceneError, match=r"shapes\[0\] \('sphere'\) has an index-matched "
-                                         r"boundary and the scene point or directional lights.*"
-                                         r"use integrator 'pt', nee = false or backend 'cpu'"):
-        sssphere.render_full(scene, integrator="st", spp=1, backend="vulkan")
-    for kw in ({"integrator": "pt"}, {"integrator": "st", "nee": False}):
-        assert sssphere.render_full(scene, spp=1, backend="vulkan", **kw).backend == "vulkan"
-    dielectric = sssphere.load_scene(sphere_scene(res=(4, 4), lights=lights))
-    r = sssphere.render_full(dielectric, integrator="st", spp=1, backend="vulkan")
-    assert r.backend == "vulkan"
 
 
 def test_too_many_lights_are_refused():

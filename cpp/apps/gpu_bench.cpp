@@ -88,8 +88,8 @@ int main(int argc, char** argv) {
                 sigma[i] = 6.f + 194.f * float(i % 1024) / 1023.f;
             for (int k = 0; k < 3; ++k) {
                 double t = 0.0;
-                gpu_sample_steps(vk, scene.model, sigma.data(), g.data(), sigma.size(),
-                                 uint64_t(k), &t);
+                gpu_sample_steps(vk, scene.model, sigma.data(), g.data(), nullptr,
+                                 sigma.size(), uint64_t(k), /*with_event=*/false, &t);
                 std::printf(
                     "{\"steps\": %ld, \"device\": \"%s\", \"gpu_seconds\": %.6f, "
                     "\"ns_per_step\": %.4f}\n",

@@ -82,8 +82,8 @@ GpuRenderer::GpuRenderer(VulkanCompute& vk, const GpuSceneData& scene)
     SSS_CHECK(scene.model.size() <= model.size());
     std::copy(scene.model.begin(), scene.model.end(), model.begin());
     model_ = upload_array(vk, model, scene.source, "decoders");
-    // Specialization constants: the decoders' shapes (model.glsl, ids 0-7), then whether
-    // the shaders sample lights (render.glsl's NEE, id 8).
+    // Specialization constants: the decoders' shapes (model.glsl, ids 0-11), then whether
+    // the shaders sample lights (render.glsl's NEE, id 12).
     std::vector<int32_t> constants = gpu_model_constants(scene.model);
     constants.push_back(scene.header.lighting[1] != 0 ? 1 : 0);
     constexpr uint32_t kModelUniform = 1u << 4;  // binding 4 is a uniform block
@@ -224,11 +224,15 @@ GpuRenderResult GpuRenderer::render(const GpuRenderOptions& opt,
 }
 
 std::vector<float> gpu_sample_steps(VulkanCompute& vk, const std::vector<float>& model,
-                                    const float* sigma, const float* g, size_t n,
-                                    uint64_t seed, double* gpu_seconds) {
+                                    const float* sigma, const float* g, const float* phi,
+                                    size_t n, uint64_t seed, bool with_event,
+                                    double* gpu_seconds) {
     if (n == 0) return {};
-    std::vector<float> in(2 * n), out(4 * n);
-    for (size_t i = 0; i < n; ++i) in[2 * i] = sigma[i], in[2 * i + 1] = g[i];
+    std::vector<float> in(4 * n), out(12 * n);
+    for (size_t i = 0; i < n; ++i) {
+        in[4 * i] = sigma[i], in[4 * i + 1] = g[i];
+        in[4 * i + 2] = phi ? phi[i] : 1.f;
+    }
     std::vector<float> padded(size_t(kGpuModelFloats), 0.f);
     if (model.size() > padded.size())
         fail("gpu_sample_steps: ", model.size(), " floats of decoders; at most ",
@@ -237,9 +241,10 @@ std::vector<float> gpu_sample_steps(VulkanCompute& vk, const std::vector<float>&
     auto m = upload_array(vk, padded, "gpu_sample_steps", "decoders");
     auto bin = upload_array(vk, in, "gpu_sample_steps", "inputs");
     auto bout = vk.create_buffer(out.size() * 4);
-    auto pipe = vk.create_pipeline(kSampleSteps, sizeof(kSampleSteps) / 4, 3, 12,
+    auto pipe = vk.create_pipeline(kSampleSteps, sizeof(kSampleSteps) / 4, 3, 16,
                                    gpu_model_constants(model), 1u);
-    const uint32_t push[3] = {uint32_t(seed), uint32_t(seed >> 32), uint32_t(n)};
+    const uint32_t push[4] = {uint32_t(seed), uint32_t(seed >> 32), uint32_t(n),
+                              with_event ? 1u : 0u};
     const double t =
         vk.run(pipe, {m, bin, bout}, push, sizeof(push), uint32_t((n + 63) / 64));
     if (gpu_seconds) *gpu_seconds = t;

@@ -71,13 +71,15 @@ private:
 };
 
 // For tests of the shaders' parts against the CPU's:
-// n sphere steps from packed decoders (pack_gpu_model) for per-step sigma[i], g[i], step
-// i drawn from Rng(seed, i): (N, cos_theta, alpha, beta) per step, as
-// ScatteringModel::sample_batch draws them.
-// *gpu_seconds (if given) receives the dispatch's GPU time.
+// n sphere steps from packed decoders (pack_gpu_model) for per-step sigma[i], g[i] and
+// phi[i] (nullptr: 1), step i drawn from Rng(seed, i), as ScatteringModel::sample_batch
+// draws them: per step (N, cos_theta, alpha, beta, X, 0, W, 0), with EventGen's event X,
+// W if with_event (else X = 0, W = +z). *gpu_seconds (if given) receives the dispatch's
+// GPU time.
 std::vector<float> gpu_sample_steps(VulkanCompute& vk, const std::vector<float>& model,
-                                    const float* sigma, const float* g, size_t n,
-                                    uint64_t seed, double* gpu_seconds = nullptr);
+                                    const float* sigma, const float* g, const float* phi,
+                                    size_t n, uint64_t seed, bool with_event,
+                                    double* gpu_seconds = nullptr);
 // Closest hits of n rays (origin xyz, 0, unit direction xyz, tfar: 8 floats each) in the
 // scene's BVH: (t or -1, mesh index, normal x, normal y) per ray.
 std::vector<float> gpu_trace_rays(VulkanCompute& vk, const GpuSceneData& scene,

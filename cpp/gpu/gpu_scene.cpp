@@ -33,13 +33,13 @@ void read_array(std::ifstream& in, std::vector<T>& v, const std::string& path,
 }  // namespace
 
 std::vector<int32_t> gpu_model_constants(const std::vector<float>& model) {
-    if (model.empty()) return {4, 8, 8, 2, 8, 16, 16, 5};
-    SSS_CHECK(model.size() >= size_t(2 * kGpuDecoderHeader));
+    if (model.empty()) return {4, 8, 8, 2, 8, 16, 16, 5, 12, 16, 16, 5};
+    SSS_CHECK(model.size() >= size_t(3 * kGpuDecoderHeader));
     std::vector<int32_t> c;
     // model.glsl computes where each layer's weights start from these shapes: they must
     // be where pack_gpu_model put them.
     int32_t at = 3 * kGpuDecoderHeader;
-    for (int d = 0; d < 2; ++d) {
+    for (int d = 0; d < 3; ++d) {
         const float* h = model.data() + d * kGpuDecoderHeader;
         c.push_back(int32_t(h[1]));   // input width
         c.push_back(int32_t(h[9]));   // layer 0's outputs

@@ -47,8 +47,11 @@ struct GpuSceneHeader {
     GpuShape shapes[kGpuMaxShapes];
     GpuGrid grids[kGpuMaxShapes];
     float emitters[kGpuMaxEmitters][4];  // rgb radiance, w: its index in lights
-    uint32_t lighting[4];  // x: lights; y: 1 when the shaders sample lights (NEE)
+    // x: lights; y: 1 when the shaders sample lights (NEE); z: the point and directional
+    // ones, first in lights[]
+    uint32_t lighting[4];
     GpuLight lights[kGpuMaxLights];
+    float event_phi[4];  // x, y: EventGen's range of phi (an event's albedo is clamped)
 };
 
 // Packed decoders (model.glsl): decoder d (0 LengthGen, 1 PathGen, 2 EventGen) has a
@@ -76,8 +79,8 @@ struct GpuSceneData {
 };
 
 // The specialization constants of model.glsl for packed decoders (LengthGen's input
-// width, hidden widths and latent dimension, then PathGen's); the Table 1 shapes when
-// `model` is empty (no steps are taken then).
+// width, hidden widths and latent dimension, then PathGen's and EventGen's); the Table 1
+// shapes when `model` is empty (no steps are taken then).
 std::vector<int32_t> gpu_model_constants(const std::vector<float>& model);
 
 // Binary file: magic "SSSGPU02" (01: before NEE, refused), then the header and the four

@@ -55,10 +55,14 @@ std::vector<float> pack_gpu_model(const ScatteringModel& m) {
         for (int o = 0; o < d.num_outputs(); ++o)
             put_encoding(h + 32 + 8 * size_t(7 + o), d.outputs[o].encoding);
     }
-    // The step's normals live in 12 registers (model.glsl).
+    // The step's normals live in 12 registers, EventGen's in 16 (model.glsl).
     if (m.length_gen().latent_dim + 1 + m.path_gen().latent_dim + 3 > 12)
         fail(m.where(), ": LengthGen and PathGen need more than the 12 normals per step ",
              "the GPU path supports");
+    if (m.event_gen().latent_dim + 6 > 16)
+        fail(m.where(),
+             ": EventGen needs more than the 16 normals per step the GPU path ",
+             "supports");
     if (out.size() > size_t(kGpuModelFloats))
         fail(m.where(), ": the decoders take ", out.size(),
              " floats; the GPU path holds at most ", kGpuModelFloats);
@@ -93,10 +97,15 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
     if (desc.lights.size() > size_t(kGpuMaxLights))
         fail(desc.source, ": ", desc.lights.size(),
              " lights; the GPU path renders at most ", kGpuMaxLights);
-    bool has_delta = false;
+    // The point and directional lights first: a sphere step's event samples only those.
+    std::vector<size_t> order;
+    for (int delta = 1; delta >= 0; --delta)
+        for (size_t i = 0; i < desc.lights.size(); ++i)
+            if (desc.lights[i].is_delta() == bool(delta)) order.push_back(i);
+    uint32_t num_delta = 0;
     int emitters = 0;
-    for (size_t i = 0; i < desc.lights.size(); ++i) {
-        const Light& l = desc.lights[i];
+    for (size_t i = 0; i < order.size(); ++i) {
+        const Light& l = desc.lights[order[i]];
         GpuLight& gl = h.lights[i];
         switch (l.type) {
             case Light::Type::Point:
@@ -120,7 +129,7 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
                 put3(h.environment, l.radiance, 1.f);
                 break;
         }
-        has_delta = has_delta || l.is_delta();
+        num_delta += l.is_delta() ? 1u : 0u;
     }
 
     // Shapes and their grids.
@@ -131,12 +140,6 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
         meshes.push_back(&s.mesh);
         const bool dielectric = s.boundary.type == BoundaryType::Dielectric;
         index_matched = index_matched || !dielectric;
-        if (nee && has_delta && !dielectric && integrator == "st")
-            fail(desc.source, ": shapes[", i, "] ('", s.name,
-                 "') has an index-matched boundary and the scene point or directional "
-                 "lights: integrator 'st' with nee = true lights a sphere step's events "
-                 "from them through EventGen's representative event, which the GPU path "
-                 "does not evaluate: use integrator 'pt', nee = false or backend 'cpu'");
         put3(h.shapes[i].sigma_t, s.medium.sigma_t, s.medium.g);
         put3(h.shapes[i].albedo, s.medium.albedo, dielectric ? 1.f : 0.f);
         h.shapes[i].boundary[0] = s.boundary.ior;
@@ -160,6 +163,7 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
     // A straight shadow ray never leaves a dielectric boundary (DESIGN §2): with only
     // those, NEE finds nothing and the shaders skip it (the same estimator).
     h.lighting[1] = nee && index_matched && !desc.lights.empty() ? 1u : 0u;
+    h.lighting[2] = num_delta;
     // The area lights' quads, after the shapes in Scene's order (its ray tracer's).
     std::vector<TriangleMesh> quads;
     for (const Light& l : desc.lights) {
@@ -181,10 +185,12 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
     h.params[3] = scene.grey_media() ? 1.f : 0.f;
     if (integrator == "st") {
         // The same checks as the CPU's "st" (ranges of the models against the media).
-        SphereTracing st(scene, sphere_threshold, SphereSampler::Model, models,
-                         /*nee=*/false);
+        // With NEE, EventGen's range of phi too where steps draw events.
+        SphereTracing st(scene, sphere_threshold, SphereSampler::Model, models, nee);
         h.params[1] = sphere_threshold;
         h.params[2] = st.sigma_max();
+        h.event_phi[0] = st.event_phi(0.f);
+        h.event_phi[1] = st.event_phi(1.f);
         if (!std::isinf(sphere_threshold))
             out.model = pack_gpu_model(ScatteringModel::load(models));
     }

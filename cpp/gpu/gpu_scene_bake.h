@@ -17,12 +17,10 @@ std::vector<float> pack_gpu_model(const ScatteringModel& model);
 
 // Checks that the GPU path can render `scene` as asked and throws sss::Error naming the
 // field and what is allowed otherwise: at most kGpuMaxShapes shapes and kGpuMaxLights
-// lights; with integrator "st" and nee, no point or directional light in a scene with an
-// index-matched shape (a sphere step's events see those lights only through EventGen,
-// which the GPU path does not evaluate). With nee the shaders sample the lights as pt.cpp
-// does, where a medium has an index-matched boundary (elsewhere no shadow ray leaves it).
-// With integrator "st", `models` is the decoders' directory, checked against the media as
-// SphereTracing does.
+// lights. With nee the shaders sample the lights as pt.cpp does, where a medium has an
+// index-matched boundary (elsewhere no shadow ray leaves it), and "st" steps connect
+// EventGen's event to point and directional lights (StepNee::Hits). With integrator "st",
+// `models` is the decoders' directory, checked against the media as SphereTracing does.
 GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, bool nee,
                             float sphere_threshold, const std::string& models);
 

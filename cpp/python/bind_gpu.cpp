@@ -99,20 +99,27 @@ void bind_gpu(py::module_& m) {
         py::arg("sphere_threshold"), py::arg("models"));
     m.def(
         "gpu_sample_steps",
-        [](const std::string& models, FloatArray sigma, FloatArray g, uint64_t seed) {
+        [](const std::string& models, FloatArray sigma, FloatArray g, uint64_t seed,
+           std::optional<FloatArray> phi) {
             if (sigma.ndim() != 1 || g.ndim() != 1 || sigma.size() != g.size())
                 fail("sigma and g must be 1-d arrays of one length");
+            if (phi && (phi->ndim() != 1 || phi->size() != sigma.size()))
+                fail("phi must be a 1-d array as long as sigma");
             std::vector<float> packed = pack_gpu_model(ScatteringModel::load(models));
             std::vector<float> out;
             {
                 py::gil_scoped_release release;
                 VulkanCompute vk;
                 out = gpu_sample_steps(vk, packed, sigma.data(), g.data(),
-                                       size_t(sigma.size()), seed);
+                                       phi ? phi->data() : nullptr, size_t(sigma.size()),
+                                       seed, phi.has_value());
             }
-            return to_array(out, {py::ssize_t(sigma.size()), 4});
+            return to_array(out, {py::ssize_t(sigma.size()), 12});
         },
-        py::arg("models"), py::arg("sigma"), py::arg("g"), py::arg("seed"));
+        py::arg("models"), py::arg("sigma"), py::arg("g"), py::arg("seed"),
+        py::arg("phi") = py::none(),
+        "Sphere steps on the GPU: per step (N, cos_theta, alpha, beta, X, 0, W, 0); with "
+        "phi (the albedos), EventGen's representative event X, W too.");
     m.def(
         "gpu_trace_rays",
         [](const Scene& scene, FloatArray origins, FloatArray directions, float tfar) {

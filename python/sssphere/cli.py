@@ -231,8 +231,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--no-nee", action="store_true",
                    help="no light sampling: emitters count only when paths hit them")
     r.add_argument("--backend", choices=BACKENDS, default="cpu",
-                   help="cpu (default) or vulkan: the GPU path (docs/gpu.md; st with NEE "
-                        "there refuses point and directional lights on index-matched media)")
+                   help="cpu (default) or vulkan: the GPU path (docs/gpu.md)")
     r.add_argument("--aovs", action="store_true",
                    help="also write OUT_variance.exr, OUT_events.exr (scattering events per path) "
                         "and, for st, OUT_sphere_steps.exr")

@@ -147,9 +147,7 @@ def render_full(
 
     ``backend="vulkan"`` renders on a Vulkan device (a GPU, or Mesa's lavapipe on the CPU;
     docs/gpu.md): ``"pt"`` and ``"st"`` with the CPU's estimators (light sampling with
-    ``nee=True``, ``step_nee="hits"`` for ``"st"``). ``"st"`` with ``nee=True`` is refused
-    where a scene has point or directional lights and an index-matched medium (a step's
-    events see those lights only through EventGen, which the GPU does not evaluate).
+    ``nee=True``, ``step_nee="hits"`` for ``"st"``, EventGen included).
     ``step_nee="event"``, ``sphere_sampler="walk"`` and ``threads`` are CPU-only.
     """
     if backend not in BACKENDS:
@@ -166,7 +164,7 @@ def render_full(
             raise SceneError(f"threads={threads!r} is CPU-only (backend 'vulkan' uses the GPU's own)")
         if step_nee != "hits":
             raise SceneError(f"step_nee {step_nee!r} is CPU-only (backend 'vulkan' has "
-                             "step_nee 'hits' only: it does not evaluate EventGen)")
+                             "step_nee 'hits' only)")
         if sampler != "model":
             raise SceneError(f"sphere_sampler {sampler!r} is CPU-only (backend 'vulkan' "
                              "samples steps with the models)")

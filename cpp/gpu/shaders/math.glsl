@@ -105,9 +105,27 @@ Frame sphere_step_frame(vec3 w_in, float u) {
     return r;
 }
 
+// log(1 + x) and exp(x) - 1, accurate for small |x| too (GLSL has neither): the albedos
+// near 1 of dense media make log(phi) a difference of nearly equal numbers, which a
+// GPU's log (absolute error ~2^-21) would get wrong by 1 %. x = phi - 1 is exact.
+float log1p_small(float x) {
+    return abs(x) < 1e-2 ? x * (1.0 - x * (0.5 - x * (1.0 / 3.0 - 0.25 * x))) : log(1.0 + x);
+}
+float expm1_small(float x) {
+    return abs(x) < 1e-2 ? x * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x / 24.0))) : exp(x) - 1.0;
+}
+
 // phi^N, the survival of a walk of N events.
 float survival_power(float phi, float n) {
     if (phi >= 1.0) return 1.0;
     if (phi <= 0.0) return 0.0;
-    return exp(n * log(phi));
+    return exp(n * log1p_small(phi - 1.0));
+}
+
+// Lambda = sum_{j=1..N} phi^j = phi (1 - phi^N) / (1 - phi) (N at phi = 1): the weight of
+// a sphere step's one light connection from its representative event.
+float event_weight_sum(float phi, float n) {
+    if (phi >= 1.0) return n;
+    if (phi <= 0.0) return 0.0;
+    return phi * -expm1_small(n * log1p_small(phi - 1.0)) / (1.0 - phi);
 }

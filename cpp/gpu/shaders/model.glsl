@@ -1,8 +1,8 @@
-// The learned sphere step (cpp/nn/scattering_model.h) on the GPU: LengthGen and PathGen
-// evaluated per invocation from the packed decoders in `model` (layout: gpu_scene.h,
-// "Packed decoders"), consuming the Rng exactly as ScatteringModel's step does, so a
-// stream gives the same step on both up to float rounding (tests/test_gpu.py compares
-// them). EventGen is not used: the GPU path has no light sampling.
+// The learned sphere step (cpp/nn/scattering_model.h) on the GPU: LengthGen, PathGen and,
+// when asked, EventGen evaluated per invocation from the packed decoders in `model`
+// (layout: gpu_scene.h, "Packed decoders"), consuming the Rng exactly as ScatteringModel's
+// step does, so a stream gives the same step on both up to float rounding
+// (tests/test_gpu.py compares them).
 // The includer declares the uniform block `vec4 model_v[kModelVec4]` (the packed floats,
 // four per vec4) first, and enables GL_EXT_control_flow_attributes. A uniform block: every
 // invocation reads the same weights, which NVIDIA's compiler then takes straight from its
@@ -19,9 +19,13 @@ layout(constant_id = 4) const int P_IN = 8;   // PathGen
 layout(constant_id = 5) const int P_H1 = 16;
 layout(constant_id = 6) const int P_H2 = 16;
 layout(constant_id = 7) const int P_LAT = 5;  //   (3 outputs)
+layout(constant_id = 8) const int E_IN = 12;  // EventGen
+layout(constant_id = 9) const int E_H1 = 16;
+layout(constant_id = 10) const int E_H2 = 16;
+layout(constant_id = 11) const int E_LAT = 5;  //   (6 outputs)
 
 const int kDecoderHeader = 160;  // floats per decoder header
-const int kLengthGen = 0, kPathGen = 1;
+const int kLengthGen = 0, kPathGen = 1, kEventGen = 2;
 const int kW = 16;  // the widest layer or input (checked on the host)
 const float kMaxScatterCount = 1099511627776.0;  // 2^40, as in scattering_model.h
 const float kFloatMax = 3.402823466e38;
@@ -37,6 +41,9 @@ const int kL2 = kL1 + L_H1 * L_H2 + L_H2;
 const int kP0 = kL2 + L_H2 * 2 + 2;  // LengthGen's last layer: mean and log-variance of N
 const int kP1 = kP0 + P_IN * P_H1 + P_H1;
 const int kP2 = kP1 + P_H1 * P_H2 + P_H2;
+const int kE0 = kP2 + P_H2 * 6 + 6;  // PathGen's last layer: 3 means, 3 log-variances
+const int kE1 = kE0 + E_IN * E_H1 + E_H1;
+const int kE2 = kE1 + E_H1 * E_H2 + E_H2;
 
 // e(x) (decode false) or its inverse; the encoding's 8 floats start at `at`.
 float code(int at, float x, bool decode) {
@@ -67,43 +74,24 @@ void dense(int w, int n_in, int n_out, bool act, float a[kW], out float b[kW]) {
     }
 }
 
-// A decoder's three layers (weights at w0, w1, w2) on x: the outputs
+// A decoder's three layers (weights at w0, w1, w2) on x: the outputs (at most 6)
 // u_o = mean_o + exp(logvar_o / 2) eps_o.
 void decoder_sample(int w0, int w1, int w2, int n_in, int h1, int h2, int n_out,
-                    float x[kW], float eps[3], out float u[3]) {
+                    float x[kW], float eps[6], out float u[6]) {
     float a[kW], b[kW];
     dense(w0, n_in, h1, true, x, a);
     dense(w1, h1, h2, true, a, b);
     dense(w2, h2, 2 * n_out, false, b, a);
-    [[unroll]] for (int o = 0; o < 3; ++o)
+    [[unroll]] for (int o = 0; o < 6; ++o)
         u[o] = o < n_out ? a[o] + exp(0.5 * a[n_out + o]) * eps[o] : 0.0;
 }
 
-float finite_value(float x) { return isnan(x) ? 0.0 : clamp(x, -kFloatMax, kFloatMax); }
-
-struct SphereStepSample {
-    float N;  // events (>= 1; an integer, exact in float up to 2^24 and rounded beyond)
-    float cos_theta, alpha, beta;
-};
-
-// One step for optical radius sigma and anisotropy g, in the exit frame.
-SphereStepSample sample_sphere_step(float sigma, float g, inout Rng rng) {
-    SphereStepSample s;
-    s.N = 1.0;
-    s.cos_theta = 1.0;
-    s.alpha = 0.0;
-    s.beta = 0.0;
-    // N = 1 exactly with probability e^{-sigma}.
-    if (rng_uniform(rng) < exp(-sigma)) {
-        s.cos_theta = hg_sample_cos(rng_uniform(rng), g);
-        return s;
-    }
-    // The normals of LengthGen and PathGen (z, eps, z, eps), drawn in the blocks of
-    // draw_normal_uniforms / assemble_normals (simd_decoder.cpp): block b holds its k
-    // cosines, then its k sines.
-    const int n = L_LAT + 1 + P_LAT + 3;
+// n <= 16 standard normals by Box-Muller, drawn in the blocks of draw_normal_uniforms /
+// assemble_normals (simd_decoder.cpp): block b takes the radii's uniforms of its k pairs,
+// then the angles', and holds its k cosines, then its k sines.
+void draw_normals(inout Rng rng, int n, out float z[16]) {
     const int pairs = (n + 1) / 2, blocks = (pairs + 3) / 4;
-    float z[16];
+    [[unroll]] for (int i = 0; i < 16; ++i) z[i] = 0.0;
     [[unroll]] for (int blk = 0; blk < 2; ++blk) {
         if (blk < blocks) {
             int k = min(4, pairs - 4 * blk);
@@ -120,16 +108,48 @@ SphereStepSample sample_sphere_step(float sigma, float g, inout Rng rng) {
             }
         }
     }
+}
+
+float finite_value(float x) { return isnan(x) ? 0.0 : clamp(x, -kFloatMax, kFloatMax); }
+
+struct SphereStepSample {
+    float N;  // events (>= 1; an integer, exact in float up to 2^24 and rounded beyond)
+    float cos_theta, alpha, beta;
+    // The representative event in the step's frame (EventGen; with_event only): |X| <= 1,
+    // W unit; X = 0 and W = +z for the first event, at the centre.
+    vec3 X, W;
+};
+
+// One step for optical radius sigma and anisotropy g, in the exit frame; with_event also
+// draws the representative event for albedo phi.
+SphereStepSample sample_sphere_step(float sigma, float g, float phi, bool with_event,
+                                    inout Rng rng) {
+    SphereStepSample s;
+    s.N = 1.0;
+    s.cos_theta = 1.0;
+    s.alpha = 0.0;
+    s.beta = 0.0;
+    s.X = vec3(0.0);
+    s.W = vec3(0.0, 0.0, 1.0);
+    // N = 1 exactly with probability e^{-sigma}.
+    if (rng_uniform(rng) < exp(-sigma)) {
+        s.cos_theta = hg_sample_cos(rng_uniform(rng), g);
+        return s;
+    }
+    // The normals: LengthGen's and PathGen's (z, eps, z, eps), then EventGen's (z, eps).
+    float z[16], ze[16];
+    draw_normals(rng, L_LAT + 1 + P_LAT + 3, z);
+    if (with_event) draw_normals(rng, E_LAT + 6, ze);
 
     // LengthGen(sigma, g) -> N = max(2, floor(x))
-    float x[kW], eps[3], u[3];
+    float x[kW], eps[6], u[6];
     [[unroll]] for (int i = 0; i < kW; ++i) x[i] = 0.0;
+    [[unroll]] for (int o = 0; o < 6; ++o) eps[o] = 0.0;
     x[0] = code(condition_code(kLengthGen, 0), sigma, false);
     x[1] = code(condition_code(kLengthGen, 1), g, false);
     [[unroll]] for (int l = 0; l < kW - 2; ++l)
         if (l < L_LAT) x[2 + l] = z[l];
     eps[0] = z[L_LAT];
-    eps[1] = eps[2] = 0.0;
     decoder_sample(kL0, kL1, kL2, L_IN, L_H1, L_H2, 1, x, eps, u);
     float n_real = code(output_code(kLengthGen, 0), u[0], true);
     s.N = n_real >= 2.0 ? (n_real < kMaxScatterCount ? floor(n_real) : kMaxScatterCount)
@@ -161,5 +181,37 @@ SphereStepSample sample_sphere_step(float sigma, float g, inout Rng rng) {
     }
     s.alpha = a;
     s.beta = b;
+    if (!with_event) return s;
+
+    // EventGen(sigma, g, phi, N, cos_theta, alpha, beta) -> X into the unit ball, W unit
+    [[unroll]] for (int i = 0; i < kW; ++i) x[i] = 0.0;
+    float cond[7] = float[7](sigma, g, phi, s.N, s.cos_theta, s.alpha, s.beta);
+    [[unroll]] for (int i = 0; i < 7; ++i)
+        x[i] = code(condition_code(kEventGen, i), cond[i], false);
+    [[unroll]] for (int l = 0; l < kW - 7; ++l)
+        if (l < E_LAT) x[7 + l] = ze[l];
+    [[unroll]] for (int o = 0; o < 6; ++o) eps[o] = ze[E_LAT + o];
+    decoder_sample(kE0, kE1, kE2, E_IN, E_H1, E_H2, 6, x, eps, u);
+    float v[6];
+    [[unroll]] for (int o = 0; o < 6; ++o)
+        v[o] = finite_value(code(output_code(kEventGen, o), u[o], true));
+    vec3 X = vec3(v[0], v[1], v[2]), W = vec3(v[3], v[4], v[5]);
+    // Outside the ball: onto the sphere (scaled first, so that nothing overflows).
+    float mx = max(abs(X.x), max(abs(X.y), abs(X.z)));
+    if (mx > 0.0 && dot(X / mx, X / mx) > 1.0 / (mx * mx)) {
+        X = (X / mx) / length(X / mx);
+        while (dot(X, X) > 1.0) X *= 0.99999994;
+    }
+    float mw = max(abs(W.x), max(abs(W.y), abs(W.z)));
+    s.X = X;
+    s.W = mw > 0.0 ? (W / mw) / length(W / mw) : vec3(0.0, 0.0, 1.0);
+    // The first event (the centre) is the representative one with the exact probability
+    // (1 - phi) / (1 - phi^N) (1/N for phi = 1); EventGen models only events k >= 2.
+    float p_first = phi >= 1.0 ? 1.0 / s.N
+                               : (1.0 - phi) / -expm1_small(s.N * log1p_small(phi - 1.0));
+    if (rng_uniform(rng) < p_first) {
+        s.X = vec3(0.0);
+        s.W = vec3(0.0, 0.0, 1.0);
+    }
     return s;
 }

@@ -1,11 +1,11 @@
 // Integrators "pt" and "st" on the GPU: the loop of PathTracer::run (cpp/render/pt.cpp).
 // With the specialization constant NEE (the baked scene's lighting.y) every scattering
-// event samples one light, as PathTracer::direct_light with MIS, and a sphere step's exit
-// flight counts the lights it hits with weight 1 (StepNee::Hits; the bake refuses point and
-// directional lights there, which need EventGen). Without it emitters count only when a
-// path hits them (nee = false), which in a scene whose media all have dielectric
-// boundaries is also what NEE computes (a straight shadow ray never leaves such a
-// medium). The includer defines SSS_ST (0 or 1).
+// event samples one light, as PathTracer::direct_light with MIS; a sphere step's exit
+// flight counts the lights it hits with weight 1, and its events see point and directional
+// lights through EventGen's representative event (StepNee::Hits). Without it emitters
+// count only when a path hits them (nee = false), which in a scene whose media all have
+// dielectric boundaries is also what NEE computes (a straight shadow ray never leaves such
+// a medium). The includer defines SSS_ST (0 or 1).
 //
 // A dispatch renders paths 0 .. num_paths-1, path i being sample sample0 + i / (W H) of
 // pixel i % (W H) (row-major), on L lanes (invocations): lane l takes paths l, l + L,
@@ -45,7 +45,7 @@ layout(push_constant) uniform Push {
 
 #include "gpu/shaders/model.glsl"
 
-layout(constant_id = 8) const bool NEE = false;
+layout(constant_id = 12) const bool NEE = false;
 
 // As pt.cpp.
 const float kRouletteThreshold = 0.1;
@@ -97,23 +97,28 @@ vec3 transmittance(vec3 p, vec3 w, float dist, int shape) {
     return vec3(0.0);
 }
 
-// PathTracer::direct_light with MIS at a scattering event at p (grid bound r) in `shape`,
-// the photon travelling along d: one light chosen uniformly, weighted by the number of
-// lights. A shadow ray whose transmittance the bound puts below kShadowRoulette is traced
-// with probability bound / kShadowRoulette and reweighted.
-vec3 direct_light(vec3 p, float r, vec3 d, int shape, int channel, inout Rng rng) {
+// PathTracer::direct_light with MIS at a scattering event at p (grid bound r, < 0:
+// unknown) in `shape`, the photon travelling along d: one light chosen uniformly, weighted
+// by the number of lights; with delta_only, one of the point and directional lights (the
+// first lighting.z of lights[]). A shadow ray whose transmittance the bound puts below
+// kShadowRoulette is traced with probability bound / kShadowRoulette and reweighted.
+vec3 direct_light(vec3 p, float r, vec3 d, int shape, int channel, bool delta_only,
+                  inout Rng rng) {
     GpuShape s = shapes[shape];
     if (s.albedo.w != 0.0) return vec3(0.0);  // no shadow ray leaves a dielectric
     float sigma_min =
         channel < 0 ? min(s.sigma_t.x, min(s.sigma_t.y, s.sigma_t.z)) : s.sigma_t[channel];
+    if (r < 0.0) r = grid_query(shape, p);
     float bound = exp(-sigma_min * r);
     float shadow_weight = 1.0;
     if (bound < kShadowRoulette) {
         shadow_weight = roulette_weight(bound / kShadowRoulette, rng_uniform(rng));
         if (shadow_weight == 0.0) return vec3(0.0);
     }
-    float n_lights = float(lighting.x);
-    uint i = min(lighting.x - 1u, uint(rng_uniform(rng) * n_lights));
+    uint count = delta_only ? lighting.z : lighting.x;
+    if (count == 0u) return vec3(0.0);
+    float n_lights = float(count);
+    uint i = min(count - 1u, uint(rng_uniform(rng) * n_lights));
     GpuLight l = lights[i];
     int type = int(l.a.w);
     float g = s.sigma_t.w;
@@ -269,7 +274,7 @@ void path_iterate(inout Path p) {
             p.done = true;
             return;
         }
-        if (NEE) p.L += p.beta * direct_light(p.o, r, p.d, p.shape, p.channel, p.rng);
+        if (NEE) p.L += p.beta * direct_light(p.o, r, p.d, p.shape, p.channel, false, p.rng);
         vec3 d_new = hg_sample(p.d, s.sigma_t.w, rng_uniform(p.rng), rng_uniform(p.rng));
         if (NEE) {  // for the MIS weight of a light this direction may hit
             p.phase_pdf = hg_eval(dot(p.d, d_new), s.sigma_t.w);
@@ -306,8 +311,11 @@ void path_iterate(inout Path p) {
 }
 
 #if SSS_ST
-// The sphere step a pending path waits for: centre o, the grid's bound r_step, shrunk so
-// that sigma_t r' <= sigma_max; survival phi^N, then the exit point and direction.
+// The sphere step a pending path waits for (PathTracer::request_step and take_step):
+// centre o, the grid's bound r_step, shrunk so that sigma_t r' <= sigma_max; with NEE in
+// an index-matched medium lit by point or directional lights, EventGen's representative
+// event connects to one of them, weighted by Lambda = sum_j phi^j; survival phi^N, then
+// the exit point and direction.
 void path_step(inout Path p) {
     GpuShape s = shapes[p.shape];
     float sigma_t = p.channel < 0 ? s.sigma_t.x : s.sigma_t[p.channel];
@@ -315,8 +323,33 @@ void path_step(inout Path p) {
     p.pending = false;
     float sigma = min(sigma_t * p.r_step, params.z);
     float radius = min(p.r_step, sigma / sigma_t);
-    SphereStepSample st = sample_sphere_step(sigma, s.sigma_t.w, p.rng);
+    bool with_event = NEE && lighting.z > 0u && s.albedo.w == 0.0;
+    // The event is drawn for one albedo: the carried channel's, or, for RGB throughput
+    // with a chromatic albedo, a channel picked uniformly whose light connection then
+    // counts 3 times in that channel only.
+    float phi = s.albedo[p.channel < 0 ? 0 : p.channel];
+    vec3 nee_weight = vec3(1.0);
+    if (with_event && p.channel < 0 &&
+        !(s.albedo.x == s.albedo.y && s.albedo.x == s.albedo.z)) {
+        int c = min(2, int(rng_uniform(p.rng) * 3.0));
+        phi = s.albedo[c];
+        nee_weight = vec3(0.0);
+        nee_weight[c] = 3.0;
+    }
+    phi = clamp(phi, event_phi.x, event_phi.y);  // SphereTracing::event_phi
+    SphereStepSample st = sample_sphere_step(sigma, s.sigma_t.w, phi, with_event, p.rng);
     Frame f = sphere_step_frame(p.d, rng_uniform(p.rng));
+    if (with_event) {
+        nee_weight *= vec3(event_weight_sum(s.albedo.x, st.N),
+                           event_weight_sum(s.albedo.y, st.N),
+                           event_weight_sum(s.albedo.z, st.N));
+        if (!is_black(nee_weight)) {
+            bool first = st.X == vec3(0.0) && st.W == vec3(0.0, 0.0, 1.0);
+            vec3 x = first ? p.o : p.o + frame_to_world(f, st.X) * radius;
+            vec3 w = first ? p.d : normalize(frame_to_world(f, st.W));
+            p.L += p.beta * nee_weight * direct_light(x, -1.0, w, p.shape, p.channel, true, p.rng);
+        }
+    }
     p.beta *= vec3(survival_power(s.albedo.x, st.N), survival_power(s.albedo.y, st.N),
                    survival_power(s.albedo.z, st.N));
     if (is_black(p.beta)) {

@@ -40,8 +40,10 @@ layout(std430, binding = 0) readonly buffer SceneHeader {
     GpuShape shapes[kMaxShapes];
     GpuGrid grids[kMaxShapes];
     vec4 emitters[kMaxEmitters];  // mesh counts.x + i: radiance; w: its index in lights
-    uvec4 lighting;               // x: lights; y: 1 when the shaders sample lights (NEE)
+    uvec4 lighting;  // x: lights; y: 1 when the shaders sample lights (NEE); z: the point
+                     // and directional ones, first in lights[]
     GpuLight lights[kMaxLights];
+    vec4 event_phi;  // x, y: EventGen's range of phi (an event's albedo is clamped)
 };
 layout(std430, binding = 1) readonly buffer BvhNodes { vec4 nodes[]; };
 layout(std430, binding = 2) readonly buffer BvhTriangles { vec4 triangles[]; };
