@@ -12,6 +12,7 @@
 
 #include "core/check.h"
 #include "shared/hg.h"
+#include "shared/sphere_step.h"
 
 namespace sss {
 
@@ -394,13 +395,10 @@ void ScatteringModel::group_with(int K, const float* sigma, const float* g,
         }
         s.X = X;
         s.W = W;
-        // The first event (the centre) is the representative one with the exact
-        // probability phi / sum_{j<=N} phi^j = (1 - phi) / (1 - phi^N) (1/N for phi = 1);
-        // EventGen models only events k >= 2 (docs/model-format.md).
-        const double p = phi[act[j]], n = double(s.N);
-        const double p_first =
-            p >= 1.0 ? 1.0 / n : (1.0 - p) / -std::expm1(n * std::log(p));
-        if (double(rng[act[j]].uniform()) < p_first) {
+        // The first event (the centre) is the representative one with its exact
+        // probability; EventGen models only events k >= 2.
+        if (double(rng[act[j]].uniform()) <
+            first_event_probability(phi[act[j]], double(s.N))) {
             s.X = Vec3(0.f);
             s.W = Vec3(0.f, 0.f, 1.f);
         }

@@ -374,7 +374,7 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             }
             if (s.boundary.type == BoundaryType::Dielectric) {
                 float cos_i = -dot(d, hit.normal), cos_t;
-                float F = fresnel_dielectric(cos_i, s.boundary.ior, &cos_t);
+                float F = fresnel_dielectric(cos_i, s.boundary.ior, cos_t);
                 specular = true;
                 if (rng.uniform() < F) {
                     d = d + hit.normal * (2.f * cos_i);
@@ -456,7 +456,7 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
         }
         if (s.boundary.type == BoundaryType::Dielectric) {
             float cos_i = dot(d, hit.normal), cos_t;
-            float F = fresnel_dielectric(cos_i, 1.f / s.boundary.ior, &cos_t);
+            float F = fresnel_dielectric(cos_i, 1.f / s.boundary.ior, cos_t);
             specular = true;
             if (rng.uniform() < F) {
                 d = d - hit.normal * (2.f * cos_i);

@@ -1,42 +1,47 @@
 // Henyey-Greenstein phase function. Direction convention (docs/notation.md): `cos_theta`
 // is the cosine between the direction the photon travels *before* scattering and the one
 // it travels *after*; g > 0 scatters forward. The phase function is normalised over the
-// sphere: integral of hg_eval over all directions = 1.
-#pragma once
+// sphere: integral of hg_eval over all directions = 1. Portable (core/portable.h).
+#ifndef SSS_SHARED_HG_H
+#define SSS_SHARED_HG_H
 
-#include <cmath>
-
+#ifdef __cplusplus
 #include "core/frame.h"
+#include "core/portable.h"
 #include "core/vec.h"
-
 namespace sss {
+#endif
 
-constexpr float kInvFourPi = 0.07957747154594767f;
-constexpr float kPi = 3.14159265358979323846f;
+SSS_CONST float kInvFourPi = 0.07957747154594767f;
+SSS_CONST float kPi = 3.14159265358979323846f;
 // Below this |g| the phase function is sampled as isotropic (the inversion is
 // ill-conditioned).
-constexpr float kHgIsotropicG = 1e-3f;
+SSS_CONST float kHgIsotropicG = 1e-3f;
 
-inline float hg_eval(float cos_theta, float g) {
+SSS_FN float hg_eval(float cos_theta, float g) {
     float denom = 1.f + g * g - 2.f * g * cos_theta;
-    return kInvFourPi * (1.f - g * g) / (denom * std::sqrt(denom));
+    return kInvFourPi * (1.f - g * g) / (denom * sqrt(denom));
 }
 
 // Cosine between travel directions drawn from HG by inverting its CDF with u in [0, 1).
-inline float hg_sample_cos(float u, float g) {
-    if (std::abs(g) < kHgIsotropicG) return 1.f - 2.f * u;
+SSS_FN float hg_sample_cos(float u, float g) {
+    if (abs(g) < kHgIsotropicG) return 1.f - 2.f * u;
     float sq = (1.f - g * g) / (1.f - g + 2.f * g * u);
     float c = (1.f + g * g - sq * sq) / (2.f * g);
-    return std::clamp(c, -1.f, 1.f);
+    return clamp(c, -1.f, 1.f);
 }
 
 // New travel direction for a photon travelling along unit `wi`; returns it, pdf =
 // hg_eval.
-inline Vec3 hg_sample(Vec3 wi, float g, float u1, float u2) {
+SSS_FN Vec3 hg_sample(Vec3 wi, float g, float u1, float u2) {
     float c = hg_sample_cos(u1, g);
-    float s = std::sqrt(std::max(0.f, 1.f - c * c));
+    float s = sqrt(max(0.f, 1.f - c * c));
     float phi = 2.f * kPi * u2;
-    return Frame::from_z(wi).to_world({s * std::cos(phi), s * std::sin(phi), c});
+    return frame_to_world(frame_from_z(wi), Vec3(s * cos(phi), s * sin(phi), c));
 }
 
+#ifdef __cplusplus
 }  // namespace sss
+#endif
+
+#endif  // SSS_SHARED_HG_H

@@ -1,41 +1,45 @@
 // Sampling routines in threes where it helps (sample / pdf), all with uniforms in [0, 1).
-#pragma once
+// Portable (core/portable.h).
+#ifndef SSS_SHARED_SAMPLING_H
+#define SSS_SHARED_SAMPLING_H
 
-#include <cmath>
-
+#ifdef __cplusplus
+#include "core/portable.h"
 #include "core/vec.h"
 #include "shared/hg.h"
-
 namespace sss {
+#endif
 
 // Free-flight distance in a homogeneous medium: t = -ln(1 - u) / sigma_t, pdf sigma_t
 // e^{-sigma_t t}.
-inline float sample_exponential(float u, float sigma_t) {
-    return -std::log1p(-u) / sigma_t;
-}
+SSS_FN float sample_exponential(float u, float sigma_t) { return -log1p(-u) / sigma_t; }
 
-inline Vec3 sample_uniform_sphere(float u1, float u2) {
+SSS_FN Vec3 sample_uniform_sphere(float u1, float u2) {
     float z = 1.f - 2.f * u1;
-    float r = std::sqrt(std::max(0.f, 1.f - z * z));
+    float r = sqrt(max(0.f, 1.f - z * z));
     float phi = 2.f * kPi * u2;
-    return {r * std::cos(phi), r * std::sin(phi), z};
+    return Vec3(r * cos(phi), r * sin(phi), z);
 }
-constexpr float uniform_sphere_pdf() { return kInvFourPi; }
+SSS_FN float uniform_sphere_pdf() { return kInvFourPi; }
 
 // Russian roulette with survival probability q, decided by u in [0, 1): the weight 1/q if
 // the sample survives, 0 if not. u can be exactly 0, so a survivor of a tiny q would get
 // a weight that overflows to inf (and 0 * inf = NaN downstream): below kMinRouletteQ the
 // sample is always dropped, a bias below 1e-20 of the quantity played for.
-constexpr float kMinRouletteQ = 1e-20f;
-inline float roulette_weight(float q, float u) {
+SSS_CONST float kMinRouletteQ = 1e-20f;
+SSS_FN float roulette_weight(float q, float u) {
     if (q >= 1.f) return 1.f;
     return q >= kMinRouletteQ && u < q ? 1.f / q : 0.f;
 }
 
 // Power heuristic (beta = 2) for two strategies with one sample each.
-inline float power_heuristic(float pdf_a, float pdf_b) {
+SSS_FN float power_heuristic(float pdf_a, float pdf_b) {
     float a = pdf_a * pdf_a, b = pdf_b * pdf_b;
     return a + b > 0.f ? a / (a + b) : 0.f;
 }
 
+#ifdef __cplusplus
 }  // namespace sss
+#endif
+
+#endif  // SSS_SHARED_SAMPLING_H

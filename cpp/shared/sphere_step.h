@@ -1,5 +1,6 @@
 // The geometry and weights of one sphere step (DESIGN §5; docs/notation.md "The exit
-// frame", docs/sphere-tracing.md). Value in, value out, so the GPU path can share it.
+// frame", docs/sphere-tracing.md). Value in, value out, and portable (core/portable.h):
+// the shaders compile it too.
 //
 // The canonical step is a unit sphere entered at its centre travelling +z. Its exit frame
 // puts the exit point at x = (sin theta, 0, cos theta), with n = x, b = +y, t = b x n =
@@ -7,39 +8,39 @@
 // - b^2) n. In a scene the canonical z is the path's direction w_in, the canonical x and
 // y an orthonormal completion of it turned by a uniform angle psi about w_in, and lengths
 // scale by the radius.
-#pragma once
+#ifndef SSS_SHARED_SPHERE_STEP_H
+#define SSS_SHARED_SPHERE_STEP_H
 
-#include <algorithm>
-#include <cmath>
-#include <cstdint>
-
+#ifdef __cplusplus
 #include "core/frame.h"
+#include "core/portable.h"
 #include "core/vec.h"
 #include "shared/hg.h"
-
 namespace sss {
+#endif
 
 // Exit point on the unit sphere, exit frame.
-inline Vec3 sphere_exit_point(float cos_theta) {
-    float sin_theta = std::sqrt(std::max(0.f, 1.f - cos_theta * cos_theta));
-    return {sin_theta, 0.f, cos_theta};
+SSS_FN Vec3 sphere_exit_point(float cos_theta) {
+    float sin_theta = sqrt(max(0.f, 1.f - cos_theta * cos_theta));
+    return Vec3(sin_theta, 0.f, cos_theta);
 }
 
 // Exit direction alpha b + beta t + sqrt(1 - alpha^2 - beta^2) n, exit frame; unit length
 // for alpha^2 + beta^2 <= 1.
-inline Vec3 sphere_exit_direction(float cos_theta, float alpha, float beta) {
-    float sin_theta = std::sqrt(std::max(0.f, 1.f - cos_theta * cos_theta));
-    float gamma = std::sqrt(std::max(0.f, 1.f - alpha * alpha - beta * beta));
-    return {beta * cos_theta + gamma * sin_theta, alpha,
-            gamma * cos_theta - beta * sin_theta};
+SSS_FN Vec3 sphere_exit_direction(float cos_theta, float alpha, float beta) {
+    float sin_theta = sqrt(max(0.f, 1.f - cos_theta * cos_theta));
+    float gamma = sqrt(max(0.f, 1.f - alpha * alpha - beta * beta));
+    return Vec3(beta * cos_theta + gamma * sin_theta, alpha,
+                gamma * cos_theta - beta * sin_theta);
 }
 
-// The world frame of a step: z = w_in (unit), x and y Frame::from_z(w_in)'s completion
-// turned by psi = 2 pi u about w_in. to_world maps exit-frame vectors into the world.
-inline Frame sphere_step_frame(Vec3 w_in, float u) {
-    Frame f = Frame::from_z(w_in);
+// The world frame of a step: z = w_in (unit), x and y frame_from_z(w_in)'s completion
+// turned by psi = 2 pi u about w_in. frame_to_world maps exit-frame vectors into the
+// world.
+SSS_FN Frame sphere_step_frame(Vec3 w_in, float u) {
+    Frame f = frame_from_z(w_in);
     float psi = 2.f * kPi * u;
-    float c = std::cos(psi), s = std::sin(psi);
+    float c = cos(psi), s = sin(psi);
     Frame r;
     r.s = f.s * c + f.t * s;
     r.t = f.t * c - f.s * s;
@@ -48,18 +49,32 @@ inline Frame sphere_step_frame(Vec3 w_in, float u) {
 }
 
 // phi^N: the probability that a walk of N events survives absorption (phi in [0, 1]).
-inline double survival_power(double phi, int64_t n) {
-    if (phi >= 1.0) return 1.0;
-    if (phi <= 0.0) return 0.0;
-    return std::exp(double(n) * std::log(phi));
+// log1p(phi - 1) rather than log(phi): phi - 1 is exact, and for albedos near 1 a float
+// log (the GPU's) would be about 1 % off at phi = 0.99995.
+SSS_FN real survival_power(real phi, real n) {
+    if (phi >= real(1)) return real(1);
+    if (phi <= real(0)) return real(0);
+    return exp(n * log1p(phi - real(1)));
 }
 
 // Lambda = sum_{j=1..N} phi^j = phi (1 - phi^N) / (1 - phi) (N at phi = 1): the weight of
 // the step's one light connection from its representative event.
-inline double event_weight_sum(double phi, int64_t n) {
-    if (phi >= 1.0) return double(n);
-    if (phi <= 0.0) return 0.0;
-    return phi * -std::expm1(double(n) * std::log(phi)) / (1.0 - phi);
+SSS_FN real event_weight_sum(real phi, real n) {
+    if (phi >= real(1)) return n;
+    if (phi <= real(0)) return real(0);
+    return phi * -expm1(n * log1p(phi - real(1))) / (real(1) - phi);
 }
 
+// The probability that the step's first event (its centre) is the representative one:
+// phi / Lambda = (1 - phi) / (1 - phi^N) (1/N at phi = 1). EventGen models only the
+// events k >= 2 (docs/model-format.md).
+SSS_FN real first_event_probability(real phi, real n) {
+    if (phi >= real(1)) return real(1) / n;
+    return (real(1) - phi) / -expm1(n * log1p(phi - real(1)));
+}
+
+#ifdef __cplusplus
 }  // namespace sss
+#endif
+
+#endif  // SSS_SHARED_SPHERE_STEP_H

@@ -1,6 +1,6 @@
 // The learned sphere step (cpp/nn/scattering_model.h) on the GPU: LengthGen, PathGen and,
 // when asked, EventGen evaluated per invocation from the packed decoders in `model`
-// (layout: gpu_scene.h, "Packed decoders"), consuming the Rng exactly as ScatteringModel's
+// (layout: gpu_scene.h, "Packed decoders"), consuming the random stream exactly as ScatteringModel's
 // step does, so a stream gives the same step on both up to float rounding
 // (tests/test_gpu.py compares them).
 // The includer declares the uniform block `vec4 model_v[kModelVec4]` (the packed floats,
@@ -89,7 +89,7 @@ void decoder_sample(int w0, int w1, int w2, int n_in, int h1, int h2, int n_out,
 // n <= 16 standard normals by Box-Muller, drawn in the blocks of draw_normal_uniforms /
 // assemble_normals (simd_decoder.cpp): block b takes the radii's uniforms of its k pairs,
 // then the angles', and holds its k cosines, then its k sines.
-void draw_normals(inout Rng rng, int n, out float z[16]) {
+void draw_normals(inout RngState rng, int n, out float z[16]) {
     const int pairs = (n + 1) / 2, blocks = (pairs + 3) / 4;
     [[unroll]] for (int i = 0; i < 16; ++i) z[i] = 0.0;
     [[unroll]] for (int blk = 0; blk < 2; ++blk) {
@@ -123,7 +123,7 @@ struct SphereStepSample {
 // One step for optical radius sigma and anisotropy g, in the exit frame; with_event also
 // draws the representative event for albedo phi.
 SphereStepSample sample_sphere_step(float sigma, float g, float phi, bool with_event,
-                                    inout Rng rng) {
+                                    inout RngState rng) {
     SphereStepSample s;
     s.N = 1.0;
     s.cos_theta = 1.0;
@@ -207,9 +207,7 @@ SphereStepSample sample_sphere_step(float sigma, float g, float phi, bool with_e
     s.W = mw > 0.0 ? (W / mw) / length(W / mw) : vec3(0.0, 0.0, 1.0);
     // The first event (the centre) is the representative one with the exact probability
     // (1 - phi) / (1 - phi^N) (1/N for phi = 1); EventGen models only events k >= 2.
-    float p_first = phi >= 1.0 ? 1.0 / s.N
-                               : (1.0 - phi) / -expm1_small(s.N * log1p_small(phi - 1.0));
-    if (rng_uniform(rng) < p_first) {
+    if (rng_uniform(rng) < first_event_probability(phi, s.N)) {
         s.X = vec3(0.0);
         s.W = vec3(0.0, 0.0, 1.0);
     }

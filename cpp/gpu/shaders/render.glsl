@@ -13,7 +13,7 @@
 // next one while the other lanes of its subgroup go on, so a long path holds up its own
 // lane rather than its subgroup (path regeneration). The paths are dealt out in this fixed
 // order, not from an atomic counter: Mesa 22's lavapipe lost paths that way. Sample k of
-// pixel (x, y) uses Rng(seed, y * width + x, k), as on the CPU, so L changes no result.
+// pixel (x, y) uses rng_make(seed, y * width + x, k), as on the CPU, so L changes no result.
 
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 #extension GL_GOOGLE_include_directive : require
@@ -22,7 +22,6 @@
 
 layout(local_size_x = 64) in;
 
-#include "gpu/shaders/rng.glsl"
 #include "gpu/shaders/math.glsl"
 #include "gpu/shaders/scene.glsl"
 
@@ -52,7 +51,7 @@ const float kRouletteThreshold = 0.1;
 const float kShadowRoulette = 0.1;
 const int kMaxShadowCrossings = 64;
 
-bool survives_roulette(inout vec3 beta, float beta_start, inout Rng rng) {
+bool survives_roulette(inout vec3 beta, float beta_start, inout RngState rng) {
     float q = max(beta.x, max(beta.y, beta.z)) / beta_start;
     if (q < kRouletteThreshold) {
         if (rng_uniform(rng) >= q) return false;
@@ -103,7 +102,7 @@ vec3 transmittance(vec3 p, vec3 w, float dist, int shape) {
 // first lighting.z of lights[]). A shadow ray whose transmittance the bound puts below
 // kShadowRoulette is traced with probability bound / kShadowRoulette and reweighted.
 vec3 direct_light(vec3 p, float r, vec3 d, int shape, int channel, bool delta_only,
-                  inout Rng rng) {
+                  inout RngState rng) {
     GpuShape s = shapes[shape];
     if (s.albedo.w != 0.0) return vec3(0.0);  // no shadow ray leaves a dielectric
     float sigma_min =
@@ -158,7 +157,7 @@ vec3 direct_light(vec3 p, float r, vec3 d, int shape, int channel, bool delta_on
 
 // One path's state between iterations of its loop.
 struct Path {
-    Rng rng;
+    RngState rng;
     vec3 o, d, L, beta;
     float beta_start;
     int channel;    // -1: all three (grey media)

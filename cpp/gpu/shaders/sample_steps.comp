@@ -1,6 +1,6 @@
 #version 450
 // Sphere steps sampled by the GPU's decoders for per-item (sigma, g, phi), with EventGen's
-// event if with_event: item i draws from Rng(seed, i, 0), as ScatteringModel::sample_batch
+// event if with_event: item i draws from rng_make(seed, i, 0), as ScatteringModel::sample_batch
 // does, so tests compare the two.
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 #extension GL_GOOGLE_include_directive : require
@@ -8,7 +8,6 @@
 
 layout(local_size_x = 64) in;
 
-#include "gpu/shaders/rng.glsl"
 #include "gpu/shaders/math.glsl"
 
 const int kModelVec4 = 1024;  // kGpuModelFloats / 4
@@ -26,7 +25,7 @@ layout(push_constant) uniform Push {
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= count) return;
-    Rng rng = rng_make((uint64_t(seed_hi) << 32) | uint64_t(seed_lo), uint64_t(i), 0ul);
+    RngState rng = rng_make((uint64_t(seed_hi) << 32) | uint64_t(seed_lo), uint64_t(i), 0ul);
     vec4 in_i = inputs[i];
     SphereStepSample s = sample_sphere_step(in_i.x, in_i.y, in_i.z, with_event != 0u, rng);
     outputs[3 * i] = vec4(s.N, s.cos_theta, s.alpha, s.beta);

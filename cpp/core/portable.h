@@ -1,0 +1,43 @@
+// The common subset of C++ and GLSL in which core/frame.h and the headers of cpp/shared/
+// are written, so that the CPU and the shaders compile the same maths (STYLE.md, "Math
+// written once"). This is the C++ side; cpp/gpu/shaders/portable.glsl is the GLSL side.
+//
+// A portable header:
+// - guards C++-only parts (includes, the namespace, member functions) with
+//   `#ifdef __cplusplus`, and uses include guards (glslang has no `#pragma once`);
+// - declares functions `SSS_FN` and constants `SSS_CONST`, output parameters
+//   `SSS_OUT(float) x` and in-out ones `SSS_INOUT(T) x`; writes float literals with a
+//   suffix (`1.f`) and 64-bit ones with `ul` (GLSL's uint64_t, from
+//   GL_EXT_shader_explicit_arithmetic_types_int64);
+// - builds vectors as `Vec3(x, y, z)` (GLSL's vec3) and calls the maths unqualified
+//   (`sqrt`, `clamp`, `log1p`, `copysign`, ...); GLSL lacks `log1p`, `expm1` and
+//   `copysign`, which portable.glsl provides;
+// - computes in `real` where the CPU wants double precision (double here, float in GLSL).
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+
+#define SSS_FN inline
+#define SSS_CONST inline constexpr
+#define SSS_OUT(T) T&
+#define SSS_INOUT(T) T&
+
+namespace sss {
+
+using real = double;
+
+using std::abs;
+using std::clamp;
+using std::copysign;
+using std::cos;
+using std::exp;
+using std::expm1;
+using std::log;
+using std::log1p;
+using std::max;
+using std::min;
+using std::sin;
+using std::sqrt;
+
+}  // namespace sss

@@ -1,0 +1,23 @@
+// The GLSL side of core/portable.h: what the portable headers (core/frame.h, cpp/shared/)
+// expect, so that the shaders compile the CPU's maths from the same source.
+
+#define Vec3 vec3
+#define SSS_FN
+#define SSS_CONST const
+#define SSS_OUT(T) out T
+#define SSS_INOUT(T) inout T
+#define uint32_t uint
+#define real float
+
+// log(1 + x) and exp(x) - 1, accurate for small |x| too (GLSL has neither): the albedos
+// near 1 of dense media make log(phi) a difference of nearly equal numbers, which a
+// GPU's log (absolute error ~2^-21) would get wrong by 1 %. For x = phi - 1, x is exact.
+float log1p(float x) {
+    return abs(x) < 1e-2 ? x * (1.0 - x * (0.5 - x * (1.0 / 3.0 - 0.25 * x))) : log(1.0 + x);
+}
+float expm1(float x) {
+    return abs(x) < 1e-2 ? x * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x / 24.0))) : exp(x) - 1.0;
+}
+
+// |a| with the sign of b (of -0.0 too), as C's copysign.
+float copysign(float a, float b) { return (floatBitsToUint(b) >> 31) != 0u ? -abs(a) : abs(a); }
