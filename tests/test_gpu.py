@@ -573,6 +573,31 @@ def test_bad_arguments(kwargs, expected):
 # Determinism and the result's fields.
 
 
+def test_gpu_dispatches_start_at_one_sample_and_grow_at_most_fourfold():
+    """Without a fixed batch the first dispatch renders one sample per pixel and each later
+    one at most four times the last, so progress and Ctrl-C are answered soon on a slow
+    device; a callback that stops after the first dispatch keeps exactly its samples."""
+    scene = sssphere.load_scene(sphere_scene(res=(16, 16), sigma_t=30.0))
+    spp = 64
+    seen = []
+
+    def record(fraction):
+        seen.append(round(fraction * spp))
+        return True
+
+    r = _core.render_gpu(scene, "pt", spp, 3, -1, True, math.inf, "", progress=record)
+    assert not r["cancelled"]
+    assert seen[0] == 0 and seen[1] == 1 and seen[-1] == spp
+    sizes = np.diff(seen)
+    assert np.all(sizes >= 1) and np.all(sizes[1:] <= 4 * sizes[:-1]), seen
+
+    calls = []
+    stopped = _core.render_gpu(scene, "pt", spp, 3, -1, True, math.inf, "",
+                               progress=lambda f: calls.append(f) or len(calls) < 2)
+    assert stopped["cancelled"]
+    np.testing.assert_array_equal(stopped["samples"], 1)
+
+
 @pytest.mark.parametrize("integrator", ["pt", "st"])
 def test_gpu_render_is_deterministic(integrator, model_dir):
     """The same seed gives the same image whatever the batching of samples into dispatches

@@ -32,6 +32,8 @@ struct RenderPush {
 
 constexpr uint32_t kGroup = 64;             // render.glsl's workgroup size
 constexpr uint32_t kWritten = 0x80000000u;  // render.glsl: set in a written path's steps
+// The wall time a dispatch aims at when the batch is not fixed (GpuRenderOptions::batch).
+constexpr double kDispatchSeconds = 0.25;
 
 template <class T>
 VulkanCompute::BufferId upload_array(VulkanCompute& vk, const std::vector<T>& v,
@@ -107,12 +109,13 @@ GpuRenderResult GpuRenderer::render(const GpuRenderOptions& opt,
     if (opt.record_paths && uint64_t(opt.spp) * pixels > (uint64_t(1) << 27))
         fail("record_paths keeps at most 2^27 paths; ", opt.spp, " spp x ", pixels,
              " pixels are more");
-    // A GPU is full at about 2^20 paths per dispatch; a software device (lavapipe) takes
-    // long over that many, so it gets at least 16 dispatches: progress and Ctrl-C are
-    // answered between dispatches.
+    // A GPU is full at about 2^20 paths per dispatch. Without a fixed batch the first
+    // dispatch renders one sample per pixel and later ones grow (at most 4x each) towards
+    // kDispatchSeconds by the time measured so far: progress and Ctrl-C are answered
+    // between dispatches, and a slow device (lavapipe, or a GPU on a dense medium) would
+    // otherwise hold them for as long as 2^20 paths take (20 s on lavapipe).
     int batch =
         opt.batch > 0 ? opt.batch : int(std::max<size_t>(1, (size_t(1) << 20) / pixels));
-    if (opt.batch <= 0 && vk_.is_software()) batch = std::min(batch, (opt.spp + 15) / 16);
     batch = std::min(batch, opt.spp);
     const size_t max_paths = vk_.max_storage_buffer_bytes() / 16;
     if (size_t(batch) * pixels > max_paths)
@@ -143,12 +146,15 @@ GpuRenderResult GpuRenderer::render(const GpuRenderOptions& opt,
         r.path_steps.assign(size_t(opt.spp) * pixels, 0);
     }
     int done = 0;
+    int next = opt.batch > 0 ? batch : 1;  // samples per pixel of the next dispatch
+    double dispatch_seconds = 0.0;         // wall time of the dispatches so far
     while (done < opt.spp) {
         if (progress && !progress(double(done) / opt.spp)) {
             r.cancelled = true;
             break;
         }
-        const int b = std::min(batch, opt.spp - done);
+        const auto dispatch_start = std::chrono::steady_clock::now();
+        const int b = std::min(next, opt.spp - done);
         const size_t paths = size_t(b) * pixels;
         RenderPush push{uint32_t(opt.seed), uint32_t(opt.seed >> 32), uint32_t(done),
                         int32_t(opt.max_bounces), uint32_t(paths)};
@@ -193,6 +199,13 @@ GpuRenderResult GpuRenderer::render(const GpuRenderOptions& opt,
             }
         }
         done += b;
+        dispatch_seconds += std::chrono::duration<double>(
+                                std::chrono::steady_clock::now() - dispatch_start)
+                                .count();
+        if (opt.batch <= 0) {
+            const double fit = kDispatchSeconds * done / std::max(dispatch_seconds, 1e-9);
+            next = int(std::clamp(fit, 1.0, double(std::min(batch, 4 * b))));
+        }
     }
     if (progress && !r.cancelled) progress(1.0);
 
