@@ -5,7 +5,8 @@
 //   sssphere-gpu-bench --spp N [--batch B] [--lanes L] [--repeat R] [--out DIR]
 //                      NAME=SCENE.bin[,OVERRIDE...] ...
 //
-// --batch: samples per pixel per dispatch (default: about 2^20 paths per dispatch).
+// --batch: samples per pixel per dispatch (default: about 2^20 paths per dispatch, at
+// most spp; the JSON gives the batch used).
 // --lanes: invocations per dispatch, each rendering every lanes-th path (default: one per
 // path; GpuRenderOptions::lanes).
 //
@@ -24,6 +25,8 @@
 // steps per path), and with --out writes DIR/NAME_<integrator>.f32: the last render's
 // mean image then the variance of that mean, float32, each (height, width, 3), row 0 at
 // the top.
+#include <algorithm>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -138,9 +141,13 @@ int main(int argc, char** argv) {
                 GpuRenderOptions opt;
                 opt.integrator = integrator;
                 opt.spp = 1;
-                renderer.render(opt);  // warm-up: pipeline and caches
+                const GpuRenderResult warm = renderer.render(opt);  // pipeline, caches
                 opt.spp = spp;
-                opt.batch = batch;
+                // Fixed dispatches, not the renderer's default ramp by time: a benchmark
+                // times full ones.
+                const int full = int(std::max<int64_t>(
+                    1, (int64_t(1) << 20) / (int64_t(warm.width) * warm.height)));
+                opt.batch = batch > 0 ? batch : std::min(full, spp);
                 opt.lanes = lanes;
                 GpuRenderResult r;
                 for (int k = 0; k < repeat; ++k) {
@@ -153,7 +160,7 @@ int main(int argc, char** argv) {
                         "\"events_per_path\": "
                         "%.4f, \"steps_per_path\": %.4f}\n",
                         name.c_str(), integrator, r.device.c_str(), r.width, r.height,
-                        spp, k, batch, lanes, r.gpu_seconds, r.seconds,
+                        spp, k, opt.batch, lanes, r.gpu_seconds, r.seconds,
                         double(r.total_events) / double(r.total_paths),
                         double(r.total_sphere_steps) / double(r.total_paths));
                     std::fflush(stdout);
