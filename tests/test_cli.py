@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import sssphere
+from sssphere import _core
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -131,7 +132,7 @@ def test_ctrl_c_writes_partial_image_cpp_cli(tmp_path, slow_scene):
     assert sssphere.read_image(out).shape == (16, 24, 3)
 
 
-@pytest.mark.skipif(not sssphere._core.gpu_status()[0], reason="no Vulkan device")
+@pytest.mark.skipif(not _core.gpu_status()[0], reason="no Vulkan device")
 def test_backend_option_renders_on_the_gpu(tmp_path, small_scene):
     # The CLI's image is the Python API's on the same backend, with NEE and without, for
     # both integrators (st's steps connect EventGen's event to the point light).

@@ -29,7 +29,7 @@ import pytest
 
 import sssphere
 from sssphere import SceneError
-from sssphere.render import STEP_NEE
+from sssphere.rendering import STEP_NEE
 
 REPO = Path(__file__).resolve().parents[1]
 BUNNY = "/usr/share/glmark2/models/bunny.obj"

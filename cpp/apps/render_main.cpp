@@ -8,7 +8,7 @@
 #include <string>
 
 #include "core/check.h"
-#include "render/image_io.h"
+#include "io/image_io.h"
 #include "render/renderer.h"
 #include "render/scene.h"
 
@@ -21,7 +21,7 @@ void usage() {
     std::cerr
         << "usage: sssphere-render SCENE.json -o OUT.(exr|png) [--spp N] [--seed N] "
            "[--threads N] [--integrator pt|st] [--sphere-threshold TAU] [--models DIR] "
-           "[--step-nee hits|event] [--quiet]\n"
+           "[--step-nee hits|event] [--quiet] [--version]\n"
            "  st: a collision takes a sphere step where sigma_t * r >= TAU (default: the "
            "scene's\n"
            "  render.sphere_threshold, else "
@@ -86,7 +86,10 @@ int main(int argc, char** argv) {
                 step_nee = sss::parse_step_nee(value(), "--step-nee");
             else if (a == "--quiet")
                 quiet = true;
-            else if (a == "-h" || a == "--help") {
+            else if (a == "--version") {
+                std::cout << "sssphere-render " << SSSPHERE_VERSION << "\n";
+                return 0;
+            } else if (a == "-h" || a == "--help") {
                 usage();
                 return 0;
             } else if (!a.empty() && a[0] == '-')

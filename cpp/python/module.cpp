@@ -12,7 +12,6 @@
 #include "core/check.h"
 #include "geometry/distance_grid.h"
 #include "python/render_progress.h"
-#include "render/image_io.h"
 #include "render/renderer.h"
 #include "render/scene.h"
 
@@ -164,29 +163,6 @@ PYBIND11_MODULE(_core, m) {
           py::arg("step_nee") = "hits", py::arg("record_paths") = false,
           py::arg("progress") = py::none());
     m.attr("DEFAULT_SPHERE_THRESHOLD") = kDefaultSphereThreshold;
-
-    m.def(
-        "write_image",
-        [](const std::string& path,
-           py::array_t<float, py::array::c_style | py::array::forcecast> img) {
-            if (img.ndim() != 3 || (img.shape(2) != 3 && img.shape(2) != 1))
-                fail(path,
-                     ": image must have shape (height, width, 3) or (height, width, 1)");
-            std::vector<float> px(img.data(), img.data() + img.size());
-            py::gil_scoped_release release;
-            write_image(path, px, int(img.shape(1)), int(img.shape(0)),
-                        int(img.shape(2)));
-        },
-        py::arg("path"), py::arg("image"));
-
-    m.def(
-        "read_image",
-        [](const std::string& path) {
-            int w, h, c;
-            std::vector<float> px = read_image(path, &w, &h, &c);
-            return to_array(px, {py::ssize_t(h), py::ssize_t(w), py::ssize_t(c)});
-        },
-        py::arg("path"));
 
     m.def(
         "load_mesh",

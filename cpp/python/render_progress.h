@@ -22,8 +22,8 @@ pybind11::array_t<T> to_array(const std::vector<T>& v,
 
 // Hidden like pybind11's own types, which it holds.
 // The fields RenderResult and GpuRenderResult share, as the dict
-// python/sssphere/render.py reads: images (H, W, ...), per-path counts with record_paths
-// (spp, H, W), time, totals.
+// python/sssphere/rendering.py reads: images (H, W, ...), per-path counts with
+// record_paths (spp, H, W), time, totals.
 template <typename Result>
 pybind11::dict film_dict(const Result& r, int spp, bool record_paths, bool interrupted) {
     const pybind11::ssize_t H = r.height, W = r.width;

@@ -8,19 +8,40 @@ The public API::
 
     model = sssphere.ScatteringModel.load()                # the learned sphere step
     steps = model.sample(sigma_t=5.0, g=0.3, albedo=0.9, n=1000)
+
+`import sssphere` loads nothing but this file: each name below is imported on first use
+(PEP 562), so a script or a command that needs one part does not pay for the others
+(NumPy, the C++ module, OpenImageIO for image files, PyTorch for training).
 """
 
-from sssphere._core import SceneError
-from sssphere.model import ScatteringModel
-from sssphere.render import RenderResult, read_image, render, render_full, write_image
-from sssphere.scene import Scene, load_mesh, load_scene
-from sssphere.walks import sphere_walks
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
+from sssphere._version import __version__
+
+# public name -> the module that defines it
+_EXPORTS = {
+    "RenderResult": "sssphere.rendering",
+    "ScatteringModel": "sssphere.model",
+    "Scene": "sssphere.scene",
+    "SceneError": "sssphere._core",
+    "load_mesh": "sssphere.scene",
+    "load_scene": "sssphere.scene",
+    "read_image": "sssphere.rendering",
+    "render": "sssphere.rendering",
+    "render_full": "sssphere.rendering",
+    "sphere_walks": "sssphere.walks",
+    "write_image": "sssphere.rendering",
+}
 
 __all__ = [
     "RenderResult",
     "ScatteringModel",
     "Scene",
     "SceneError",
+    "__version__",
     "load_mesh",
     "load_scene",
     "read_image",
@@ -29,4 +50,23 @@ __all__ = [
     "sphere_walks",
     "write_image",
 ]
-__version__ = "0.1.0"
+
+if TYPE_CHECKING:
+    from sssphere._core import SceneError
+    from sssphere.model import ScatteringModel
+    from sssphere.rendering import RenderResult, read_image, render, render_full, write_image
+    from sssphere.scene import Scene, load_mesh, load_scene
+    from sssphere.walks import sphere_walks
+
+
+def __getattr__(name: str):
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'sssphere' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later lookups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_EXPORTS))

@@ -9,7 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sssphere.render import (BACKENDS, DEFAULT_SPHERE_THRESHOLD, INTEGRATORS, STEP_NEE, render_full,
+from sssphere._version import __version__
+from sssphere.rendering import (BACKENDS, DEFAULT_SPHERE_THRESHOLD, INTEGRATORS, STEP_NEE, render_full,
                              write_image)
 from sssphere.scene import SceneError, load_scene
 
@@ -210,6 +211,7 @@ def _cmd_eval(args: argparse.Namespace) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="sssphere", description=__doc__)
+    parser.add_argument("--version", action="version", version=f"sssphere {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     r = sub.add_parser("render", help="render a scene file to an image")
     r.add_argument("scene", help="scene file (JSON, docs/scene-format.md)")

@@ -224,7 +224,9 @@ def render(
 
 def read_image(path: Union[str, os.PathLike]) -> np.ndarray:
     """Read an image as (height, width, channels) float32 (8-bit files: stored value / 255)."""
-    return _core.read_image(str(path))
+    from sssphere import _image  # OpenImageIO is loaded on first use, not by `import sssphere`
+
+    return _image.read_image(str(path))
 
 
 def write_image(path: Union[str, os.PathLike], image: np.ndarray) -> None:
@@ -232,4 +234,6 @@ def write_image(path: Union[str, os.PathLike], image: np.ndarray) -> None:
     image = np.asarray(image, dtype=np.float32)
     if image.ndim == 2:
         image = image[:, :, None]
-    _core.write_image(str(path), image)
+    from sssphere import _image
+
+    _image.write_image(str(path), image)
