@@ -40,7 +40,7 @@ sys.path.insert(0, str(HERE))
 
 import sssphere  # noqa: E402
 from sssphere import _core  # noqa: E402
-from sssphere.render import DEFAULT_MODELS, DEFAULT_SPHERE_THRESHOLD  # noqa: E402
+from sssphere.rendering import DEFAULT_MODELS, DEFAULT_SPHERE_THRESHOLD  # noqa: E402
 import st_vs_pt as cpu  # noqa: E402
 
 RES = 64

@@ -29,7 +29,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 import sssphere  # noqa: E402
-from sssphere.render import render_full  # noqa: E402
+from sssphere.rendering import render_full  # noqa: E402
 from st_vs_pt import BASE_SIGMA, BOUNDARIES, scene_dict  # noqa: E402
 
 

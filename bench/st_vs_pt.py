@@ -56,7 +56,7 @@ sys.path.insert(0, str(REPO / "tests"))  # mitsuba_util: the Mitsuba translation
 sys.path.insert(0, str(HERE))  # st_threshold: srgb / rmse_srgb
 
 import sssphere  # noqa: E402
-from sssphere.render import DEFAULT_SPHERE_THRESHOLD as DEFAULT_TAU  # noqa: E402
+from sssphere.rendering import DEFAULT_SPHERE_THRESHOLD as DEFAULT_TAU  # noqa: E402
 from st_threshold import rmse_srgb, srgb  # noqa: E402
 
 SHAPES = {"bunny": "scenes/bunny.json", "thin_torus": "scenes/thin_torus.json"}
