@@ -87,7 +87,10 @@ def test_ctrl_c_writes_partial_image_python_cli(tmp_path, slow_scene):
 
 
 def _cpp_cli() -> str:
-    exe = shutil.which("sssphere-render") or os.path.join(REPO, "build", "dev", "cpp", "sssphere-render")
+    # The one installed beside this interpreter (install.sh's environment), else the dev build
+    exe = os.path.join(os.path.dirname(sys.executable), "sssphere-render")
+    if not os.path.exists(exe):
+        exe = shutil.which("sssphere-render") or os.path.join(REPO, "build", "dev", "cpp", "sssphere-render")
     if not os.path.exists(exe):
         pytest.fail("the C++ renderer sssphere-render was not built")
     return exe

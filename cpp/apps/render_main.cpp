@@ -53,6 +53,27 @@ long parse_int(const char* flag, const char* text) {
     return v;
 }
 
+// The shipped decoders when neither --models nor the scene names any: those installed
+// with the Python package beside this program (a wheel puts the program in <env>/bin and
+// the models in <env>/lib/pythonX.Y/site-packages/sssphere/models), else those of the
+// source tree it was built from; empty if neither exists.
+std::string shipped_models() {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+#ifdef SSSPHERE_INSTALLED_MODELS
+    fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+    if (!ec) {
+        fs::path dir = exe.parent_path() / SSSPHERE_INSTALLED_MODELS;
+        if (fs::is_regular_file(dir / "lengthgen.json", ec))
+            return dir.lexically_normal();
+    }
+#endif
+#ifdef SSSPHERE_SOURCE_MODELS
+    if (fs::is_directory(SSSPHERE_SOURCE_MODELS, ec)) return SSSPHERE_SOURCE_MODELS;
+#endif
+    return {};
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -118,11 +139,7 @@ int main(int argc, char** argv) {
             threshold >= 0.f ? threshold : desc.render.sphere_threshold;
         opt.models = models.empty() ? desc.render.models : models;
         opt.step_nee = step_nee;
-#ifdef SSSPHERE_SOURCE_MODELS
-        // Last resort: the shipped models of the source tree this binary was built from.
-        if (opt.models.empty() && std::filesystem::is_directory(SSSPHERE_SOURCE_MODELS))
-            opt.models = SSSPHERE_SOURCE_MODELS;
-#endif
+        if (opt.models.empty()) opt.models = shipped_models();
         sss::Scene scene(std::move(desc), opt.threads);
 
         std::signal(SIGINT, on_sigint);
