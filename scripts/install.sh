@@ -100,7 +100,7 @@ if [ ${#missing[@]} -gt 0 ]; then
     cannot_install "'apt-get update' failed (no network, or sudo refused?)" "${missing[*]}"
   DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq \
       --no-install-recommends "${missing[@]}" ||
-    cannot_install "'apt-get install' failed" "${missing[*]}"
+    cannot_install "'apt-get install' failed (no network, or packages not found?)" "${missing[*]}"
   mapfile -t missing < <(missing_packages)
   [ ${#missing[@]} -eq 0 ] || cannot_install "apt-get did not install everything" "${missing[*]}"
 fi

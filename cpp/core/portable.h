@@ -10,8 +10,9 @@
 //   suffix (`1.f`) and 64-bit ones with `ul` (GLSL's uint64_t, from
 //   GL_EXT_shader_explicit_arithmetic_types_int64);
 // - builds vectors as `Vec3(x, y, z)` (GLSL's vec3) and calls the maths unqualified
-//   (`sqrt`, `clamp`, `log1p`, `copysign`, ...); GLSL lacks `log1p`, `expm1` and
-//   `copysign`, which portable.glsl provides;
+//   (`sqrt`, `clamp`, `log1p`, `copysign`, ...); GLSL lacks `log1p`, `expm1`,
+//   `copysign` and nextafter (here `next_float_up` / `next_float_down`), which
+//   portable.glsl provides;
 // - computes in `real` where the CPU wants double precision (double here, float in GLSL).
 #pragma once
 
@@ -39,5 +40,9 @@ using std::max;
 using std::min;
 using std::sin;
 using std::sqrt;
+
+// The next float towards +infinity and towards -infinity (GLSL has no nextafter).
+inline float next_float_up(float v) { return std::nextafter(v, INFINITY); }
+inline float next_float_down(float v) { return std::nextafter(v, -INFINITY); }
 
 }  // namespace sss

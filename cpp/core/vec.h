@@ -84,6 +84,23 @@ inline bool is_finite(Vec3 v) {
 }
 inline bool is_black(Vec3 v) { return v.x == 0.f && v.y == 0.f && v.z == 0.f; }
 
+// A point in double precision: scene files' coordinates before they are moved into the
+// render frame (render/scene.h), so that a scene far from the origin loses nothing.
+struct Vec3d {
+    double x = 0, y = 0, z = 0;
+
+    constexpr Vec3d() = default;
+    constexpr Vec3d(double x_, double y_, double z_) : x(x_), y(y_), z(z_) {}
+    constexpr explicit Vec3d(Vec3 v) : x(v.x), y(v.y), z(v.z) {}
+    constexpr double operator[](int i) const { return i == 0 ? x : (i == 1 ? y : z); }
+    double& operator[](int i) { return i == 0 ? x : (i == 1 ? y : z); }
+    constexpr Vec3d operator+(Vec3d o) const { return {x + o.x, y + o.y, z + o.z}; }
+    constexpr Vec3d operator-(Vec3d o) const { return {x - o.x, y - o.y, z - o.z}; }
+    constexpr Vec3d operator*(double s) const { return {x * s, y * s, z * s}; }
+    // Rounded to the nearest float per component.
+    constexpr Vec3 to_float() const { return {float(x), float(y), float(z)}; }
+};
+
 // Axis-aligned bounding box.
 struct Bounds3 {
     Vec3 lo{INFINITY}, hi{-INFINITY};

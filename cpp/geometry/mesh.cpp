@@ -85,21 +85,29 @@ TriangleMesh make_icosphere(Vec3 center, float radius, int subdivisions) {
     return mesh;
 }
 
-void transform_mesh(TriangleMesh& mesh, Vec3 scale, Vec3 rotate_deg, Vec3 translate) {
-    auto rot = [](Vec3 v, int axis, float deg) {
-        float a = deg * 0.017453292519943295f, c = std::cos(a), s = std::sin(a);
-        if (axis == 0) return Vec3(v.x, c * v.y - s * v.z, s * v.y + c * v.z);
-        if (axis == 1) return Vec3(c * v.x + s * v.z, v.y, -s * v.x + c * v.z);
-        return Vec3(c * v.x - s * v.y, s * v.x + c * v.y, v.z);
-    };
-    for (Vec3& p : mesh.positions) {
-        Vec3 q = p * scale;
-        for (int axis = 0; axis < 3; ++axis)
-            if (rotate_deg[axis] != 0.f) q = rot(q, axis, rotate_deg[axis]);
-        p = q + translate;
+Vec3d Transform::apply(Vec3d p) const {
+    Vec3d q(p.x * scale.x, p.y * scale.y, p.z * scale.z);
+    for (int axis = 0; axis < 3; ++axis) {
+        if (rotate_deg[axis] == 0) continue;
+        const double a = rotate_deg[axis] * 0.017453292519943295, c = std::cos(a),
+                     s = std::sin(a);
+        if (axis == 0)
+            q = {q.x, c * q.y - s * q.z, s * q.y + c * q.z};
+        else if (axis == 1)
+            q = {c * q.x + s * q.z, q.y, -s * q.x + c * q.z};
+        else
+            q = {c * q.x - s * q.y, s * q.x + c * q.y, q.z};
     }
-    if (scale.x * scale.y * scale.z < 0.f)
+    return q + translate;
+}
+
+std::vector<Vec3d> transform_mesh(TriangleMesh& mesh, const Transform& transform) {
+    std::vector<Vec3d> world;
+    world.reserve(mesh.positions.size());
+    for (const Vec3& p : mesh.positions) world.push_back(transform.apply(Vec3d(p)));
+    if (transform.mirrors())
         for (auto& t : mesh.triangles) std::swap(t[1], t[2]);
+    return world;
 }
 
 void normalize_mesh(TriangleMesh& mesh) {

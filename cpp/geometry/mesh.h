@@ -37,9 +37,17 @@ TriangleMesh make_closed_mesh(std::vector<Vec3> positions,
 // Icosphere: the icosahedron subdivided `subdivisions` times, vertices on the sphere.
 TriangleMesh make_icosphere(Vec3 center, float radius, int subdivisions);
 
-// Applies p -> p * scale (per axis), then rotations about x, y, z (degrees, in that
-// order), then + translate. A negative determinant flips triangle winding back outward.
-void transform_mesh(TriangleMesh& mesh, Vec3 scale, Vec3 rotate_deg, Vec3 translate);
+// A similarity-like transform of scene files: p -> p * scale (per axis), then rotations
+// about x, y, z (degrees, in that order), then + translate; in double precision.
+struct Transform {
+    Vec3d scale{1, 1, 1}, rotate_deg, translate;
+    Vec3d apply(Vec3d p) const;
+    bool mirrors() const { return scale.x * scale.y * scale.z < 0; }
+};
+
+// The mesh's positions under `transform`, in double precision (the caller moves them into
+// the render frame); a mirroring transform flips the triangles' winding back outward.
+std::vector<Vec3d> transform_mesh(TriangleMesh& mesh, const Transform& transform);
 
 // Uniform scale so that the largest bounding-box side is 1, centred at the origin.
 void normalize_mesh(TriangleMesh& mesh);

@@ -125,11 +125,24 @@ TEST(Mesh, ObjQuadsAreTriangulatedAndStlVerticesMerged) {
 
 TEST(Mesh, TransformAndNormalize) {
     TriangleMesh m = make_icosphere({0, 0, 0}, 1.f, 2);
-    transform_mesh(m, Vec3(-2.f, 1.f, 1.f), Vec3(0.f, 90.f, 0.f), Vec3(5.f, 0.f, 0.f));
+    Transform t{{-2, 1, 1}, {0, 90, 0}, {5, 0, 0}};
+    std::vector<Vec3d> world = transform_mesh(m, t);
+    ASSERT_EQ(world.size(), m.positions.size());
+    for (size_t i = 0; i < world.size(); ++i) m.positions[i] = world[i].to_float();
     EXPECT_GT(m.volume(), 0.0);  // a mirroring scale keeps the mesh outward
     EXPECT_NEAR(m.bounds().center().x, 5.f, 1e-4f);
     EXPECT_NEAR(m.bounds().extent().z, 4.f, 1e-3f);  // x scaled by 2 then rotated onto z
     normalize_mesh(m);
     EXPECT_NEAR(max_component(m.bounds().extent()), 1.f, 1e-6f);
     EXPECT_NEAR(length(m.bounds().center()), 0.f, 1e-6f);
+}
+
+TEST(Mesh, TransformIsExactFarFromTheOrigin) {
+    // Double precision: a translation by 1e4 keeps offsets of 1e-6 (float would round
+    // them to 1e-3).
+    Transform t{{1, 1, 1}, {0, 0, 0}, {1e4, -1e4, 1e4}};
+    Vec3d p = t.apply(Vec3d(1e-6, 2e-6, -3e-6));
+    EXPECT_NEAR(p.x - 1e4, 1e-6, 1e-11);  // ulp(1e4) in double is 1.8e-12
+    EXPECT_NEAR(p.y + 1e4, 2e-6, 1e-11);
+    EXPECT_NEAR(p.z - 1e4, -3e-6, 1e-11);
 }

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "core/check.h"
+#include "shared/ray_offset.h"
 
 namespace sss {
 
@@ -80,6 +81,10 @@ struct RayTracer::Impl {
     RTCScene scene = nullptr;
     unsigned num_meshes = 0;
     bool committed = false;
+    // Each mesh's vertex and index buffers (owned by its Embree geometry, which the scene
+    // holds): hit points are rebuilt from them.
+    std::vector<const float*> vertices;
+    std::vector<const unsigned*> indices;
 };
 
 RayTracer::RayTracer() : impl_(std::make_unique<Impl>()) {
@@ -119,6 +124,8 @@ unsigned RayTracer::add_mesh(const TriangleMesh& mesh) {
     for (size_t i = 0; i < mesh.triangles.size(); ++i)
         for (int c = 0; c < 3; ++c) idx[3 * i + c] = mesh.triangles[i][c];
     rtcCommitGeometry(geom);
+    impl_->vertices.push_back(v);
+    impl_->indices.push_back(idx);
     unsigned id = rtcAttachGeometry(impl_->scene, geom);
     rtcReleaseGeometry(geom);  // the scene holds the reference now
     SSS_CHECK(id == impl_->num_meshes++);
@@ -144,6 +151,15 @@ bool RayTracer::intersect(const Vec3& o, const Vec3& d, float tnear, float tfar,
     // of our own normals cost a cache miss per hit: 5 % of the time at sigma_t = 10).
     // Unnormalized, it points the way TriangleMesh::normal does (ray_tracer_test checks).
     hit->normal = normalize(Vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z));
+    // The point from the triangle itself: its error bound follows the triangle's
+    // coordinates, not the ray's origin (a camera 1000 radii away would put it 1000x
+    // further off).
+    const unsigned* tri = impl_->indices[hit->mesh] + 3 * size_t(hit->prim);
+    const float* v = impl_->vertices[hit->mesh];
+    const Vec3 v0(v[3 * tri[0]], v[3 * tri[0] + 1], v[3 * tri[0] + 2]);
+    const Vec3 v1(v[3 * tri[1]], v[3 * tri[1] + 1], v[3 * tri[1] + 2]);
+    const Vec3 v2(v[3 * tri[2]], v[3 * tri[2] + 1], v[3 * tri[2] + 2]);
+    hit->p = triangle_point(v0, v1 - v0, v2 - v0, rh.hit.u, rh.hit.v, hit->p_error);
     return true;
 }
 

@@ -17,6 +17,10 @@ struct Hit {
     Vec3 normal;  // outward unit normal of the hit triangle (counter-clockwise winding)
     unsigned mesh = 0;  // index in the order meshes were added
     unsigned prim = 0;  // triangle index within that mesh
+    // The hit point, rebuilt from the triangle and the barycentric coordinates (not
+    // o + t d, whose error grows with |o| and t), and a bound on its rounding error: rays
+    // leaving it start at offset_ray_origin(p, p_error, normal, w) (shared/ray_offset.h).
+    Vec3 p, p_error;
 };
 
 // One surface a segment crosses (RayTracer::crossings).

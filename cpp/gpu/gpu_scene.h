@@ -43,7 +43,7 @@ struct GpuSceneHeader {
     float cam_up[4];
     float environment[4];  // rgb, w: 1 if present
     uint32_t counts[4];    // shapes, emitter meshes, width, height
-    float params[4];       // ray epsilon, sphere threshold, sigma_max, grey media (1/0)
+    float params[4];       // unused, sphere threshold, sigma_max, grey media (1/0)
     GpuShape shapes[kGpuMaxShapes];
     GpuGrid grids[kGpuMaxShapes];
     float emitters[kGpuMaxEmitters][4];  // rgb radiance, w: its index in lights

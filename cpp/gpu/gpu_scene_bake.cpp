@@ -179,7 +179,7 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
     out.nodes = std::move(bvh.nodes);
     out.triangles = std::move(bvh.triangles);
 
-    h.params[0] = scene.ray_epsilon();
+    h.params[0] = 0.f;  // unused (rays are offset by error bounds: shared/ray_offset.h)
     h.params[1] = INFINITY;  // no sphere steps ("pt")
     h.params[2] = kWalkSigmaMax;
     h.params[3] = scene.grey_media() ? 1.f : 0.f;

@@ -128,12 +128,16 @@ void bind_gpu(py::module_& m) {
                 fail("origins and directions must have shape (n, 3)");
             const size_t n = size_t(origins.shape(0));
             std::vector<float> rays(8 * n);
-            for (size_t i = 0; i < n; ++i)
+            for (size_t i = 0; i < n; ++i) {
+                // Origins in the scene file's coordinates, moved into the render frame
+                const float* o = origins.data() + 3 * i;
+                const Vec3 origin = scene.to_render(Vec3d(o[0], o[1], o[2]));
                 for (int c = 0; c < 3; ++c) {
-                    rays[8 * i + c] = origins.data()[3 * i + c];
+                    rays[8 * i + c] = origin[c];
                     rays[8 * i + 4 + c] = directions.data()[3 * i + c];
-                    rays[8 * i + 7] = tfar;
                 }
+                rays[8 * i + 7] = tfar;
+            }
             GpuSceneData baked = bake_gpu_scene(scene, "pt", false, INFINITY, "");
             std::vector<float> out;
             {

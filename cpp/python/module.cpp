@@ -24,13 +24,16 @@ void bind_gpu(py::module_& m);    // bind_gpu.cpp
 
 namespace {
 
+// Points given in the scene file's coordinates, moved into the scene's render frame
+// (SceneDesc::origin).
 std::vector<Vec3> points_from(
-    const py::array_t<float, py::array::c_style | py::array::forcecast>& p) {
+    const Scene& scene,
+    const py::array_t<double, py::array::c_style | py::array::forcecast>& p) {
     if (p.ndim() != 2 || p.shape(1) != 3)
         fail("points must have shape (n, 3), got ndim ", p.ndim());
     std::vector<Vec3> pts(p.shape(0));
     for (py::ssize_t i = 0; i < p.shape(0); ++i)
-        pts[i] = {p.at(i, 0), p.at(i, 1), p.at(i, 2)};
+        pts[i] = scene.to_render(Vec3d(p.at(i, 0), p.at(i, 1), p.at(i, 2)));
     return pts;
 }
 
@@ -124,27 +127,31 @@ PYBIND11_MODULE(_core, m) {
                     {py::ssize_t(mesh.positions.size()), py::ssize_t(3)});
                 py::array_t<uint32_t> f(
                     {py::ssize_t(mesh.triangles.size()), py::ssize_t(3)});
-                std::memcpy(v.mutable_data(), mesh.positions.data(),
-                            mesh.positions.size() * sizeof(Vec3));
+                auto out = v.mutable_unchecked<2>();
+                for (size_t k = 0; k < mesh.positions.size(); ++k) {
+                    const Vec3d p = s.to_scene(mesh.positions[k]);
+                    for (int c = 0; c < 3; ++c) out(py::ssize_t(k), c) = float(p[c]);
+                }
                 std::memcpy(f.mutable_data(), mesh.triangles.data(),
                             mesh.triangles.size() * 3 * sizeof(uint32_t));
                 return py::make_tuple(v, f);
             },
-            "World-space (vertices (n, 3) float32, triangles (m, 3) uint32) of shape i.")
+            "(vertices (n, 3) float32 in the scene file's coordinates, triangles (m, 3) "
+            "uint32) of shape i.")
         .def("distance_lower_bound",
              [](const Scene& s, int i,
-                py::array_t<float, py::array::c_style | py::array::forcecast> p) {
+                py::array_t<double, py::array::c_style | py::array::forcecast> p) {
                  shape_at(s, i);
-                 std::vector<Vec3> pts = points_from(p);
+                 std::vector<Vec3> pts = points_from(s, p);
                  std::vector<float> r(pts.size());
                  for (size_t k = 0; k < pts.size(); ++k) r[k] = s.grid(i).query(pts[k]);
                  return to_array(r, {py::ssize_t(r.size())});
              })
         .def("exact_distance",
              [](const Scene& s, int i,
-                py::array_t<float, py::array::c_style | py::array::forcecast> p) {
+                py::array_t<double, py::array::c_style | py::array::forcecast> p) {
                  std::vector<double> d =
-                     exact_distances(shape_at(s, i).mesh, points_from(p));
+                     exact_distances(shape_at(s, i).mesh, points_from(s, p));
                  return to_array(d, {py::ssize_t(d.size())});
              })
         .def("__repr__", [](const Scene& s) {

@@ -7,6 +7,7 @@
 #include "render/sphere_tracing.h"
 #include "shared/fresnel.h"
 #include "shared/hg.h"
+#include "shared/ray_offset.h"
 #include "shared/sampling.h"
 #include "shared/sphere_step.h"
 
@@ -40,9 +41,10 @@ Vec3 beer(Vec3 sigma_t, float d) {
     return tr;
 }
 
-// Moves p off the surface with normal n to the side that direction w points into.
-Vec3 offset(Vec3 p, Vec3 n, Vec3 w, float eps) {
-    return p + n * (dot(w, n) > 0.f ? eps : -eps);
+// The origin of a ray leaving the surface point of `hit` in direction w: past the hit
+// point's rounding-error bound, on w's side (shared/ray_offset.h; no absolute epsilon).
+Vec3 leave(const Hit& hit, const Vec3& w) {
+    return offset_ray_origin(hit.p, hit.p_error, hit.normal, w);
 }
 
 // Path Russian roulette after a scattering event or sphere step, once the throughput
@@ -302,7 +304,6 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
         if (step && !take_step(ps, *step)) return true;
     }
     const SceneDesc& desc = scene_.desc();
-    const float eps = scene_.ray_epsilon();
     // The path's state in locals for the loop (written back when it waits for a step).
     Rng rng = ps.rng;
     Vec3 o = ps.o, d = ps.d, L = ps.L, beta = ps.beta;
@@ -348,7 +349,7 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
                 }
                 break;
             }
-            Vec3 p = o + d * hit.t;
+            const Vec3& p = hit.p;
             int light = scene_.area_light_of_mesh(hit.mesh);
             if (light >= 0) {
                 if (dot(d, hit.normal) < 0.f) {
@@ -368,8 +369,9 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             }
             const Shape& s = desc.shapes[hit.mesh];
             if (dot(d, hit.normal) >= 0.f) {
-                // Leaving a shape we never entered (grazing numerics): just continue.
-                o = offset(p, hit.normal, d, eps);
+                // Leaving a shape the path never entered (a grazing hit on a silhouette
+                // edge): the crossing says it is outside now, as it was.
+                o = leave(hit, d);
                 continue;
             }
             if (s.boundary.type == BoundaryType::Dielectric) {
@@ -378,14 +380,14 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
                 specular = true;
                 if (rng.uniform() < F) {
                     d = d + hit.normal * (2.f * cos_i);
-                    o = offset(p, hit.normal, d, eps);
+                    o = leave(hit, d);
                     continue;
                 }
                 float eta = 1.f / s.boundary.ior;
                 d = normalize(d * eta + hit.normal * (eta * cos_i - cos_t));
             }
             shape = int(hit.mesh);
-            o = offset(p, hit.normal, d, eps);
+            o = leave(hit, d);
             r_at_o = 0.f;  // on the surface: the grid could only say so
             continue;
         }
@@ -445,13 +447,17 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             continue;
         }
 
-        // Reached the boundary from inside.
-        Vec3 p = o + d * hit.t;
+        // Reached a boundary from inside. Where the photon is after a crossing follows
+        // from the crossing, never from distances: behind a front face of a shape it is
+        // inside that shape, behind a back face outside it.
         if (int(hit.mesh) != shape || dot(d, hit.normal) <= 0.f) {
-            // Another shape or a back-facing hit inside our own: overlapping or touching
-            // geometry, which scenes must not have. Treat it as leaving to vacuum.
-            shape = -1;
-            o = offset(p, hit.normal, d, eps);
+            // A crossing this state does not expect: a front face of our own shape (the
+            // photon was outside after all, by rounding in a grazing hit), a face of
+            // another shape (touching shapes) or an emitter's quad. Pass straight
+            // through, into the shape the crossing enters, if any.
+            if (dot(d, hit.normal) < 0.f && int(hit.mesh) < scene_.num_shapes())
+                shape = int(hit.mesh);
+            o = leave(hit, d);
             continue;
         }
         if (s.boundary.type == BoundaryType::Dielectric) {
@@ -460,7 +466,7 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             specular = true;
             if (rng.uniform() < F) {
                 d = d - hit.normal * (2.f * cos_i);
-                o = offset(p, hit.normal, d, eps);
+                o = leave(hit, d);
                 r_at_o = 0.f;
                 continue;
             }
@@ -469,7 +475,7 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             d = normalize(d * eta - hit.normal * (eta * cos_i - cos_t));
         }
         shape = -1;
-        o = offset(p, hit.normal, d, eps);
+        o = leave(hit, d);
     }
     return finish();
 }

@@ -35,6 +35,17 @@ Vec3 vec3(const json& j, const Field& f) {
     return v;
 }
 
+// A position, kept in double until the scene is moved into its render frame.
+Vec3d point3(const json& j, const Field& f) {
+    if (!j.is_array() || j.size() != 3)
+        f.error("expected an array of 3 numbers, got ", show(j));
+    Vec3d v;
+    for (int i = 0; i < 3; ++i) v[i] = number(j[i], f.at(size_t(i)));
+    if (!is_finite(v.to_float()))
+        f.error("value ", show(j), " does not fit in single precision");
+    return v;
+}
+
 // RGB with each component in [lo, hi]; a single number means grey.
 Vec3 rgb_in(const json& j, const Field& f, double lo, double hi, const char* allowed) {
     Vec3 v = j.is_number() ? Vec3(float(number(j, f))) : vec3(j, f);
@@ -63,11 +74,15 @@ std::string string_in(const json& j, const Field& f,
     f.error("value ", show(j), " is not allowed (allowed: ", list, ")");
 }
 
-Camera parse_camera(const json& j, const Field& f) {
+// `frame`: where the render frame's origin lies (SceneDesc::origin); positions are
+// stored relative to it.
+Camera parse_camera(const json& j, const Field& f, Vec3d frame) {
     check_keys(j, f, {"origin", "target", "up", "fov", "width", "height"});
     Camera c;
-    c.origin = vec3(require(j, "origin", f), f.at("origin"));
-    c.target = vec3(require(j, "target", f), f.at("target"));
+    const Vec3d origin = point3(require(j, "origin", f), f.at("origin"));
+    const Vec3d target = point3(require(j, "target", f), f.at("target"));
+    c.origin = (origin - frame).to_float();
+    c.target = (target - frame).to_float();
     if (j.contains("up")) c.up = nonzero_vec3(j["up"], f.at("up"));
     c.fov = float(number_in(require(j, "fov", f), f.at("fov"), 1e-3, 179.0,
                             "degrees in [0.001, 179]"));
@@ -78,8 +93,10 @@ Camera parse_camera(const json& j, const Field& f) {
     if (int64_t(c.width) * c.height > (int64_t(1) << 26))
         f.error("resolution ", c.width, "x", c.height,
                 " is too large (at most 67,108,864 pixels)");
-    Vec3 forward = c.target - c.origin;
-    if (!(length(forward) > 0.f)) f.at("target").error("target equals origin");
+    const Vec3d along = target - origin;
+    Vec3 forward = Vec3(float(along.x), float(along.y), float(along.z));
+    if (!(length(forward) > 0.f) || !(c.target != c.origin))
+        f.at("target").error("target equals origin");
     if (!(length(cross(normalize(forward), normalize(c.up))) > 1e-4f))
         f.at("up").error("value [", c.up.x, ", ", c.up.y, ", ", c.up.z,
                          "] is parallel to the viewing direction",
@@ -115,7 +132,14 @@ Boundary parse_boundary(const json& j, const Field& f) {
     return b;
 }
 
-Shape parse_shape(const json& j, const Field& f, const std::string& base_dir) {
+// A shape as parsed: its mesh, and the mesh's positions in the scene file's coordinates
+// (double), which parse_scene moves into the render frame.
+struct ParsedShape {
+    Shape shape;
+    std::vector<Vec3d> positions;
+};
+
+ParsedShape parse_shape(const json& j, const Field& f, const std::string& base_dir) {
     check_keys(
         j, f, {"name", "mesh", "sphere", "normalize", "transform", "medium", "boundary"});
     Shape s;
@@ -129,6 +153,8 @@ Shape parse_shape(const json& j, const Field& f, const std::string& base_dir) {
     bool has_mesh = j.contains("mesh"), has_sphere = j.contains("sphere");
     if (has_mesh == has_sphere)
         f.error("give exactly one of 'mesh' (a file) or 'sphere'");
+    // The sphere's centre joins the transform (in double): the mesh is built about 0.
+    Vec3d center;
     if (has_mesh) {
         const json& m = j["mesh"];
         if (!m.is_string())
@@ -144,44 +170,56 @@ Shape parse_shape(const json& j, const Field& f, const std::string& base_dir) {
         const json& sp = j["sphere"];
         Field fs = f.at("sphere");
         check_keys(sp, fs, {"center", "radius", "subdivisions"});
-        Vec3 center = vec3(require(sp, "center", fs), fs.at("center"));
+        center = point3(require(sp, "center", fs), fs.at("center"));
         float radius = float(number_in(require(sp, "radius", fs), fs.at("radius"), 1e-30,
                                        1e30, "a radius in [1e-30, 1e30]"));
         int sub = sp.contains("subdivisions")
                       ? int(integer_in(sp["subdivisions"], fs.at("subdivisions"), 0, 7,
                                        "0 to 7"))
                       : 5;
-        s.mesh = make_icosphere(center, radius, sub);
+        s.mesh = make_icosphere(Vec3(0.f), radius, sub);
     }
     if (j.contains("normalize")) {
         if (!j["normalize"].is_boolean())
             f.at("normalize").error("expected true or false, got ", show(j["normalize"]));
-        if (j["normalize"].get<bool>()) normalize_mesh(s.mesh);
+        if (j["normalize"].get<bool>()) {
+            normalize_mesh(
+                s.mesh);  // centred at 0: where the sphere was no longer matters
+            center = Vec3d();
+        }
     }
+    Transform t;
     if (j.contains("transform")) {
-        const json& t = j["transform"];
+        const json& tj = j["transform"];
         Field ft = f.at("transform");
-        check_keys(t, ft, {"scale", "rotate_deg", "translate"});
-        Vec3 scale(1.f), rot(0.f), tr(0.f);
-        if (t.contains("scale")) {
-            scale = t["scale"].is_number()
-                        ? Vec3(float(number(t["scale"], ft.at("scale"))))
-                        : vec3(t["scale"], ft.at("scale"));
-            if (!(std::abs(scale.x * scale.y * scale.z) > 0.f))
-                ft.at("scale").error("value ", show(t["scale"]),
+        check_keys(tj, ft, {"scale", "rotate_deg", "translate"});
+        if (tj.contains("scale")) {
+            t.scale = tj["scale"].is_number()
+                          ? Vec3d(1, 1, 1) * number(tj["scale"], ft.at("scale"))
+                          : point3(tj["scale"], ft.at("scale"));
+            if (!(std::abs(t.scale.x * t.scale.y * t.scale.z) > 0.0))
+                ft.at("scale").error("value ", show(tj["scale"]),
                                      " is not allowed (allowed: non-zero scale factors)");
         }
-        if (t.contains("rotate_deg")) rot = vec3(t["rotate_deg"], ft.at("rotate_deg"));
-        if (t.contains("translate")) tr = vec3(t["translate"], ft.at("translate"));
-        transform_mesh(s.mesh, scale, rot, tr);
+        if (tj.contains("rotate_deg"))
+            t.rotate_deg = point3(tj["rotate_deg"], ft.at("rotate_deg"));
+        if (tj.contains("translate"))
+            t.translate = point3(tj["translate"], ft.at("translate"));
     }
+    // The sphere's centre comes before the transform: translate + R (scale (p + centre))
+    Transform about_center = t;
+    about_center.translate = t.translate + t.apply(center) - t.apply(Vec3d());
+    std::vector<Vec3d> positions = transform_mesh(s.mesh, about_center);
+    for (const Vec3d& p : positions)
+        if (!is_finite(p.to_float()))
+            f.at("transform").error("moves the mesh out of single-precision range");
     s.medium = parse_medium(require(j, "medium", f), f.at("medium"));
     if (j.contains("boundary"))
         s.boundary = parse_boundary(j["boundary"], f.at("boundary"));
-    return s;
+    return {std::move(s), std::move(positions)};
 }
 
-Light parse_light(const json& j, const Field& f) {
+Light parse_light(const json& j, const Field& f, Vec3d frame) {
     if (!j.is_object()) f.error("expected an object, got ", show(j));
     std::string type = string_in(require(j, "type", f), f.at("type"),
                                  {"point", "directional", "area", "environment"});
@@ -190,7 +228,8 @@ Light parse_light(const json& j, const Field& f) {
     if (type == "point") {
         check_keys(j, f, {"type", "position", "intensity"});
         l.type = Light::Type::Point;
-        l.position = vec3(require(j, "position", f), f.at("position"));
+        l.position =
+            (point3(require(j, "position", f), f.at("position")) - frame).to_float();
         l.intensity =
             rgb_in(require(j, "intensity", f), f.at("intensity"), 0.0, 1e30, nonneg);
     } else if (type == "directional") {
@@ -203,7 +242,7 @@ Light parse_light(const json& j, const Field& f) {
     } else if (type == "area") {
         check_keys(j, f, {"type", "corner", "edge1", "edge2", "radiance"});
         l.type = Light::Type::Area;
-        l.corner = vec3(require(j, "corner", f), f.at("corner"));
+        l.corner = (point3(require(j, "corner", f), f.at("corner")) - frame).to_float();
         l.edge1 = vec3(require(j, "edge1", f), f.at("edge1"));
         l.edge2 = vec3(require(j, "edge2", f), f.at("edge2"));
         if (!(length(cross(l.edge1, l.edge2)) > 0.f))
@@ -270,20 +309,38 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
         fail(source, ": the scene must be a JSON object, got ", show(root));
     check_keys(root, Field{d.source, "(top level)"},
                {"camera", "shapes", "lights", "render"});
-    d.camera = parse_camera(require(root, "camera", Field{d.source, "(top level)"}),
-                            f.at("camera"));
+    const json& camera = require(root, "camera", Field{d.source, "(top level)"});
     const json& shapes = require(root, "shapes", Field{d.source, "(top level)"});
     if (!shapes.is_array() || shapes.empty())
         f.at("shapes").error("expected a non-empty array of shapes, got ", show(shapes));
+    std::vector<ParsedShape> parsed;
     for (size_t i = 0; i < shapes.size(); ++i)
-        d.shapes.push_back(parse_shape(shapes[i], f.at("shapes").at(i), base_dir));
+        parsed.push_back(parse_shape(shapes[i], f.at("shapes").at(i), base_dir));
+    // The render frame: the file's coordinates less the centre of the shapes' bounds, in
+    // double, then rounded to float. Moving the whole scene moves this centre alike, so
+    // the float numbers the renderer sees, and its image, stay the same
+    // (docs/robustness.md).
+    Vec3d lo(INFINITY, INFINITY, INFINITY), hi(-INFINITY, -INFINITY, -INFINITY);
+    for (const ParsedShape& ps : parsed)
+        for (const Vec3d& p : ps.positions)
+            for (int a = 0; a < 3; ++a) {
+                lo[a] = std::min(lo[a], p[a]);
+                hi[a] = std::max(hi[a], p[a]);
+            }
+    d.origin = (lo + hi) * 0.5;
+    for (ParsedShape& ps : parsed) {
+        for (size_t i = 0; i < ps.positions.size(); ++i)
+            ps.shape.mesh.positions[i] = (ps.positions[i] - d.origin).to_float();
+        d.shapes.push_back(std::move(ps.shape));
+    }
+    d.camera = parse_camera(camera, f.at("camera"), d.origin);
     if (root.contains("lights")) {
         const json& lights = root["lights"];
         if (!lights.is_array())
             f.at("lights").error("expected an array of lights, got ", show(lights));
         int environments = 0;
         for (size_t i = 0; i < lights.size(); ++i) {
-            d.lights.push_back(parse_light(lights[i], f.at("lights").at(i)));
+            d.lights.push_back(parse_light(lights[i], f.at("lights").at(i), d.origin));
             if (d.lights.back().type == Light::Type::Environment && ++environments > 1)
                 f.at("lights").at(i).error("a scene has at most one environment light");
         }
@@ -307,10 +364,8 @@ SceneDesc load_scene_file(const std::string& path) {
 
 Scene::Scene(SceneDesc desc, int threads)
     : desc_(std::move(desc)), tracer_(std::make_unique<RayTracer>()) {
-    Bounds3 all;
     for (const Shape& s : desc_.shapes) {
         tracer_->add_mesh(s.mesh);
-        for (const Vec3& p : s.mesh.positions) all.extend(p);
         grey_ = grey_ && s.medium.sigma_t.x == s.medium.sigma_t.y &&
                 s.medium.sigma_t.x == s.medium.sigma_t.z;
     }
@@ -326,19 +381,18 @@ Scene::Scene(SceneDesc desc, int threads)
         area_lights_.push_back(int(i));
     }
     tracer_->commit();
-    float scale = std::max(max_component(abs(all.lo)), max_component(abs(all.hi)));
-    ray_epsilon_ = 1e-6f * (1.f + scale);
     for (const Shape& s : desc_.shapes) {
         const int res = desc_.render.grid_resolution > 0 ? desc_.render.grid_resolution
                                                          : auto_grid_resolution(s);
         grids_.push_back(DistanceGrid::build(s.mesh, res, threads));
     }
     for (size_t i = 0; i < desc_.shapes.size(); ++i) {
-        Vec3 o = desc_.camera.origin;
-        if (point_inside_mesh(desc_.shapes[i].mesh, o))
+        if (point_inside_mesh(desc_.shapes[i].mesh, desc_.camera.origin)) {
+            const Vec3d o = to_scene(desc_.camera.origin);
             fail(desc_.source, ": camera.origin: [", o.x, ", ", o.y, ", ", o.z,
                  "] lies inside shape '", desc_.shapes[i].name,
                  "' (allowed: a camera outside every shape)");
+        }
     }
 }
 

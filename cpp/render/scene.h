@@ -72,8 +72,12 @@ struct RenderSettings {
         models;  // "st": model directory (resolved against the scene file's); "" = unset
 };
 
+// Positions in a SceneDesc (meshes, camera, lights) are in the *render frame*: the scene
+// file's coordinates less `origin` (the centre of the shapes' bounds, kept in double), so
+// that float precision follows the shapes' size, not where they sit (docs/robustness.md).
 struct SceneDesc {
     std::string source;  // file name (or "<dict>") used in error messages
+    Vec3d origin;        // the render frame's origin in the scene file's coordinates
     Camera camera;
     std::vector<Shape> shapes;
     std::vector<Light> lights;
@@ -100,7 +104,9 @@ public:
     const Light* environment() const { return environment_; }
     // True when every medium has the same sigma_t in all channels (paths then carry RGB).
     bool grey_media() const { return grey_; }
-    float ray_epsilon() const { return ray_epsilon_; }
+    // Between the scene file's coordinates and the render frame (SceneDesc::origin).
+    Vec3 to_render(Vec3d p) const { return (p - desc_.origin).to_float(); }
+    Vec3d to_scene(Vec3 p) const { return Vec3d(p) + desc_.origin; }
 
     // The distance grid's resolution for a shape when the scene sets none: 64 cells along
     // its largest side, or 128 when a 64th of that side is more than
@@ -118,7 +124,6 @@ private:
     std::vector<int> area_lights_;  // light index per extra Embree mesh
     const Light* environment_ = nullptr;
     bool grey_ = true;
-    float ray_epsilon_ = 1e-6f;
 };
 
 }  // namespace sss

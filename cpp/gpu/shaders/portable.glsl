@@ -21,3 +21,18 @@ float expm1(float x) {
 
 // |a| with the sign of b (of -0.0 too), as C's copysign.
 float copysign(float a, float b) { return (floatBitsToUint(b) >> 31) != 0u ? -abs(a) : abs(a); }
+
+// The next float towards +infinity and towards -infinity (C's nextafter), by the bits:
+// floats of one sign are ordered as their bit patterns.
+float next_float_up(float v) {
+    if (isinf(v) && v > 0.0) return v;
+    if (v == 0.0) return uintBitsToFloat(1u);  // +0 and -0: the smallest positive float
+    uint bits = floatBitsToUint(v);
+    return uintBitsToFloat(v > 0.0 ? bits + 1u : bits - 1u);
+}
+float next_float_down(float v) {
+    if (isinf(v) && v < 0.0) return v;
+    if (v == 0.0) return uintBitsToFloat(0x80000001u);  // the largest negative float
+    uint bits = floatBitsToUint(v);
+    return uintBitsToFloat(v > 0.0 ? bits - 1u : bits + 1u);
+}

@@ -60,9 +60,9 @@ bool survives_roulette(inout vec3 beta, float beta_start, inout RngState rng) {
     return true;
 }
 
-vec3 offset_ray(vec3 p, vec3 n, vec3 w, float eps) {
-    return p + n * (dot(w, n) > 0.0 ? eps : -eps);
-}
+// The origin of a ray leaving the surface point of `hit` in direction w (PathTracer's
+// leave(): shared/ray_offset.h).
+vec3 leave(Hit hit, vec3 w) { return offset_ray_origin(hit.p, hit.p_error, hit.normal, w); }
 
 bool is_black(vec3 v) { return v.x == 0.0 && v.y == 0.0 && v.z == 0.0; }
 
@@ -180,7 +180,6 @@ struct Path {
 // deep enough for a sphere step only marks the path as pending ("st").
 void path_iterate(inout Path p) {
     uint num_shapes = counts.x;
-    float eps = params.x;
     Hit hit;
     if (p.shape < 0) {
         // Vacuum: fly to the next surface.
@@ -194,7 +193,7 @@ void path_iterate(inout Path p) {
             p.done = true;
             return;
         }
-        vec3 x = p.o + p.d * hit.t;
+        vec3 x = hit.p;
         if (hit.mesh >= num_shapes) {  // an area light's quad: one-sided, absorbs
             if (dot(p.d, hit.normal) < 0.0) {
                 vec4 e = emitters[hit.mesh - num_shapes];
@@ -213,7 +212,7 @@ void path_iterate(inout Path p) {
         }
         GpuShape s = shapes[hit.mesh];
         if (dot(p.d, hit.normal) >= 0.0) {
-            p.o = offset_ray(x, hit.normal, p.d, eps);
+            p.o = leave(hit, p.d);
             return;
         }
         if (s.albedo.w != 0.0) {  // dielectric
@@ -222,14 +221,14 @@ void path_iterate(inout Path p) {
             p.specular = true;
             if (rng_uniform(p.rng) < F) {
                 p.d = p.d + hit.normal * (2.0 * cos_i);
-                p.o = offset_ray(x, hit.normal, p.d, eps);
+                p.o = leave(hit, p.d);
                 return;
             }
             float eta = 1.0 / s.boundary.x;
             p.d = normalize(p.d * eta + hit.normal * (eta * cos_i - cos_t));
         }
         p.shape = int(hit.mesh);
-        p.o = offset_ray(x, hit.normal, p.d, eps);
+        p.o = leave(hit, p.d);
         p.r_at_o = 0.0;
         return;
     }
@@ -285,11 +284,12 @@ void path_iterate(inout Path p) {
         return;
     }
 
-    // Reached the boundary from inside.
-    vec3 x = p.o + p.d * hit.t;
+    // Reached a boundary from inside; the crossing decides where the photon is after it
+    // (as PathTracer::run): an unexpected one passes straight through, into the shape
+    // whose front face it crosses.
     if (int(hit.mesh) != p.shape || dot(p.d, hit.normal) <= 0.0) {
-        p.shape = -1;  // overlapping geometry: leave to vacuum
-        p.o = offset_ray(x, hit.normal, p.d, eps);
+        if (dot(p.d, hit.normal) < 0.0 && hit.mesh < num_shapes) p.shape = int(hit.mesh);
+        p.o = leave(hit, p.d);
         return;
     }
     if (s.albedo.w != 0.0) {
@@ -298,7 +298,7 @@ void path_iterate(inout Path p) {
         p.specular = true;
         if (rng_uniform(p.rng) < F) {
             p.d = p.d - hit.normal * (2.0 * cos_i);
-            p.o = offset_ray(x, hit.normal, p.d, eps);
+            p.o = leave(hit, p.d);
             p.r_at_o = 0.0;
             return;
         }
@@ -306,7 +306,7 @@ void path_iterate(inout Path p) {
         p.d = normalize(p.d * eta - hit.normal * (eta * cos_i - cos_t));
     }
     p.shape = -1;
-    p.o = offset_ray(x, hit.normal, p.d, eps);
+    p.o = leave(hit, p.d);
 }
 
 #if SSS_ST

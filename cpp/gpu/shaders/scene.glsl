@@ -36,7 +36,7 @@ layout(std430, binding = 0) readonly buffer SceneHeader {
     vec4 cam_up;
     vec4 environment;  // rgb radiance; w: 1 when the scene has one
     uvec4 counts;      // shapes, emitter meshes (area lights), width, height
-    vec4 params;       // ray epsilon, sphere threshold, sigma_max, 1 for grey media
+    vec4 params;       // unused, sphere threshold, sigma_max, 1 for grey media
     GpuShape shapes[kMaxShapes];
     GpuGrid grids[kMaxShapes];
     vec4 emitters[kMaxEmitters];  // mesh counts.x + i: radiance; w: its index in lights
@@ -53,6 +53,9 @@ struct Hit {
     float t;
     uint mesh;
     vec3 normal;  // outward unit normal of the triangle
+    // The hit point rebuilt from the triangle and a bound on its rounding error, as
+    // RayTracer::intersect (shared/ray_offset.h).
+    vec3 p, p_error;
 };
 
 // Slab test of the box [lo, hi] against the ray; the entry distance, or kInf for a miss.
@@ -73,6 +76,7 @@ bool intersect_between(vec3 o, vec3 d, float tnear, float tfar, out Hit hit) {
     uint node = 0u;
     int best = -1;
     float best_t = tfar;
+    vec2 best_uv = vec2(0.0);
     for (;;) {
         if ((node & kLeafBit) != 0u) {
             uint first = node & 0x07ffffffu, count = ((node >> 27) & 15u) + 1u;
@@ -93,6 +97,7 @@ bool intersect_between(vec3 o, vec3 d, float tnear, float tfar, out Hit hit) {
                 if (t > tnear && t < best_t) {
                     best_t = t;
                     best = int(i);
+                    best_uv = vec2(u, v);
                 }
             }
         } else {
@@ -125,6 +130,8 @@ bool intersect_between(vec3 o, vec3 d, float tnear, float tfar, out Hit hit) {
     hit.t = best_t;
     hit.mesh = floatBitsToUint(triangles[4 * best].w);
     hit.normal = triangles[4 * best + 3].xyz;
+    hit.p = triangle_point(triangles[4 * best].xyz, triangles[4 * best + 1].xyz,
+                           triangles[4 * best + 2].xyz, best_uv.x, best_uv.y, hit.p_error);
     return true;
 }
 
