@@ -128,6 +128,8 @@ int main(int argc, char** argv) {
         if (threads < 0) sss::fail("--threads must be >= 0, got ", threads);
 
         sss::SceneDesc desc = sss::load_scene_file(scene_path);
+        for (const std::string& w : desc.warnings)
+            std::cerr << "sssphere-render: warning: " << w << "\n";
         if (!integrator.empty()) desc.render.integrator = integrator;
         sss::RenderOptions opt;
         opt.integrator = desc.render.integrator;

@@ -73,9 +73,9 @@ FlatBvh build_flat_bvh(const std::vector<const TriangleMesh*>& meshes) {
             const Vec3 a = mesh.positions[tri[0]], b = mesh.positions[tri[1]],
                        c = mesh.positions[tri[2]];
             FlatTriangle t;
-            const Vec3 e1 = b - a, e2 = c - a, n = mesh.normal(i);
+            const Vec3 n = mesh.normal(i);
             for (int k = 0; k < 3; ++k)
-                t.v0[k] = a[k], t.e1[k] = e1[k], t.e2[k] = e2[k], t.n[k] = n[k];
+                t.v0[k] = a[k], t.v1[k] = b[k], t.v2[k] = c[k], t.n[k] = n[k];
             t.mesh = uint32_t(m);
             t.prim = uint32_t(i);
             all.push_back(t);

@@ -6,8 +6,9 @@
 //   node: the bounds of both children and a reference to each. A reference is the index
 //         of an inner node, or (bit 31 set) a leaf: its first triangle in bits 0..26 and
 //         its count - 1 in bits 27..30; kNoChild marks an absent second child.
-//   triangle: v0, the edges e1 = v1 - v0 and e2 = v2 - v0, the outward unit normal (CCW
-//         winding), the mesh index and the triangle's index within its mesh.
+//   triangle: its corners v0, v1, v2 as stored in the mesh (neighbours share their edges'
+//         floats exactly, which the shader's watertight test needs), the outward unit
+//         normal (CCW winding), the mesh index and the triangle's index within its mesh.
 #pragma once
 
 #include <cstdint>
@@ -28,9 +29,9 @@ static_assert(sizeof(FlatBvhNode) == 64);
 struct FlatTriangle {
     float v0[3];
     uint32_t mesh;
-    float e1[3];
+    float v1[3];
     uint32_t prim;
-    float e2[3];
+    float v2[3];
     float pad0 = 0.f;
     float n[3];
     float pad1 = 0.f;

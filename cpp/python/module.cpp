@@ -101,6 +101,8 @@ PYBIND11_MODULE(_core, m) {
         .def_property_readonly("height",
                                [](const Scene& s) { return s.desc().camera.height; })
         .def_property_readonly("source", [](const Scene& s) { return s.desc().source; })
+        .def_property_readonly("warnings",
+                               [](const Scene& s) { return s.desc().warnings; })
         .def_property_readonly("integrator",
                                [](const Scene& s) { return s.desc().render.integrator; })
         .def_property_readonly("spp", [](const Scene& s) { return s.desc().render.spp; })

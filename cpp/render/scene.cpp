@@ -1,5 +1,6 @@
 #include "render/scene.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -292,6 +293,47 @@ RenderSettings parse_render(const json& j, const Field& f, const std::string& ba
     return r;
 }
 
+// Warnings (not errors) where a scene goes past what float precision renders within 1 %
+// (docs/robustness.md, "Limits"): a shape whose mean thickness (mean chord 4 V / A, twice
+// the thickness of a slab) is below kMinThickness of the shapes' extent, or a camera or
+// light farther than kMaxDistance extents from them.
+constexpr double kMinThickness = 1.5e-4, kMaxDistance = 1e5;
+
+void warn_past_limits(SceneDesc& d, double extent) {
+    auto fmt = [](double v) {
+        std::ostringstream os;
+        os << v;
+        return os.str();
+    };
+    for (size_t i = 0; i < d.shapes.size(); ++i) {
+        const TriangleMesh& m = d.shapes[i].mesh;
+        const double thickness = 4.0 * m.volume() / m.area();  // mean chord length
+        if (thickness < kMinThickness * extent)
+            d.warnings.push_back(
+                d.source + ": shapes[" + std::to_string(i) + "] ('" + d.shapes[i].name +
+                "'): mean thickness 4 V / A = " + fmt(thickness) + " is below " +
+                fmt(kMinThickness) + " of the shapes' extent " + fmt(extent) +
+                ": boundary crossings may bias it by more than 1 % "
+                "(docs/robustness.md)");
+    }
+    auto check_distance = [&](Vec3 p, const std::string& what) {
+        const double r = length(p);  // from the shapes' centre, the render frame's origin
+        if (r > kMaxDistance * extent)
+            d.warnings.push_back(
+                d.source + ": " + what + " lies " + fmt(r / extent) +
+                " times the shapes' extent from them (more than " + fmt(kMaxDistance) +
+                "): float precision may distort the shapes by more than 1 % "
+                "(docs/robustness.md)");
+    };
+    check_distance(d.camera.origin, "camera.origin");
+    for (size_t i = 0; i < d.lights.size(); ++i) {
+        const Light& l = d.lights[i];
+        const std::string what = "lights[" + std::to_string(i) + "]";
+        if (l.type == Light::Type::Point) check_distance(l.position, what + ".position");
+        if (l.type == Light::Type::Area) check_distance(l.corner, what + ".corner");
+    }
+}
+
 }  // namespace
 
 SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
@@ -347,6 +389,7 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
     }
     if (root.contains("render"))
         d.render = parse_render(root["render"], f.at("render"), base_dir);
+    warn_past_limits(d, std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z}));
     return d;
 }
 

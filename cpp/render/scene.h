@@ -82,6 +82,9 @@ struct SceneDesc {
     std::vector<Shape> shapes;
     std::vector<Light> lights;
     RenderSettings render;
+    // Where the scene goes past the limits of docs/robustness.md: it renders, but maybe
+    // not within 1 %. The command lines print them; Python raises sssphere.SceneWarning.
+    std::vector<std::string> warnings;
 };
 
 // Parses and validates a scene; mesh paths are relative to `base_dir`. Every error names

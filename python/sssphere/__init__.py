@@ -27,6 +27,7 @@ _EXPORTS = {
     "ScatteringModel": "sssphere.model",
     "Scene": "sssphere.scene",
     "SceneError": "sssphere._core",
+    "SceneWarning": "sssphere.scene",
     "load_mesh": "sssphere.scene",
     "load_scene": "sssphere.scene",
     "read_image": "sssphere.rendering",
@@ -41,6 +42,7 @@ __all__ = [
     "ScatteringModel",
     "Scene",
     "SceneError",
+    "SceneWarning",
     "__version__",
     "load_mesh",
     "load_scene",
@@ -55,7 +57,7 @@ if TYPE_CHECKING:
     from sssphere._core import SceneError
     from sssphere.model import ScatteringModel
     from sssphere.rendering import RenderResult, read_image, render, render_full, write_image
-    from sssphere.scene import Scene, load_mesh, load_scene
+    from sssphere.scene import Scene, SceneWarning, load_mesh, load_scene
     from sssphere.walks import sphere_walks
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +13,7 @@ import numpy as np
 from sssphere._version import __version__
 from sssphere.rendering import (BACKENDS, DEFAULT_SPHERE_THRESHOLD, INTEGRATORS, STEP_NEE, render_full,
                              write_image)
-from sssphere.scene import SceneError, load_scene
+from sssphere.scene import SceneError, SceneWarning, load_scene
 
 IMAGE_SUFFIXES = (".exr", ".png")
 
@@ -76,7 +77,11 @@ def _cmd_render(args: argparse.Namespace) -> int:
     if out.parent != Path("") and not out.parent.is_dir():
         raise SceneError(f"{out}: output directory {str(out.parent)!r} does not exist")
     t0 = time.monotonic()
-    scene = load_scene(args.scene, threads=args.threads)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", SceneWarning)
+        scene = load_scene(args.scene, threads=args.threads)
+    for w in caught:
+        print(f"sssphere: warning: {w.message}", file=sys.stderr)
     load_s = time.monotonic() - t0
     bar = ProgressBar(f"rendering {Path(args.scene).name}", enabled=not args.quiet)
     try:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import warnings
 from pathlib import Path
 from typing import Any, Union
 
@@ -14,6 +15,17 @@ from sssphere import _core
 from sssphere._core import SceneError
 
 Scene = _core.Scene
+
+
+class SceneWarning(UserWarning):
+    """A scene past the limits of docs/robustness.md: it renders, but float precision may
+    make it differ from the exact answer by more than 1 %."""
+
+
+def _warned(scene: Scene) -> Scene:
+    for message in scene.warnings:
+        warnings.warn(message, SceneWarning, stacklevel=3)
+    return scene
 
 
 def _find_non_finite(value: Any, path: str) -> str | None:
@@ -50,6 +62,11 @@ def load_scene(
     Raises
     ------
     SceneError (a ValueError) naming the file, the field, the value and what is allowed.
+
+    Warns
+    -----
+    SceneWarning where the scene goes past the precision limits of docs/robustness.md
+    (also in ``Scene.warnings``).
     """
     threads = 0 if threads is None else int(threads)
     if isinstance(scene, dict):
@@ -58,7 +75,7 @@ def load_scene(
             raise SceneError(f"<dict>: {bad}: value is not a finite number")
         text = json.dumps(scene)
         base = str(base_dir) if base_dir is not None else os.getcwd()
-        return _core.Scene(text, base, "<dict>", threads)
+        return _warned(_core.Scene(text, base, "<dict>", threads))
     path = Path(scene)
     if not path.exists():
         raise SceneError(f"{path}: scene file does not exist")
@@ -68,7 +85,7 @@ def load_scene(
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as e:
         raise SceneError(f"{path}: scene file cannot be read: {e}") from None
-    return _core.Scene(text, str(path.parent), str(path), threads)
+    return _warned(_core.Scene(text, str(path.parent), str(path), threads))
 
 
 def load_mesh(path: Union[str, os.PathLike]) -> tuple[np.ndarray, np.ndarray]:

@@ -59,18 +59,64 @@ struct Hit {
 };
 
 // Slab test of the box [lo, hi] against the ray; the entry distance, or kInf for a miss.
+// The exit distance is enlarged by 2 gamma(3) so that rounding never culls a box the ray
+// touches (pbrt-v4's conservative box test).
 float box_entry(vec3 lo, vec3 hi, vec3 o, vec3 inv_d, float tnear, float tfar) {
     vec3 t0 = (lo - o) * inv_d, t1 = (hi - o) * inv_d;
-    vec3 tmin = min(t0, t1), tmax = max(t0, t1);
+    vec3 tmin = min(t0, t1), tmax = max(t0, t1) * (1.0 + 2.0 * 1.7881397e-07);
     float enter = max(max(tmin.x, tmin.y), max(tmin.z, tnear));
     float leave = min(min(tmax.x, tmax.y), min(tmax.z, tfar));
     return enter <= leave ? enter : kInf;
 }
 
-// Closest hit with t in (tnear, tfar) (Moller-Trumbore per triangle); false if none.
+// The ray in the form the watertight triangle test wants (Woop, Benthin and Wald,
+// "Watertight Ray/Triangle Intersection", JCGT 2013): the axis of d's largest component
+// becomes z, the others are sheared away. Shared edges then give both neighbours the same
+// edge function, so no ray slips between two triangles (the test Embree's robust mode
+// uses on the CPU).
+struct ShearedRay {
+    int kx, ky, kz;
+    vec3 shear;  // Sx, Sy, Sz
+};
+
+ShearedRay shear_ray(vec3 d) {
+    vec3 a = abs(d);
+    ShearedRay r;
+    r.kz = a.x > a.y ? (a.x > a.z ? 0 : 2) : (a.y > a.z ? 1 : 2);
+    r.kx = (r.kz + 1) % 3;
+    r.ky = (r.kx + 1) % 3;
+    if (d[r.kz] < 0.0) {  // keep the winding
+        int k = r.kx;
+        r.kx = r.ky;
+        r.ky = k;
+    }
+    r.shear = vec3(d[r.kx] / d[r.kz], d[r.ky] / d[r.kz], 1.0 / d[r.kz]);
+    return r;
+}
+
+// Triangle (v0, v1, v2) against ray o + t d (sheared as r): t and the barycentric
+// coordinates of v1 and v2, or false.
+bool hit_triangle(vec3 o, ShearedRay r, vec3 v0, vec3 v1, vec3 v2, out float t,
+                  out vec2 uv) {
+    vec3 a = v0 - o, b = v1 - o, c = v2 - o;
+    float ax = a[r.kx] - r.shear.x * a[r.kz], ay = a[r.ky] - r.shear.y * a[r.kz];
+    float bx = b[r.kx] - r.shear.x * b[r.kz], by = b[r.ky] - r.shear.y * b[r.kz];
+    float cx = c[r.kx] - r.shear.x * c[r.kz], cy = c[r.ky] - r.shear.y * c[r.kz];
+    float u = cx * by - cy * bx, v = ax * cy - ay * cx, w = bx * ay - by * ax;
+    if ((u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0)) return false;
+    float det = u + v + w;
+    if (det == 0.0) return false;
+    float T = u * (r.shear.z * a[r.kz]) + v * (r.shear.z * b[r.kz]) + w * (r.shear.z * c[r.kz]);
+    t = T / det;
+    uv = vec2(v, w) / det;
+    return true;
+}
+
+// Closest hit with t in (tnear, tfar) (the watertight test per triangle); false if none.
 bool intersect_between(vec3 o, vec3 d, float tnear, float tfar, out Hit hit) {
     // Avoid 0 * inf = NaN in the slabs: a zero component gets a huge inverse.
     vec3 inv_d = vec3(1.0) / mix(d, vec3(1e-30), equal(d, vec3(0.0)));
+    ShearedRay sheared = shear_ray(d);
     uint stack[kStackSize];
     int sp = 0;
     uint node = 0u;
@@ -81,23 +127,15 @@ bool intersect_between(vec3 o, vec3 d, float tnear, float tfar, out Hit hit) {
         if ((node & kLeafBit) != 0u) {
             uint first = node & 0x07ffffffu, count = ((node >> 27) & 15u) + 1u;
             for (uint i = first; i < first + count; ++i) {
-                vec3 v0 = triangles[4 * i].xyz, e1 = triangles[4 * i + 1].xyz,
-                     e2 = triangles[4 * i + 2].xyz;
-                vec3 pv = cross(d, e2);
-                float det = dot(e1, pv);
-                if (det == 0.0) continue;
-                float inv_det = 1.0 / det;
-                vec3 tv = o - v0;
-                float u = dot(tv, pv) * inv_det;
-                if (u < 0.0 || u > 1.0) continue;
-                vec3 qv = cross(tv, e1);
-                float v = dot(d, qv) * inv_det;
-                if (v < 0.0 || u + v > 1.0) continue;
-                float t = dot(e2, qv) * inv_det;
+                float t;
+                vec2 uv;
+                if (!hit_triangle(o, sheared, triangles[4 * i].xyz, triangles[4 * i + 1].xyz,
+                                  triangles[4 * i + 2].xyz, t, uv))
+                    continue;
                 if (t > tnear && t < best_t) {
                     best_t = t;
                     best = int(i);
-                    best_uv = vec2(u, v);
+                    best_uv = uv;
                 }
             }
         } else {
@@ -130,8 +168,9 @@ bool intersect_between(vec3 o, vec3 d, float tnear, float tfar, out Hit hit) {
     hit.t = best_t;
     hit.mesh = floatBitsToUint(triangles[4 * best].w);
     hit.normal = triangles[4 * best + 3].xyz;
-    hit.p = triangle_point(triangles[4 * best].xyz, triangles[4 * best + 1].xyz,
-                           triangles[4 * best + 2].xyz, best_uv.x, best_uv.y, hit.p_error);
+    vec3 v0 = triangles[4 * best].xyz;
+    hit.p = triangle_point(v0, triangles[4 * best + 1].xyz - v0,
+                           triangles[4 * best + 2].xyz - v0, best_uv.x, best_uv.y, hit.p_error);
     return true;
 }
 

@@ -1,0 +1,292 @@
+"""Geometric robustness (docs/robustness.md): the same picture wherever the scene sits and
+however big it is.
+
+* A black, optically thick sphere framed the same way from 2 to 10,000 radii: every pixel
+  whose footprint lies inside the silhouette is exactly 0 and every one outside it exactly 1
+  (albedo 0: a photon that meets the medium is absorbed at its first collision, so any other
+  value is light that leaked through). Deterministic, for pt, st and the GLSL path.
+* Uniform scale k = 1e-4 .. 1e4 (lengths x k, sigma / k, point intensity x k^2) and
+  translations up to 1e4 of a sphere of radius 0.1: the same image. Translations are
+  bit-identical by design (the render frame is centred on the shapes, in double precision);
+  scaled images take the same random numbers and may differ only by rounding, so they are
+  compared by z-scores from the renders' variances.
+* Slivers: a pure absorber slab of thickness 1e-3 and 1e-4 of its width, rotated and moved
+  1e4 away from the origin, against its exact transmittance (a per-pixel binomial test); and
+  a scattering slab of thickness 1e-3 of its width against Mitsuba 3 rendering it at the
+  origin (the only place where Mitsuba's own ray offsets are small enough: see
+  mitsuba_util.py).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+
+import sssphere
+from sssphere import _core
+
+HAS_GPU = _core.gpu_status()[0]
+
+
+# ---------------------------------------------------------------------------------------------
+# The framed black sphere
+
+
+def framed_sphere(d: float, res: int = 48) -> dict:
+    fov = math.degrees(2 * math.asin(1 / d) / 0.8)
+    return {
+        "camera": {"origin": [0, 0, d], "target": [0, 0, 0], "up": [0, 1, 0], "fov": fov,
+                   "width": res, "height": res},
+        "shapes": [{"name": "black", "sphere": {"center": [0, 0, 0], "radius": 1, "subdivisions": 4},
+                    "medium": {"sigma_t": 1000, "albedo": 0}, "boundary": {"type": "index_matched"}}],
+        "lights": [{"type": "environment", "radiance": 1}],
+    }
+
+
+def silhouette_masks(d: float, res: int, margin: float = 0.05):
+    """Pixels whose whole footprint lies inside (1 - margin) of the sphere's silhouette, and
+    those wholly outside (1 + margin) of it. The silhouette's radius, in half-heights, is
+    tan(asin(1/d)) / tan(fov / 2); the icosphere is inscribed in the sphere, within 1e-4 of it."""
+    radius = math.tan(math.asin(1 / d)) / math.tan(math.asin(1 / d) / 0.8)
+    c = (np.arange(res) + 0.5) / res * 2 - 1
+    x, y = np.meshgrid(np.abs(c), np.abs(c))
+    far_corner = np.hypot(x + 1 / res, y + 1 / res)
+    near_corner = np.hypot(np.maximum(x - 1 / res, 0), np.maximum(y - 1 / res, 0))
+    return far_corner < (1 - margin) * radius, near_corner > (1 + margin) * radius
+
+
+@pytest.mark.parametrize("backend,integrator", [
+    ("cpu", "pt"), ("cpu", "st"),
+    pytest.param("vulkan", "pt", marks=pytest.mark.skipif(not HAS_GPU, reason="no Vulkan device")),
+])
+def test_framed_black_sphere_is_opaque_from_any_distance(backend, integrator):
+    res = 48
+    for d in (2, 10, 1000, 10000):
+        r = sssphere.render_full(framed_sphere(d, res), integrator=integrator, spp=4, seed=5,
+                                 backend=backend)
+        lum = r.image.mean(axis=2)
+        inside, outside = silhouette_masks(d, res)
+        assert inside.sum() > 800 and outside.sum() > 600
+        leaking = np.count_nonzero(lum[inside] != 0)
+        assert leaking == 0, f"d = {d}: {leaking} pixels inside the silhouette let light through"
+        assert np.all(lum[outside] == 1.0), f"d = {d}: pixels outside the silhouette are not 1"
+
+
+# ---------------------------------------------------------------------------------------------
+# Scale and translation
+
+
+def scattering_scene(k: float = 1.0, t: float = 0.0, radius: float = 1.0, res: int = 32) -> dict:
+    """A scattering sphere of `radius` (sigma_t 20 / radius, chromatic albedo) with a point
+    light and an environment; lengths x k, then every position moved by t (1, -0.5, 0.25)."""
+    shift = np.array([1.0, -0.5, 0.25]) * t
+
+    def at(p):
+        return [float(x) for x in np.asarray(p, float) * k + shift]
+
+    return {
+        "camera": {"origin": at([0.3 * radius, 0.2 * radius, 4 * radius]), "target": at([0, 0, 0]),
+                   "fov": 30, "width": res, "height": res},
+        "shapes": [{"name": "ball", "sphere": {"center": [0, 0, 0], "radius": radius, "subdivisions": 3},
+                    "transform": {"scale": k, "translate": at([0, 0, 0])},
+                    "medium": {"sigma_t": 20.0 / radius / k, "albedo": [0.95, 0.9, 0.8], "g": 0.3},
+                    "boundary": {"type": "index_matched"}}],
+        "lights": [{"type": "point", "position": at([3 * radius, 3 * radius, 3 * radius]),
+                    "intensity": 10 * (k * radius) ** 2},
+                   {"type": "environment", "radiance": 0.1}],
+    }
+
+
+def assert_same_image(ref, other, what: str):
+    """Image means per channel and 4 x 4 block means within the renders' noise: the noise of
+    two renders counted as independent (they share random numbers, so this is loose only
+    for scale-invariant renders, which agree far better); Bonferroni at alpha = 1e-3."""
+    var = ref.variance + other.variance
+    diff = other.image.astype(np.float64) - ref.image
+    z_mean = diff.reshape(-1, 3).sum(0) / np.sqrt(var.reshape(-1, 3).sum(0))
+    blocks = diff.reshape(8, 4, 8, 4, 3).sum(axis=(1, 3))
+    block_var = var.reshape(8, 4, 8, 4, 3).sum(axis=(1, 3))
+    live = block_var > 0
+    z_blocks = blocks[live] / np.sqrt(block_var[live])
+    limit = stats.norm.isf(1e-3 / (2 * (live.sum() + 3)))
+    assert np.all(np.abs(z_mean) < limit), f"{what}: image means differ, z = {z_mean}"
+    assert np.all(np.abs(z_blocks) < limit), f"{what}: block means differ, max |z| = {np.abs(z_blocks).max():.1f}"
+    assert np.all(diff[var == 0] == 0), f"{what}: pixels without noise differ"
+
+
+@pytest.mark.parametrize("integrator", ["pt", "st"])
+def test_scaling_the_scene_leaves_the_image(integrator):
+    def render(scene):
+        return sssphere.render_full(scene, integrator=integrator, spp=16, seed=2)
+
+    ref = render(scattering_scene())
+    for k in (1e-4, 1e-2, 1e2, 1e4):
+        assert_same_image(ref, render(scattering_scene(k)), f"scale k = {k:g}")
+
+
+@pytest.mark.parametrize("integrator,backend", [
+    ("pt", "cpu"), ("st", "cpu"),
+    pytest.param("pt", "vulkan", marks=pytest.mark.skipif(not HAS_GPU, reason="no Vulkan device")),
+])
+def test_moving_the_scene_leaves_the_image_bit_for_bit(integrator, backend):
+    def render(scene):
+        return sssphere.render_full(scene, integrator=integrator, spp=8, seed=2, backend=backend)
+
+    ref = render(scattering_scene(radius=0.1))
+    assert ref.image.max() > 0
+    for t in (1e2, 1e4, -3e3):
+        moved = render(scattering_scene(t=t, radius=0.1))
+        assert np.array_equal(moved.image, ref.image), f"translation by {t:g} changed the image"
+
+
+# ---------------------------------------------------------------------------------------------
+# Slivers
+
+
+def box_obj(path, size, thickness) -> None:
+    """A closed box [-size/2, size/2]^2 x [-thickness/2, thickness/2] as an OBJ file."""
+    s, h = size / 2, thickness / 2
+    v = [(x, y, z) for z in (-h, h) for y in (-s, s) for x in (-s, s)]
+    quads = [(1, 2, 4, 3), (5, 7, 8, 6), (1, 5, 6, 2), (3, 4, 8, 7), (1, 3, 7, 5), (2, 6, 8, 4)]
+    path.write_text("".join(f"v {x!r} {y!r} {z!r}\n" for x, y, z in v)
+                    + "".join("f " + " ".join(map(str, q)) + "\n" for q in quads))
+
+
+def rotation(deg) -> np.ndarray:
+    """Rz Ry Rx, as the scene format's rotate_deg."""
+    ax, ay, az = np.radians(deg)
+    rx = np.array([[1, 0, 0], [0, np.cos(ax), -np.sin(ax)], [0, np.sin(ax), np.cos(ax)]])
+    ry = np.array([[np.cos(ay), 0, np.sin(ay)], [0, 1, 0], [-np.sin(ay), 0, np.cos(ay)]])
+    rz = np.array([[np.cos(az), -np.sin(az), 0], [np.sin(az), np.cos(az), 0], [0, 0, 1]])
+    return rz @ ry @ rx
+
+
+def box_chords(origin, dirs, size, thickness) -> np.ndarray:
+    """Length of each ray's chord through the box (box frame, double precision; slab method)."""
+    half = np.array([size / 2, size / 2, thickness / 2])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t0 = (-half - origin) / dirs
+        t1 = (half - origin) / dirs
+    near = np.nanmax(np.minimum(t0, t1), axis=-1)
+    far = np.nanmin(np.maximum(t0, t1), axis=-1)
+    return np.maximum(far - np.maximum(near, 0.0), 0.0)
+
+
+def camera_rays(cam: dict, sub: int) -> np.ndarray:
+    """Unit directions of sub x sub stratified rays per pixel of the pinhole camera:
+    (height, width, sub * sub, 3)."""
+    o, t = np.array(cam["origin"], float), np.array(cam["target"], float)
+    forward = (t - o) / np.linalg.norm(t - o)
+    right = np.cross(forward, cam.get("up", [0, 1, 0]))
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    w, h = cam["width"], cam["height"]
+    tan_half = math.tan(math.radians(cam["fov"]) / 2)
+    s = (np.arange(sub) + 0.5) / sub
+    fx = (np.arange(w)[:, None] + s[None, :]).ravel()
+    fy = (np.arange(h)[:, None] + s[None, :]).ravel()
+    u = (2 * fx / w - 1) * tan_half * w / h
+    v = (1 - 2 * fy / h) * tan_half
+    d = forward + u[None, :, None] * right + v[:, None, None] * up
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    return d.reshape(h, sub, w, sub, 3).transpose(0, 2, 1, 3, 4).reshape(h, w, sub * sub, 3)
+
+
+@pytest.mark.parametrize("thickness", [1e-3, 1e-4])
+def test_absorbing_sliver_far_from_the_origin_transmits_exactly(tmp_path, thickness):
+    size = 1.0
+    sigma = 1.0 / thickness  # one mean free path across
+    box_obj(tmp_path / "slab.obj", size, thickness)
+    rot_deg, shift = [30.0, -20.0, 10.0], np.array([1e4, -3e3, 5e3])
+    rot = rotation(rot_deg)
+    cam_box = np.array([0.15, -0.1, 0.9])  # in the box's frame, looking at its centre
+    res = 32
+    scene = {
+        "camera": {"origin": list(rot @ cam_box + shift), "target": list(shift),
+                   "up": list(rot @ [0, 1, 0]), "fov": 50, "width": res, "height": res},
+        "shapes": [{"name": "sliver", "mesh": "slab.obj",
+                    "transform": {"rotate_deg": rot_deg, "translate": list(shift)},
+                    "medium": {"sigma_t": sigma, "albedo": 0}}],
+        "lights": [{"type": "environment", "radiance": 1}],
+    }
+    spp = 256
+    r = sssphere.render_full(sssphere.load_scene(scene, base_dir=tmp_path), spp=spp, seed=9)
+    # The expected value of every pixel: exp(-sigma * chord) over its footprint (16 x 16 rays,
+    # in the box's frame, where the camera is cam_box).
+    dirs = camera_rays(scene["camera"], 16) @ rot  # world -> box frame: R^T d
+    chords = box_chords(cam_box, dirs, size, thickness)
+    p = np.exp(-sigma * chords).mean(axis=-1)
+    smooth = (chords > 0).all(axis=-1)  # footprints wholly on the slab (no edge inside)
+    empty = (chords == 0).all(axis=-1)
+    assert smooth.sum() > 300
+    got = r.image.mean(axis=2)
+    assert np.all(got[empty] == 1.0)
+    # Each sample passes (1) or is absorbed (0): a binomial mean per pixel.
+    var = p * (1 - p) / spp
+    z = (got[smooth] - p[smooth]) / np.sqrt(var[smooth])
+    chi2 = float(np.sum(z**2))
+    assert stats.chi2.sf(chi2, smooth.sum()) > 1e-3, f"chi2 {chi2:.0f} on {smooth.sum()} pixels"
+    z_total = np.sum(got[smooth] - p[smooth]) / np.sqrt(np.sum(var[smooth]))
+    assert abs(z_total) < 4, f"mean transmittance off by z = {z_total:.1f}"
+    assert np.abs(z).max() < stats.norm.isf(1e-3 / (2 * smooth.sum()))
+
+
+@pytest.mark.slow
+def test_scattering_sliver_far_from_the_origin_matches_mitsuba(tmp_path):
+    """A slab 1000 wide and 1 thick (sigma_t 1, albedo 0.9, g 0.5) lit by a directional light
+    and an environment. Mitsuba renders it centred at the origin, where its own interface
+    offset ((1 + |p|) 8.9e-5, about 1e-3 of the thickness in view) is negligible; we render it
+    rotated and moved 1e4 away."""
+    import mitsuba_util as mu
+
+    box_obj(tmp_path / "slab.obj", 1000.0, 1.0)
+    res = 32
+
+    def scene(rot_deg, shift):
+        rot = rotation(rot_deg)
+        return {
+            "camera": {"origin": list(rot @ [2.0, 1.0, 12.0] + shift), "target": list(rot @ [0, 0, 0] + shift),
+                       "up": list(rot @ [0, 1, 0]), "fov": 40, "width": res, "height": res},
+            "shapes": [{"name": "slab", "mesh": str(tmp_path / "slab.obj"),
+                        "transform": {"rotate_deg": rot_deg, "translate": list(shift)},
+                        "medium": {"sigma_t": [1.0] * 3, "albedo": [0.9] * 3, "g": 0.5}}],
+            "lights": [{"type": "directional", "direction": list(rot @ [0.3, -0.2, -1.0]), "irradiance": [2.0] * 3},
+                       {"type": "environment", "radiance": [0.1] * 3}],
+        }
+
+    ours = scene([15.0, 25.0, -40.0], np.array([1e4, 2e3, -7e3]))
+    at_origin = scene([0.0, 0.0, 0.0], np.zeros(3))
+    run = mu.compare_with_mitsuba(ours, our_spp=1024, mitsuba_spp=64, mitsuba_seeds=range(100, 116),
+                                  block=4, our_seed=3, mitsuba_scene_dict_override=at_origin)
+    c = run.comparison
+    print(f"\n{c.summary()}")
+    assert c.dof.min() >= 20
+    assert c.chi2_ok, c.summary()
+    assert c.z_ok, c.summary()
+
+
+# ---------------------------------------------------------------------------------------------
+# The limits: warnings, not errors
+
+
+def test_scenes_past_the_precision_limits_warn(tmp_path):
+    box_obj(tmp_path / "thin.obj", 1.0, 1e-5)
+    slab = {"camera": {"origin": [0, 0, 3], "target": [0, 0, 0], "fov": 40, "width": 8, "height": 8},
+            "shapes": [{"mesh": "thin.obj", "medium": {"sigma_t": 1, "albedo": 0.5}}],
+            "lights": [{"type": "environment", "radiance": 1}]}
+    thin = r"shapes\[0\].*mean thickness 4 V / A = 1.99996e-05 is below 0.00015"
+    with pytest.warns(sssphere.SceneWarning, match=thin):
+        scene = sssphere.load_scene(slab, base_dir=tmp_path)
+    assert len(scene.warnings) == 1
+    far = framed_sphere(10.0)
+    far["lights"].append({"type": "point", "position": [0, 3e5, 0], "intensity": 1})
+    with pytest.warns(sssphere.SceneWarning, match=r"lights\[1\]\.position lies 150000 times"):
+        sssphere.load_scene(far)
+    # Within the limits: no warning (pytest turns any warning into an error here)
+    box_obj(tmp_path / "ok.obj", 1.0, 1e-4)
+    slab["shapes"][0]["mesh"] = "ok.obj"
+    assert sssphere.load_scene(slab, base_dir=tmp_path).warnings == []
+    assert sssphere.load_scene(framed_sphere(1e5)).warnings == []
