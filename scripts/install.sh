@@ -132,7 +132,7 @@ pip=("$py" -m pip --disable-pip-version-check)
 if [ "$dev" -eq 1 ]; then
   "${pip[@]}" install -q "scikit-build-core>=0.10" "pybind11>=2.12" cmake ninja
   "${pip[@]}" install -q --no-build-isolation -e ".[test]" \
-      -Cbuild-dir=build/dev -Ccmake.define.SSSPHERE_TESTS=ON
+      --config-settings=build-dir=build/dev --config-settings=cmake.define.SSSPHERE_TESTS=ON
   # scripts/test.sh runs the suites with this interpreter
   echo "$py" > build/dev/python
 else
