@@ -6,9 +6,9 @@ Runs the generator exactly as `sssphere datagen` does (same parameter sampling, 
 and records wall time, walks/s and scattering events/s. The total number of events is the
 measure of work: it depends on the (σ, g) sampling, documented in docs/learning.md.
 
-    python bench/datagen.py                       # 4,000,000 samples
-    python bench/datagen.py --samples 200000      # a quick run
-    python bench/datagen.py --keep data.npz       # also save the data (for `sssphere train`)
+    python -m bench.datagen                       # 4,000,000 samples
+    python -m bench.datagen --samples 200000      # a quick run
+    python -m bench.datagen --keep data.npz       # also save the data (for `sssphere train`)
 
 Writes bench/results/datagen.json.
 """

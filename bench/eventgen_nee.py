@@ -11,8 +11,8 @@ n behind (-z), beside (+x) and ahead (+z) of the entering photon, and reports th
 behind the difference: how much of EventGen's X falls outside the unit ball (the sampler
 projects it onto the sphere), and the mean of W_z.
 
-    PYTHONPATH=python python bench/eventgen_nee.py            # ~15 s
-    PYTHONPATH=python python bench/eventgen_nee.py --samples 1000000 --albedo 0.999
+    python -m bench.eventgen_nee            # ~15 s
+    python -m bench.eventgen_nee --samples 1000000 --albedo 0.999
 
 Writes bench/results/eventgen_nee.json.
 """

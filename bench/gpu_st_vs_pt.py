@@ -12,10 +12,10 @@ converged `pt` references in bench/results/cache/ (st_vs_pt.py makes them).
 
 Three steps, because the GPU machine has neither this package's libraries nor a network:
 
-    PYTHONPATH=python python bench/gpu_st_vs_pt.py bake        # here: .devbench/ (~1 min)
+    python -m bench.gpu_st_vs_pt bake        # here: .devbench/ (~1 min)
     bash bench/gpu_device_run.sh                               # on the GPU machine, with
                                                                #   .devbench and .gl carried
-    PYTHONPATH=python python bench/gpu_st_vs_pt.py report DIR  # here: DIR holds its $OUT
+    python -m bench.gpu_st_vs_pt report DIR  # here: DIR holds its $OUT
 
 `report` writes bench/results/gpu_st_vs_pt.json and prints the table of bench/README.md.
 The same steps run on Mesa's lavapipe here (``bash bench/gpu_device_run.sh`` with OUT set), as
@@ -36,12 +36,11 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
-sys.path.insert(0, str(HERE))
 
 import sssphere  # noqa: E402
 from sssphere import _core  # noqa: E402
 from sssphere.rendering import DEFAULT_MODELS, DEFAULT_SPHERE_THRESHOLD  # noqa: E402
-import st_vs_pt as cpu  # noqa: E402
+from bench import st_vs_pt as cpu  # noqa: E402
 
 RES = 64
 SPP = 256  # one dispatch of 64 x 64 x 256 = 2^20 paths: a full GPU

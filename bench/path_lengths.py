@@ -23,10 +23,10 @@ st_vs_pt.py's scenes and settings (equal spp, seed 1) and reports, per scene:
 The estimate is a model, not a GPU measurement: it ignores that lanes' iterations differ in
 cost (boundary rays, shadow rays, the decoders), memory, occupancy and path regeneration.
 
-    PYTHONPATH=python python bench/path_lengths.py                 # ~1 min on 2 cores
-    PYTHONPATH=python python bench/path_lengths.py --dense         # + sigma_t 2000-8000, ~1.5 min
-    PYTHONPATH=python python bench/path_lengths.py --table bench/results/path_lengths.json
-    PYTHONPATH=python python bench/path_lengths.py --plot bench/results/path_lengths.json
+    python -m bench.path_lengths                 # ~1 min on 2 cores
+    python -m bench.path_lengths --dense         # + sigma_t 2000-8000, ~1.5 min
+    python -m bench.path_lengths --table bench/results/path_lengths.json
+    python -m bench.path_lengths --plot bench/results/path_lengths.json
 
 Writes bench/results/path_lengths.json and, with matplotlib, path_lengths.png (the
 distribution of path lengths at every density, and the estimates against sigma_t).
@@ -46,10 +46,9 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
 
 import sssphere  # noqa: E402
-from st_vs_pt import BASE_SIGMA, BOUNDARIES, SCALES, SHAPES, pyplot, scene_dict, timed  # noqa: E402
+from bench.st_vs_pt import BASE_SIGMA, BOUNDARIES, SCALES, SHAPES, pyplot, scene_dict, timed  # noqa: E402
 
 WARP = (4, 8)  # lanes of one warp: 4 rows x 8 columns of pixels, one sample index
 STEP_COSTS = (1.0, 3.0)  # lane units per sphere step, one pt event = 1

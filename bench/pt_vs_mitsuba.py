@@ -11,7 +11,7 @@ computes the same unbiased estimate as ours (its defaults, Russian roulette from
 Both trace one shadow ray per scattering event, to one light chosen uniformly (Mitsuba:
 one sampled emitter); `--lights directional` or `--lights environment` compares with a single
 light. Mitsuba's image is dark in dense media by its
-ray-spawn offset at the null interface (tests/mitsuba_util.py; about 1 % at sigma_t = 1000).
+ray-spawn offset at the null interface (sssphere/mitsuba.py; about 1 % at sigma_t = 1000).
 
 Timed: our `render_full` (the scene is loaded and its distance grid built before the clock
 starts) and Mitsuba's `mi.render` (after `mi.load_dict`; four renders of spp/4 samples with
@@ -23,9 +23,9 @@ needs for the same noise. Our estimators (exact transmittance in shadow rays, MI
 variance per sample than Mitsuba's (0/1 transmittance by free-flight sampling). Both use all cores unless --threads
 says otherwise. Each renderer gets one untimed warm-up render at 1 spp on the first case.
 
-    python bench/pt_vs_mitsuba.py                 # 128x128, 64 spp, sigma_t 1, 10, 100, 1000
-    python bench/pt_vs_mitsuba.py --quick         # 32x32, 4 spp: a smoke run (seconds)
-    python bench/pt_vs_mitsuba.py --spp 16 --resolution 64 --sigma 10 100
+    python -m bench.pt_vs_mitsuba                 # 128x128, 64 spp, sigma_t 1, 10, 100, 1000
+    python -m bench.pt_vs_mitsuba --quick         # 32x32, 4 spp: a smoke run (seconds)
+    python -m bench.pt_vs_mitsuba --spp 16 --resolution 64 --sigma 10 100
 
 Writes bench/results/pt_vs_mitsuba.json and, if matplotlib is installed,
 bench/results/pt_vs_mitsuba.png.
@@ -47,7 +47,6 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
-sys.path.insert(0, str(REPO / "tests"))  # mitsuba_util: the scene translation shared with the tests
 
 import sssphere  # noqa: E402
 
@@ -219,7 +218,7 @@ def main(argv=None) -> int:
     if args.resolution is None:
         args.resolution = 32 if args.quick else 128
 
-    import mitsuba_util as mu
+    import sssphere.mitsuba as mu
 
     mi = mu.import_mitsuba("scalar_rgb")
     import drjit as dr

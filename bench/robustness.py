@@ -13,8 +13,8 @@ Three measurements (docs/robustness.md explains what they test):
   k = 1 and its z-score (from the renders' variances).
 * translation: a small sphere (radius 0.1) and its camera and lights moved by T.
 
-    python bench/robustness.py            # ~2 min on 2 cores
-    python bench/robustness.py --quick    # fewer cases and samples
+    python -m bench.robustness            # ~2 min on 2 cores
+    python -m bench.robustness --quick    # fewer cases and samples
 
 Writes bench/results/robustness.json.
 """

@@ -4,8 +4,8 @@ on exact sphere walks (unbiased: only the integrator and the geometry can be wro
 `st` on the learned models, each against `pt` directly: the relative difference of the image
 means per channel with the one-sigma from both renders' variances. Seeds are fixed.
 
-    PYTHONPATH=python python bench/st_bias.py                       # scenes/bunny.json, 64x64, 1024 spp: ~40 s
-    PYTHONPATH=python python bench/st_bias.py --scene scenes/sphere.json --spp 256
+    python -m bench.st_bias                       # scenes/bunny.json, 64x64, 1024 spp: ~40 s
+    python -m bench.st_bias --scene scenes/sphere.json --spp 256
 
 Writes bench/results/st_bias.json (one entry per scene, replacing an earlier one).
 """
@@ -22,7 +22,6 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
-sys.path.insert(0, str(REPO / "python"))
 
 import sssphere  # noqa: E402
 

@@ -8,8 +8,8 @@ too short to tell a few per cent from noise. Here each render is larger and repe
 the thin torus (st_vs_pt.py's scene) at sigma_t = 125 and 250, dielectric and index-matched,
 where `st` takes 0.00-0.01 steps per path.
 
-    PYTHONPATH=python python bench/st_overhead.py            # ~2 min on 2 cores
-    PYTHONPATH=python python bench/st_overhead.py --repeats 3 --spp 64   # quicker
+    python -m bench.st_overhead            # ~2 min on 2 cores
+    python -m bench.st_overhead --repeats 3 --spp 64   # quicker
 
 Writes bench/results/st_overhead.json: per case the times of every render, the medians,
 their ratio st / pt (> 1: st slower), and the steps per path.
@@ -26,11 +26,10 @@ import sys
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
 
 import sssphere  # noqa: E402
 from sssphere.rendering import render_full  # noqa: E402
-from st_vs_pt import BASE_SIGMA, BOUNDARIES, scene_dict  # noqa: E402
+from bench.st_vs_pt import BASE_SIGMA, BOUNDARIES, scene_dict  # noqa: E402
 
 
 def main(argv=None) -> int:

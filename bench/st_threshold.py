@@ -15,9 +15,9 @@ tau decides where a collision takes a learned step (sigma_t * r >= tau) instead 
 small tau means more, smaller steps (faster, but the models are least accurate at small optical
 radii and a small step replaces few events), large tau means fewer steps (closer to PT).
 
-    python bench/st_threshold.py --models /work/interim-models          # the default sweep
-    python bench/st_threshold.py --quick                                # 32x32, few spp
-    python bench/st_threshold.py --taus 2 4 8 --spp 64 --cases sphere_s100
+    python -m bench.st_threshold --models DIR            # the default sweep, with other models
+    python -m bench.st_threshold --quick                                # 32x32, few spp
+    python -m bench.st_threshold --taus 2 4 8 --spp 64 --cases sphere_s100
 
 Writes bench/results/st_threshold.json (settings, machine, one row per render).
 """

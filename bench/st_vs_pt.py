@@ -25,9 +25,9 @@ The cost of one sphere step is derived from the renders: per (shape, boundary) a
 time per path, a + b * events, over all its `pt` renders gives the cost b of one event; the
 time of each `st` render above a + b * events, divided by its steps, is the cost of a step.
 
-    PYTHONPATH=python python bench/st_vs_pt.py            # full run, ~7 min on 2 cores
-    PYTHONPATH=python python bench/st_vs_pt.py --quick    # smoke run, ~30 s
-    PYTHONPATH=python python bench/st_vs_pt.py --table bench/results/st_vs_pt.json  # tables only
+    python -m bench.st_vs_pt            # full run, ~7 min on 2 cores
+    python -m bench.st_vs_pt --quick    # smoke run, ~30 s
+    python -m bench.st_vs_pt --table bench/results/st_vs_pt.json  # tables only
 
 Writes bench/results/st_vs_pt.json (rewritten after each scene) and, with matplotlib,
 st_vs_pt.png (speed-up, complexity, errors), st_vs_pt_steps.png (heat maps) and
@@ -52,12 +52,10 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
-sys.path.insert(0, str(REPO / "tests"))  # mitsuba_util: the Mitsuba translation shared with the tests
-sys.path.insert(0, str(HERE))  # st_threshold: srgb / rmse_srgb
 
 import sssphere  # noqa: E402
 from sssphere.rendering import DEFAULT_SPHERE_THRESHOLD as DEFAULT_TAU  # noqa: E402
-from st_threshold import rmse_srgb, srgb  # noqa: E402
+from bench.st_threshold import rmse_srgb, srgb  # noqa: E402
 
 SHAPES = {"bunny": "scenes/bunny.json", "thin_torus": "scenes/thin_torus.json"}
 BOUNDARIES = ("dielectric", "index_matched")
@@ -600,7 +598,7 @@ def main(argv=None) -> int:
                       f"[{time.perf_counter() - t_start:.0f} s]", flush=True)
 
     if args.mitsuba == "subset":
-        import mitsuba_util as mu
+        import sssphere.mitsuba as mu
 
         mi = mu.import_mitsuba("scalar_rgb")
         import drjit as dr

@@ -8,7 +8,7 @@ of that mean. Then the same scene with the area light shrunk to each of --light-
 power): `pt` (NEE) against `st` with either estimator. Seeds are fixed, so the numbers in
 docs/sphere-tracing.md ("NEE for a sphere step") come out again.
 
-    PYTHONPATH=python python bench/step_nee.py          # ~4 min on 2 cores
+    python -m bench.step_nee          # ~4 min on 2 cores
 
 Writes bench/results/step_nee.json.
 """
@@ -18,16 +18,14 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
 
 import sssphere  # noqa: E402
-from st_vs_pt import scene_dict  # noqa: E402
+from bench.st_vs_pt import scene_dict  # noqa: E402
 
 
 def stats(r) -> dict:

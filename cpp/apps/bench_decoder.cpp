@@ -28,7 +28,7 @@
 #include "nn/scattering_model.h"
 #include "shared/hg.h"
 #include "shared/sampling.h"
-#include "testing/random_models.h"
+#include "nn/random_models.h"
 
 namespace {
 
@@ -91,9 +91,9 @@ int main(int argc, char** argv) {
     try {
         if (!target.empty()) simd_use_target(target);
         ScatteringModel model =
-            models.empty() ? ScatteringModel(test::random_decoder("LengthGen", 1),
-                                             test::random_decoder("PathGen", 1),
-                                             test::random_decoder("EventGen", 1),
+            models.empty() ? ScatteringModel(random_decoder("LengthGen", 1),
+                                             random_decoder("PathGen", 1),
+                                             random_decoder("EventGen", 1),
                                              "random Table-1 decoders")
                            : ScatteringModel::load(models);
         // Many short runs, keep the best: on a shared machine the minimum is the cost.

@@ -11,7 +11,7 @@
 #include "core/check.h"
 #include "shared/softplus.h"
 #include "testing/errors.h"
-#include "testing/random_models.h"
+#include "nn/random_models.h"
 #include "testing/temp_file.h"
 
 namespace sss {
@@ -25,7 +25,7 @@ bool same_bits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
 TEST(Decoder, JsonRoundTripIsExact) {
     for (const char* name : {"LengthGen", "PathGen", "EventGen"}) {
-        Decoder d = test::random_decoder(name, 7);
+        Decoder d = random_decoder(name, 7);
         d.metrics_json = "{\"latent_in_use\":2}";
         Decoder e = parse_decoder(decoder_to_json(d), "round trip");
         EXPECT_EQ(e.name, d.name);
@@ -105,7 +105,7 @@ TEST(Decoder, EncodingsRoundTrip) {
 
 TEST(Decoder, ReferenceEvaluationFollowsTheFormula) {
     // A 4 -> 3 (softplus) -> 2 network by hand.
-    Decoder d = test::random_decoder("LengthGen", 3);
+    Decoder d = random_decoder("LengthGen", 3);
     d.layers = {{4, 3, true, {1, 0, 0, 0, 0, 2, 0, 0, -1, 1, 1, 1}, {0.5f, 0.f, 30.f}},
                 {3, 2, false, {1, 1, 1, 0, 0, 2}, {0.f, -1.f}}};
     float x[4] = {1.f, -2.f, 3.f, 0.25f};
@@ -131,7 +131,7 @@ TEST(Decoder, SoftplusIsTorchs) {
 class DecoderFile : public ::testing::Test {
 protected:
     json valid() {
-        return json::parse(decoder_to_json(test::random_decoder("PathGen", 1)));
+        return json::parse(decoder_to_json(random_decoder("PathGen", 1)));
     }
     // The message of loading `text` from a temporary file, which it must name.
     std::string load_text_error(const std::string& text) {

@@ -12,7 +12,7 @@
 
 #include "core/check.h"
 #include "testing/errors.h"
-#include "testing/random_models.h"
+#include "nn/random_models.h"
 
 namespace sss {
 namespace {
@@ -23,9 +23,9 @@ using json = nlohmann::json;
 using test::error_of;
 
 ScatteringModel random_model(uint64_t seed = 1, float scale = 1.f) {
-    return ScatteringModel(test::random_decoder("LengthGen", seed, scale),
-                           test::random_decoder("PathGen", seed, scale),
-                           test::random_decoder("EventGen", seed, scale), "random");
+    return ScatteringModel(random_decoder("LengthGen", seed, scale),
+                           random_decoder("PathGen", seed, scale),
+                           random_decoder("EventGen", seed, scale), "random");
 }
 
 bool same(const SphereStep& a, const SphereStep& b) {
@@ -51,9 +51,9 @@ public:
         std::ofstream(path_ / file) << text;
     }
     void write_random(uint64_t seed = 1) {
-        write("lengthgen.json", decoder_to_json(test::random_decoder("LengthGen", seed)));
-        write("pathgen.json", decoder_to_json(test::random_decoder("PathGen", seed)));
-        write("eventgen.json", decoder_to_json(test::random_decoder("EventGen", seed)));
+        write("lengthgen.json", decoder_to_json(random_decoder("LengthGen", seed)));
+        write("pathgen.json", decoder_to_json(random_decoder("PathGen", seed)));
+        write("eventgen.json", decoder_to_json(random_decoder("EventGen", seed)));
     }
     std::string path() const { return path_.string(); }
     std::string file(const std::string& f) const { return (path_ / f).string(); }
@@ -83,38 +83,38 @@ TEST(ScatteringModel, LoadErrors) {
     ModelDir dir;
     EXPECT_HAS(error_of([&] { ScatteringModel::load(dir.file("nowhere")); }),
                "not a directory");
-    dir.write("lengthgen.json", decoder_to_json(test::random_decoder("LengthGen", 1)));
-    dir.write("pathgen.json", decoder_to_json(test::random_decoder("PathGen", 1)));
+    dir.write("lengthgen.json", decoder_to_json(random_decoder("LengthGen", 1)));
+    dir.write("pathgen.json", decoder_to_json(random_decoder("PathGen", 1)));
     std::string msg = error_of([&] { ScatteringModel::load(dir.path()); });
     EXPECT_HAS(msg, dir.file("eventgen.json"));
     EXPECT_HAS(msg, "cannot open");
 
     // A decoder in the wrong file.
-    dir.write("eventgen.json", decoder_to_json(test::random_decoder("PathGen", 1)));
+    dir.write("eventgen.json", decoder_to_json(random_decoder("PathGen", 1)));
     msg = error_of([&] { ScatteringModel::load(dir.path()); });
     EXPECT_HAS(msg, dir.file("eventgen.json"));
     EXPECT_HAS(msg, "name \"PathGen\" where EventGen was expected");
 
     // Conditions in another order.
-    json j = json::parse(decoder_to_json(test::random_decoder("PathGen", 1)));
+    json j = json::parse(decoder_to_json(random_decoder("PathGen", 1)));
     std::swap(j["conditions"][0], j["conditions"][1]);
-    dir.write("eventgen.json", decoder_to_json(test::random_decoder("EventGen", 1)));
+    dir.write("eventgen.json", decoder_to_json(random_decoder("EventGen", 1)));
     dir.write("pathgen.json", j.dump());
     EXPECT_HAS(error_of([&] { ScatteringModel::load(dir.path()); }),
                "conditions [g, sigma, N] where PathGen has [sigma, g, N]");
 
     // An encoding undefined for values the step produces: ln(1 + cos_theta) at cos_theta
     // = -1.
-    dir.write("pathgen.json", decoder_to_json(test::random_decoder("PathGen", 1)));
-    j = json::parse(decoder_to_json(test::random_decoder("EventGen", 1)));
+    dir.write("pathgen.json", decoder_to_json(random_decoder("PathGen", 1)));
+    j = json::parse(decoder_to_json(random_decoder("EventGen", 1)));
     j["conditions"][4]["encode"] = {{"kind", "log"}, {"c", 1}};
     dir.write("eventgen.json", j.dump());
     msg = error_of([&] { ScatteringModel::load(dir.path()); });
     EXPECT_HAS(msg, "the encoding of 'cos_theta'");
     // ln(2 - N) is undefined for every N >= 2.
-    j = json::parse(decoder_to_json(test::random_decoder("PathGen", 1)));
+    j = json::parse(decoder_to_json(random_decoder("PathGen", 1)));
     j["conditions"][2]["encode"] = {{"kind", "log"}, {"s", -1}, {"c", 3}};
-    dir.write("eventgen.json", decoder_to_json(test::random_decoder("EventGen", 1)));
+    dir.write("eventgen.json", decoder_to_json(random_decoder("EventGen", 1)));
     dir.write("pathgen.json", j.dump());
     EXPECT_HAS(error_of([&] { ScatteringModel::load(dir.path()); }),
                "the encoding of 'N'");
@@ -139,10 +139,10 @@ TEST(ScatteringModel, InputsOutsideTheTrainingRangesAreErrors) {
     EXPECT_HAS(error_of([&] { m.sample(1.f, 0.f, 1.5f, rng); }),
                "phi = 1.5 is not allowed");
     // A narrower phi range in EventGen matters only when the event is sampled.
-    Decoder e = test::random_decoder("EventGen", 1);
+    Decoder e = random_decoder("EventGen", 1);
     e.training_ranges[2].second = {0.5, 1.0};
-    ScatteringModel n(test::random_decoder("LengthGen", 1),
-                      test::random_decoder("PathGen", 1), e);
+    ScatteringModel n(random_decoder("LengthGen", 1),
+                      random_decoder("PathGen", 1), e);
     EXPECT_HAS(error_of([&] { n.sample(1.f, 0.f, 0.2f, rng, true); }),
                "phi = 0.2 is outside the training range [0.5, 1] of EventGen");
     EXPECT_NO_THROW(n.sample(1.f, 0.f, 0.2f, rng, false));
@@ -228,9 +228,9 @@ TEST(ScatteringModel, SingleScatteringIsExact) {
 TEST(ScatteringModel, PostProcessingInvariants) {
     for (float scale : {1.f, 8.f}) {
         for (float logvar : {-2.f, 3.f}) {
-            Decoder l = test::random_decoder("LengthGen", 2, scale, logvar);
-            Decoder p = test::random_decoder("PathGen", 2, scale, logvar);
-            Decoder e = test::random_decoder("EventGen", 2, scale, logvar);
+            Decoder l = random_decoder("LengthGen", 2, scale, logvar);
+            Decoder p = random_decoder("PathGen", 2, scale, logvar);
+            Decoder e = random_decoder("EventGen", 2, scale, logvar);
             ScatteringModel m(l, p, e);
             size_t clamped_cos = 0, scaled_ab = 0, scaled_x = 0, n2 = 0;
             for (uint64_t i = 0; i < 4000; ++i) {

@@ -10,7 +10,7 @@
 
 #include "core/rng.h"
 #include "shared/softplus.h"
-#include "testing/random_models.h"
+#include "nn/random_models.h"
 
 namespace sss {
 namespace {
@@ -57,7 +57,7 @@ TEST(SimdDecoder, MatchesScalarReference) {
     for_each_target([] {
         for (const char* name : {"LengthGen", "PathGen", "EventGen"}) {
             for (float scale : {0.5f, 1.f, 3.f, 6.f}) {
-                Decoder d = test::random_decoder(name, 11, scale);
+                Decoder d = random_decoder(name, 11, scale);
                 SimdDecoder s(d);
                 const int n = 2000, no = d.num_outputs();
                 std::vector<float> ref(2 * no * n), got(2 * no * n);
@@ -97,7 +97,7 @@ TEST(SimdDecoder, MatchesScalarReference) {
 TEST(SimdDecoder, ManyInputsPerCallEqualOneAtATime) {
     for_each_target([] {
         for (const char* name : {"LengthGen", "PathGen", "EventGen"}) {
-            Decoder d = test::random_decoder(name, 4, 2.f);
+            Decoder d = random_decoder(name, 4, 2.f);
             SimdDecoder s(d);
             const int K = 16, w = d.input_width, no = d.num_outputs();
             std::vector<float> x(K * w), mean(K * no), logvar(K * no), eps(K * no),
@@ -131,7 +131,7 @@ TEST(SimdDecoder, LanesMatchOneInputPerCall) {
     constexpr int L = SimdDecoder::kLanes;
     for_each_target([] {
         for (const char* name : {"LengthGen", "PathGen", "EventGen"}) {
-            Decoder d = test::random_decoder(name, 6, 2.f);
+            Decoder d = random_decoder(name, 6, 2.f);
             SimdDecoder s(d);
             const int w = d.input_width, no = d.num_outputs();
             alignas(64) float x[32 * L], eps[8 * L], u[8 * L];
@@ -186,7 +186,7 @@ TEST(SimdDecoder, EncodingsOnLanesMatchScalar) {
 }
 
 TEST(SimdDecoder, SampleEncodedIsMeanPlusScaledNoise) {
-    Decoder d = test::random_decoder("EventGen", 2);
+    Decoder d = random_decoder("EventGen", 2);
     SimdDecoder s(d);
     Rng rng(9);
     for (int k = 0; k < 200; ++k) {

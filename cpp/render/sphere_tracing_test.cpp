@@ -383,7 +383,7 @@ TEST(SphereTracer, RefusesWhatTheModelsCannotDo) {
     EXPECT_HAS(err(desc, bounces), "max_bounces 5 is not supported by integrator 'st'");
 
     test::ModelDir incomplete("incomplete");
-    incomplete.write(test::random_decoder("LengthGen", 1));
+    incomplete.write(random_decoder("LengthGen", 1));
     EXPECT_HAS(err(desc, st_options(incomplete.path(), 2.f)),
                "cannot open the model file");
 }

@@ -10,7 +10,7 @@
 #include <string>
 
 #include "nn/decoder.h"
-#include "testing/random_models.h"
+#include "nn/random_models.h"
 
 namespace sss::test {
 

@@ -10,42 +10,13 @@ from pathlib import Path
 
 import numpy as np
 
+from sssphere._progress import Progress
 from sssphere._version import __version__
 from sssphere.rendering import (BACKENDS, DEFAULT_SPHERE_THRESHOLD, INTEGRATORS, STEP_NEE, render_full,
                              write_image)
 from sssphere.scene import SceneError, SceneWarning, load_scene
 
 IMAGE_SUFFIXES = (".exr", ".png")
-
-
-class ProgressBar:
-    """A one-line text progress bar on stderr (silent when stderr is not a terminal,
-    except for the final line)."""
-
-    def __init__(self, label: str, enabled: bool = True):
-        self.label = label
-        self.enabled = enabled
-        self.start = time.monotonic()
-        self.tty = sys.stderr.isatty()
-        self.last = -1.0
-
-    def __call__(self, fraction: float) -> bool:
-        if self.enabled and self.tty and fraction - self.last >= 0.002:
-            self.last = fraction
-            width = 30
-            filled = int(round(fraction * width))
-            elapsed = time.monotonic() - self.start
-            eta = elapsed * (1 - fraction) / fraction if fraction > 0 else float("nan")
-            sys.stderr.write(
-                f"\r{self.label} [{'#' * filled}{'.' * (width - filled)}] "
-                f"{100 * fraction:5.1f}%  {elapsed:6.1f}s elapsed, {eta:6.1f}s left "
-            )
-            sys.stderr.flush()
-        return True
-
-    def close(self) -> None:
-        if self.enabled and self.tty:
-            sys.stderr.write("\n")
 
 
 def _checked(convert, ok, requirement: str):
@@ -83,7 +54,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
     for w in caught:
         print(f"sssphere: warning: {w.message}", file=sys.stderr)
     load_s = time.monotonic() - t0
-    bar = ProgressBar(f"rendering {Path(args.scene).name}", enabled=not args.quiet)
+    bar = Progress(f"rendering {Path(args.scene).name}", enabled=not args.quiet)
     try:
         result = render_full(
             scene, integrator=args.integrator, spp=args.spp, seed=args.seed,
@@ -122,7 +93,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
 def _cmd_datagen(args: argparse.Namespace) -> int:
     from sssphere.learn.datagen import datagen
 
-    bar = ProgressBar(f"simulating {args.samples} sphere walks", enabled=not args.quiet)
+    bar = Progress(f"simulating {args.samples} sphere walks", enabled=not args.quiet)
     try:
         data, interrupted, seconds = datagen(args.samples, args.output, seed=args.seed,
                                              threads=args.threads, progress=bar)
@@ -196,7 +167,7 @@ def _cmd_eval(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else models
     if not out.is_dir():
         raise SceneError(f"{out}: output directory does not exist")
-    bar = ProgressBar("evaluating 16 cells", enabled=not args.quiet)
+    bar = Progress("evaluating 16 cells", enabled=not args.quiet)
     try:
         cells = evaluate.evaluate(sample_fn, samples=args.samples, seed=args.seed, progress=bar)
     finally:

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from sssphere._progress import Progress
 from sssphere.learn.data import TrainingData, load_training_data
 from sssphere.learn.models import CVAE, gaussian_nll, kl_per_dim
 from sssphere.learn.spec import ENCODING_SETS, SPECS, Encoding, ModelSpec
@@ -121,38 +122,6 @@ class _Batches:
 
 
 # --------------------------------------------------------------------------------------
-# Progress
-# --------------------------------------------------------------------------------------
-class _Progress:
-    """A one-line progress bar on stderr (on a terminal), or a line per 10 % otherwise."""
-
-    def __init__(self, label: str, enabled: bool):
-        self.label, self.enabled = label, enabled
-        self.tty = sys.stderr.isatty()
-        self.start = time.monotonic()
-        self.last = -1.0
-
-    def update(self, fraction: float, text: str = "") -> None:
-        if not self.enabled:
-            return
-        step = 0.002 if self.tty else 0.1
-        if fraction - self.last < step and fraction < 1.0:
-            return
-        self.last = fraction
-        elapsed = time.monotonic() - self.start
-        left = elapsed * (1 - fraction) / fraction if fraction > 0 else float("nan")
-        bar = "#" * int(round(30 * fraction))
-        line = (f"{self.label:<9} [{bar:.<30}] {100 * fraction:5.1f}%  {elapsed:6.1f}s, "
-                f"{left:6.1f}s left  {text}")
-        sys.stderr.write(("\r" + line) if self.tty else (line + "\n"))
-        sys.stderr.flush()
-
-    def close(self) -> None:
-        if self.enabled and self.tty:
-            sys.stderr.write("\n")
-
-
-# --------------------------------------------------------------------------------------
 # Training one model
 # --------------------------------------------------------------------------------------
 def _lr_at(cfg: TrainConfig, step: int, progress: float) -> float:
@@ -208,7 +177,7 @@ def train_cvae(spec: ModelSpec, data: TrainingData, cfg: TrainConfig, seed: int,
 
     model = CVAE(spec)
     opt = torch.optim.AdamW(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
-    bar = _Progress(spec.name, progress)
+    bar = Progress(f"{spec.name:<9}", progress)
     t0 = time.monotonic()
     step, progress_frac, done = 0, 0.0, False
     epoch_losses = []

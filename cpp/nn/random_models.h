@@ -11,7 +11,7 @@
 #include "core/rng.h"
 #include "nn/decoder.h"
 
-namespace sss::test {
+namespace sss {
 
 struct DecoderShape {
     const char* name;
@@ -100,4 +100,4 @@ inline Decoder random_decoder(const std::string& name, uint64_t seed,
     return random_decoder(table1_shape(name), seed, weight_scale, logvar_bias);
 }
 
-}  // namespace sss::test
+}  // namespace sss
