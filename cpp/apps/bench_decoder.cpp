@@ -25,10 +25,10 @@
 #include "core/check.h"
 #include "core/rng.h"
 #include "core/vec.h"
+#include "nn/random_models.h"
 #include "nn/scattering_model.h"
 #include "shared/hg.h"
 #include "shared/sampling.h"
-#include "nn/random_models.h"
 
 namespace {
 
@@ -90,12 +90,12 @@ int main(int argc, char** argv) {
     }
     try {
         if (!target.empty()) simd_use_target(target);
-        ScatteringModel model =
-            models.empty() ? ScatteringModel(random_decoder("LengthGen", 1),
-                                             random_decoder("PathGen", 1),
-                                             random_decoder("EventGen", 1),
-                                             "random Table-1 decoders")
-                           : ScatteringModel::load(models);
+        ScatteringModel model = models.empty()
+                                    ? ScatteringModel(random_decoder("LengthGen", 1),
+                                                      random_decoder("PathGen", 1),
+                                                      random_decoder("EventGen", 1),
+                                                      "random Table-1 decoders")
+                                    : ScatteringModel::load(models);
         // Many short runs, keep the best: on a shared machine the minimum is the cost.
         const size_t iters = quick ? 20000 : 100000;
         const int trials = quick ? 5 : 25;

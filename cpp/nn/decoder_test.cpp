@@ -9,9 +9,9 @@
 #include <nlohmann/json.hpp>
 
 #include "core/check.h"
+#include "nn/random_models.h"
 #include "shared/softplus.h"
 #include "testing/errors.h"
-#include "nn/random_models.h"
 #include "testing/temp_file.h"
 
 namespace sss {
@@ -130,9 +130,7 @@ TEST(Decoder, SoftplusIsTorchs) {
 
 class DecoderFile : public ::testing::Test {
 protected:
-    json valid() {
-        return json::parse(decoder_to_json(random_decoder("PathGen", 1)));
-    }
+    json valid() { return json::parse(decoder_to_json(random_decoder("PathGen", 1))); }
     // The message of loading `text` from a temporary file, which it must name.
     std::string load_text_error(const std::string& text) {
         test::TempFile f("model.json", text);

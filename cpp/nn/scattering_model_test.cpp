@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "core/check.h"
-#include "testing/errors.h"
 #include "nn/random_models.h"
+#include "testing/errors.h"
 
 namespace sss {
 namespace {
@@ -141,8 +141,7 @@ TEST(ScatteringModel, InputsOutsideTheTrainingRangesAreErrors) {
     // A narrower phi range in EventGen matters only when the event is sampled.
     Decoder e = random_decoder("EventGen", 1);
     e.training_ranges[2].second = {0.5, 1.0};
-    ScatteringModel n(random_decoder("LengthGen", 1),
-                      random_decoder("PathGen", 1), e);
+    ScatteringModel n(random_decoder("LengthGen", 1), random_decoder("PathGen", 1), e);
     EXPECT_HAS(error_of([&] { n.sample(1.f, 0.f, 0.2f, rng, true); }),
                "phi = 0.2 is outside the training range [0.5, 1] of EventGen");
     EXPECT_NO_THROW(n.sample(1.f, 0.f, 0.2f, rng, false));

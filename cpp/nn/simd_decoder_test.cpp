@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "core/rng.h"
-#include "shared/softplus.h"
 #include "nn/random_models.h"
+#include "shared/softplus.h"
 
 namespace sss {
 namespace {
