@@ -36,11 +36,11 @@ for arg in "$@"; do
   esac
 done
 
-# C++ libraries (Embree, TBB, CGAL + GMP/MPFR/Boost, OpenImageIO, JSON, Highway for the
+# C++ libraries (Embree, TBB, CGAL + GMP/MPFR/Boost, OpenImageIO, JSON, CLI11, Highway for the
 # SIMD decoders, GoogleTest), the compilers, glmark2-data for the Stanford bunny used by
 # scenes/bunny.json, and Python's headers and venv module (Debian splits both off python3).
 packages=(build-essential libembree-dev libtbb-dev libcgal-dev libgmp-dev libmpfr-dev
-          libboost-dev libopenimageio-dev nlohmann-json3-dev libhwy-dev libgtest-dev
+          libboost-dev libopenimageio-dev nlohmann-json3-dev libhwy-dev libcli11-dev libgtest-dev
           glmark2-data python3-dev python3-venv)
 # The GPU path (cpp/gpu/): the Vulkan loader and headers, glslc for the compute shaders, and
 # Mesa's drivers, whose lavapipe runs those shaders on CPU-only machines and in CI.

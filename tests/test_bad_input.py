@@ -128,7 +128,7 @@ def test_consistently_fixable_orientation_is_fixed(tmp_path):
         ({"spp": 2.5}, "spp must be an integer"),
         ({"seed": -1}, "seed must be an integer >= 0"),
         ({"threads": -2}, "threads must be"),
-        ({"integrator": "mc"}, "integrator 'mc' is not available"),
+        ({"integrator": "mc"}, "integrator 'mc' is not allowed \\(allowed: 'pt', 'st'\\)"),
     ],
 )
 def test_bad_render_arguments(small_scene, kwargs, expected):

@@ -41,12 +41,13 @@ def test_render_scene_file_to_exr_and_png(tmp_path, small_scene):
     [
         (["render", "{scene}", "-o", "{tmp}/x.jpg"], "unsupported image format '.jpg'"),
         (["render", "{tmp}/none.json", "-o", "{tmp}/x.exr"], "none.json: scene file does not exist"),
-        (["render", "{scene}", "-o", "{tmp}/x.exr", "--spp", "0"], "must be >= 1"),
-        (["render", "{scene}", "-o", "{tmp}/x.exr", "--integrator", "mc"], "invalid choice"),
+        (["render", "{scene}", "-o", "{tmp}/x.exr", "--spp", "0"], "spp must be an integer >= 1"),
+        (["render", "{scene}", "-o", "{tmp}/x.exr", "--integrator", "mc"], "integrator 'mc' is not allowed"),
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--integrator", "st", "--models", "{tmp}/none"],
          "none: not a directory"),
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--sphere-threshold", "-1"], "must be a number >= 0"),
-        (["render", "{scene}", "-o", "{tmp}/x.exr", "--step-nee", "paper"], "invalid choice: 'paper'"),
+        (["render", "{scene}", "-o", "{tmp}/x.exr", "--step-nee", "paper"],
+         "step_nee 'paper' is not allowed (allowed: 'hits', 'event')"),
     ],
 )
 def test_cli_errors_are_clear(tmp_path, small_scene, args, expected):
@@ -126,7 +127,7 @@ def test_step_nee_option_of_both_clis(tmp_path, small_scene):
     r = subprocess.run([exe, str(tmp_path / "s.json"), "-o", str(tmp_path / "cpp.exr"), "--step-nee", "paper"],
                        capture_output=True, text=True)
     assert r.returncode != 0
-    assert "--step-nee 'paper' is not allowed (allowed: 'hits', 'event')" in r.stderr, r.stderr
+    assert "step_nee 'paper' is not allowed (allowed: 'hits', 'event')" in r.stderr, r.stderr
 
 
 def test_ctrl_c_writes_partial_image_cpp_cli(tmp_path, slow_scene):
@@ -151,3 +152,33 @@ def test_backend_option_renders_on_the_gpu(tmp_path, small_scene):
             expected = sssphere.render(sssphere.load_scene(small_scene), integrator=integrator,
                                        spp=2, nee=nee, backend="vulkan")
             np.testing.assert_array_equal(sssphere.read_image(tmp_path / "gpu.exr"), expected)
+
+
+def _long_options(help_text: str) -> set[str]:
+    return set(re.findall(r"(?<![\w-])--[a-z][a-z0-9-]*", help_text)) - {"--help"}
+
+
+def test_both_command_lines_take_the_same_options():
+    """`sssphere render` and `sssphere-render` are built from one table of render options
+    (render/options.h); their --help lists the same long options, every one of the table's."""
+    py = run_cli("render", "--help")
+    cpp = subprocess.run([_cpp_cli(), "--help"], capture_output=True, text=True)
+    assert py.returncode == 0 and cpp.returncode == 0, (py.stderr, cpp.stderr)
+    ours, theirs = _long_options(py.stdout), _long_options(cpp.stdout)
+    assert ours - {"--version"} == theirs - {"--version"}, (ours ^ theirs)
+    for spec in _core.render_option_specs():
+        if spec["command_line"]:
+            flag = spec["name"].replace("_", "-")
+            assert (f"--no-{flag}" if spec["kind"] == "flag" else f"--{flag}") in theirs, spec["name"]
+
+
+def test_both_command_lines_reject_a_bad_option_value_alike(tmp_path, small_scene):
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    for args, message in ((["--spp", "0"], "spp must be an integer >= 1"),
+                          (["--spp", "x"], "--spp: expected an integer >= 1"),
+                          (["--integrator", "mc"], "integrator 'mc' is not allowed (allowed: 'pt', 'st')")):
+        py = run_cli("render", tmp_path / "s.json", "-o", tmp_path / "x.exr", *args)
+        cpp = subprocess.run([_cpp_cli(), str(tmp_path / "s.json"), "-o", str(tmp_path / "x.exr"), *args],
+                             capture_output=True, text=True)
+        for r in (py, cpp):
+            assert r.returncode == 1 and message in r.stderr, (args, r.stderr)

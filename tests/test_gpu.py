@@ -47,6 +47,13 @@ INDEX_MATCHED = {"type": "index_matched"}
 Z_MAX = 4.0
 
 
+
+def _render_gpu(scene, integrator, spp, seed, progress=None, batch=0, lanes=0, **options):
+    """The binding's render on the Vulkan backend, with the benchmark knobs (dispatch batch,
+    lanes) the public API does not offer."""
+    return _core.render(scene, "", progress, {}, gpu_batch=batch, gpu_lanes=lanes, backend="vulkan",
+                        integrator=integrator, spp=spp, seed=seed, **options)
+
 def bunny_scene(res=(24, 16), sigma_t=50.0, albedo=(0.99, 0.95, 0.9), g=0.9,
                 boundary=DIELECTRIC, lights=None) -> dict:
     """scenes/bunny.json (normalized bunny, area light + environment) at res = (width,
@@ -558,8 +565,8 @@ def test_too_many_lights_are_refused():
     ({"backend": "vulkan", "threads": 2}, r"threads=2 is CPU-only"),
     ({"backend": "vulkan", "integrator": "st", "step_nee": "event"},
      r"step_nee 'event' is CPU-only"),
-    ({"backend": "vulkan", "integrator": "st", "max_bounces": 3}, r"max_bounces must be -1 for "
-     r"integrator 'st'"),
+    ({"backend": "vulkan", "integrator": "st", "max_bounces": 3}, r"max_bounces 3 is not supported "
+     r"by integrator 'st' \(allowed: -1\)"),
     # 16 pixels at 2^23 + 1 spp: 16 paths more than record_paths holds (2^27).
     ({"backend": "vulkan", "spp": (1 << 23) + 1, "record_paths": True},
      r"record_paths keeps at most 2\^27 paths; 8388609 spp x 16 pixels are more"),
@@ -587,15 +594,14 @@ def test_gpu_dispatches_start_at_one_sample_and_grow_at_most_fourfold():
         seen.append(round(fraction * spp))
         return True
 
-    r = _core.render_gpu(scene, "pt", spp, 3, -1, True, math.inf, "", progress=record)
+    r = _render_gpu(scene, "pt", spp, 3, progress=record)
     assert not r["cancelled"]
     assert seen[0] == 0 and seen[1] == 1 and seen[-1] == spp
     sizes = np.diff(seen)
     assert np.all(sizes >= 1) and np.all(sizes[1:] <= 4 * sizes[:-1]), seen
 
     calls = []
-    stopped = _core.render_gpu(scene, "pt", spp, 3, -1, True, math.inf, "",
-                               progress=lambda f: calls.append(f) or len(calls) < 2)
+    stopped = _render_gpu(scene, "pt", spp, 3, progress=lambda f: calls.append(f) or len(calls) < 2)
     assert stopped["cancelled"]
     np.testing.assert_array_equal(stopped["samples"], 1)
 
@@ -614,16 +620,14 @@ def test_gpu_render_is_deterministic(integrator, model_dir):
     np.testing.assert_array_equal(a.sphere_steps, b.sphere_steps)
     assert not np.array_equal(a.image, c.image)
     # Two samples per dispatch instead of all six at once.
-    tau = scene.sphere_threshold if integrator == "st" else math.inf
-    models = model_dir if integrator == "st" else ""
-    batched = _core.render_gpu(scene, integrator, 6, 5, -1, True, tau, models, batch=2)
+    batched = _render_gpu(scene, integrator, 6, 5, models=model_dir, batch=2)
     np.testing.assert_array_equal(batched["image"], a.image)
     np.testing.assert_array_equal(batched["events"], a.events)
     # 100 lanes for the 576 paths: a lane renders every 100th path, starting the next when
     # one ends (path regeneration; "st" batches steps among the lanes still running).
     for lanes in (100, 576 + 64):
-        regenerated = _core.render_gpu(scene, integrator, 6, 5, -1, True, tau, models,
-                                       record_paths=True, lanes=lanes)
+        regenerated = _render_gpu(scene, integrator, 6, 5, models=model_dir, record_paths=True,
+                                  lanes=lanes)
         np.testing.assert_array_equal(regenerated["image"], a.image)
         np.testing.assert_array_equal(regenerated["events"], a.events)
         np.testing.assert_array_equal(regenerated["sphere_steps"], a.sphere_steps)
@@ -648,14 +652,14 @@ def test_paths_that_do_not_end_fail_the_render():
     render must then fail by name, not return the paths it finished. On a GPU (no such
     limit) the same render equals the default one."""
     scene = sssphere.load_scene(sphere_scene(res=(8, 8), sigma_t=300.0, albedo=(0.999,) * 3))
-    args = (scene, "pt", 16, 1, -1, True, math.inf, "")
+    args = (scene, "pt", 16, 1)
     if _SOFTWARE:
         with pytest.raises(SceneError, match=r"of 1024 paths did not end on the Vulkan device "
                                              r".*65535 iterations.*backend 'cpu'"):
-            _core.render_gpu(*args, batch=16, lanes=1)
+            _render_gpu(*args, batch=16, lanes=1)
     else:
-        np.testing.assert_array_equal(_core.render_gpu(*args, batch=16, lanes=1)["image"],
-                                      _core.render_gpu(*args)["image"])
+        np.testing.assert_array_equal(_render_gpu(*args, batch=16, lanes=1)["image"],
+                                      _render_gpu(*args)["image"])
 
 
 def test_gpu_record_paths(model_dir):

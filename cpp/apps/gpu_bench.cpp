@@ -8,7 +8,7 @@
 // --batch: samples per pixel per dispatch (default: about 2^20 paths per dispatch, at
 // most spp; the JSON gives the batch used).
 // --lanes: invocations per dispatch, each rendering every lanes-th path (default: one per
-// path; GpuRenderOptions::lanes).
+// path; RenderOptions::gpu_lanes).
 //
 // An override changes every shape's medium or boundary before rendering, so one baked
 // file (geometry, grids, decoders) serves a density sweep: sigma_t=X and albedo=X (all
@@ -138,7 +138,7 @@ int main(int argc, char** argv) {
             const bool has_st = !scene.model.empty();
             for (const char* integrator : {"pt", "st"}) {
                 if (std::strcmp(integrator, "st") == 0 && !has_st) continue;
-                GpuRenderOptions opt;
+                RenderOptions opt;
                 opt.integrator = integrator;
                 opt.spp = 1;
                 const GpuRenderResult warm = renderer.render(opt);  // pipeline, caches
@@ -147,8 +147,8 @@ int main(int argc, char** argv) {
                 // times full ones.
                 const int full = int(std::max<int64_t>(
                     1, (int64_t(1) << 20) / (int64_t(warm.width) * warm.height)));
-                opt.batch = batch > 0 ? batch : std::min(full, spp);
-                opt.lanes = lanes;
+                opt.gpu_batch = batch > 0 ? batch : std::min(full, spp);
+                opt.gpu_lanes = lanes;
                 GpuRenderResult r;
                 for (int k = 0; k < repeat; ++k) {
                     r = renderer.render(opt);
@@ -160,7 +160,7 @@ int main(int argc, char** argv) {
                         "\"events_per_path\": "
                         "%.4f, \"steps_per_path\": %.4f}\n",
                         name.c_str(), integrator, r.device.c_str(), r.width, r.height,
-                        spp, k, opt.batch, lanes, r.gpu_seconds, r.seconds,
+                        spp, k, opt.gpu_batch, lanes, r.gpu_seconds, r.seconds,
                         double(r.total_events) / double(r.total_paths),
                         double(r.total_sphere_steps) / double(r.total_paths));
                     std::fflush(stdout);

@@ -32,7 +32,8 @@ struct RenderPush {
 
 constexpr uint32_t kGroup = 64;             // render.glsl's workgroup size
 constexpr uint32_t kWritten = 0x80000000u;  // render.glsl: set in a written path's steps
-// The wall time a dispatch aims at when the batch is not fixed (GpuRenderOptions::batch).
+// The wall time a dispatch aims at when the batch is not fixed
+// (RenderOptions::gpu_batch).
 constexpr double kDispatchSeconds = 0.25;
 
 template <class T>
@@ -95,13 +96,13 @@ GpuRenderer::GpuRenderer(VulkanCompute& vk, const GpuSceneData& scene)
                              constants, kModelUniform);
 }
 
-GpuRenderResult GpuRenderer::render(const GpuRenderOptions& opt,
+GpuRenderResult GpuRenderer::render(const RenderOptions& opt,
                                     const GpuProgressFn& progress) {
     const auto start = std::chrono::steady_clock::now();
     if (opt.integrator != "pt" && opt.integrator != "st")
         fail("integrator '", opt.integrator, "' is not allowed (allowed: 'pt', 'st')");
     if (opt.spp < 1) fail("spp must be >= 1, got ", opt.spp);
-    if (opt.lanes < 0) fail("lanes must be >= 0 (0: automatic), got ", opt.lanes);
+    if (opt.gpu_lanes < 0) fail("lanes must be >= 0 (0: automatic), got ", opt.gpu_lanes);
     if (opt.integrator == "st" && opt.max_bounces >= 0)
         fail("max_bounces must be -1 for integrator 'st' (a sphere step is many events)");
     const bool st = opt.integrator == "st";
@@ -114,8 +115,8 @@ GpuRenderResult GpuRenderer::render(const GpuRenderOptions& opt,
     // kDispatchSeconds by the time measured so far: progress and Ctrl-C are answered
     // between dispatches, and a slow device (lavapipe, or a GPU on a dense medium) would
     // otherwise hold them for as long as 2^20 paths take (20 s on lavapipe).
-    int batch =
-        opt.batch > 0 ? opt.batch : int(std::max<size_t>(1, (size_t(1) << 20) / pixels));
+    int batch = opt.gpu_batch > 0 ? opt.gpu_batch
+                                  : int(std::max<size_t>(1, (size_t(1) << 20) / pixels));
     batch = std::min(batch, opt.spp);
     const size_t max_paths = vk_.max_storage_buffer_bytes() / 16;
     if (size_t(batch) * pixels > max_paths)
@@ -146,8 +147,8 @@ GpuRenderResult GpuRenderer::render(const GpuRenderOptions& opt,
         r.path_steps.assign(size_t(opt.spp) * pixels, 0);
     }
     int done = 0;
-    int next = opt.batch > 0 ? batch : 1;  // samples per pixel of the next dispatch
-    double dispatch_seconds = 0.0;         // wall time of the dispatches so far
+    int next = opt.gpu_batch > 0 ? batch : 1;  // samples per pixel of the next dispatch
+    double dispatch_seconds = 0.0;             // wall time of the dispatches so far
     while (done < opt.spp) {
         if (progress && !progress(double(done) / opt.spp)) {
             r.cancelled = true;
@@ -159,8 +160,8 @@ GpuRenderResult GpuRenderer::render(const GpuRenderOptions& opt,
         RenderPush push{uint32_t(opt.seed), uint32_t(opt.seed >> 32), uint32_t(done),
                         int32_t(opt.max_bounces), uint32_t(paths)};
         // One lane per path unless asked otherwise, and no more than one dispatch holds.
-        const size_t lanes = std::min({opt.lanes > 0 ? size_t(opt.lanes) : paths, paths,
-                                       size_t(vk_.max_workgroups_x()) * kGroup});
+        const size_t lanes = std::min({opt.gpu_lanes > 0 ? size_t(opt.gpu_lanes) : paths,
+                                       paths, size_t(vk_.max_workgroups_x()) * kGroup});
         vk_.fill_zero(counts);
         // Where no step can happen "st" is "pt", path for path: the lighter kernel runs.
         r.gpu_seconds +=
@@ -202,7 +203,7 @@ GpuRenderResult GpuRenderer::render(const GpuRenderOptions& opt,
         dispatch_seconds += std::chrono::duration<double>(
                                 std::chrono::steady_clock::now() - dispatch_start)
                                 .count();
-        if (opt.batch <= 0) {
+        if (opt.gpu_batch <= 0) {
             const double fit = kDispatchSeconds * done / std::max(dispatch_seconds, 1e-9);
             next = int(std::clamp(fit, 1.0, double(std::min(batch, 4 * b))));
         }

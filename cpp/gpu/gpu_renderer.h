@@ -13,24 +13,9 @@
 
 #include "gpu/gpu_scene.h"
 #include "gpu/vulkan_compute.h"
+#include "render/options.h"
 
 namespace sss {
-
-struct GpuRenderOptions {
-    std::string integrator = "pt";  // "pt" or "st" (the scene must be baked for it)
-    int spp = 16;
-    uint64_t seed = 0;
-    int max_bounces = -1;  // "pt" only; -1 = no limit
-    // Samples per pixel per dispatch. 0: one, then as many as take about a quarter of a
-    // second by the time measured so far, at most 4x the last and about 2^20 paths (a
-    // full GPU). No result depends on it.
-    int batch = 0;
-    bool record_paths = false;  // keep every path's event and step counts
-    // Invocations per dispatch; each renders every lanes-th path of the dispatch, one
-    // after the other (render.glsl). 0: one path each. For benchmarks: no result depends
-    // on it.
-    int lanes = 0;
-};
 
 struct GpuRenderResult {
     int width = 0, height = 0;
@@ -56,7 +41,12 @@ public:
     // Uploads the scene once; throws sss::Error when the scene does not fit the device
     // (a buffer over max_storage_buffer_bytes()).
     GpuRenderer(VulkanCompute& vk, const GpuSceneData& scene);
-    GpuRenderResult render(const GpuRenderOptions& options,
+    // Reads integrator, spp, seed, max_bounces, record_paths and the benchmark knobs
+    // gpu_batch (samples per pixel per dispatch; 0: one, then as many as take about a
+    // quarter of a second, at most 4x the last and about 2^20 paths) and gpu_lanes
+    // (invocations per dispatch, each rendering every lanes-th path; 0: one path each).
+    // No result depends on the knobs. The rest was baked into the scene.
+    GpuRenderResult render(const RenderOptions& options,
                            const GpuProgressFn& progress = {});
 
 private:

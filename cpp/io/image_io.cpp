@@ -15,17 +15,24 @@ float linear_to_srgb(float v) {
     return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.f / 2.4f) - 0.055f;
 }
 
-void write_image(const std::string& path, const std::vector<float>& pixels, int width,
-                 int height, int channels) {
+void check_output_image(const std::string& path) {
     namespace fs = std::filesystem;
     std::string ext = fs::path(path).extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
     if (ext != ".exr" && ext != ".png")
         fail(path, ": unsupported image format '", ext, "' (allowed: .exr, .png)");
-    SSS_CHECK(pixels.size() == size_t(width) * height * channels);
     fs::path parent = fs::path(path).parent_path();
     if (!parent.empty() && !fs::is_directory(parent))
         fail(path, ": output directory '", parent.string(), "' does not exist");
+}
+
+void write_image(const std::string& path, const std::vector<float>& pixels, int width,
+                 int height, int channels) {
+    namespace fs = std::filesystem;
+    check_output_image(path);
+    std::string ext = fs::path(path).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+    SSS_CHECK(pixels.size() == size_t(width) * height * channels);
 
     auto out = OIIO::ImageOutput::create(path);
     if (!out) fail(path, ": cannot create an image writer: ", OIIO::geterror());

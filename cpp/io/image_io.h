@@ -7,6 +7,10 @@
 
 namespace sss {
 
+// Throws sss::Error unless `path` can be an output image: a .exr or .png name in an
+// existing directory (checked before a render, not after it).
+void check_output_image(const std::string& path);
+
 // `pixels` holds height * width * channels floats, row 0 at the top.
 void write_image(const std::string& path, const std::vector<float>& pixels, int width,
                  int height, int channels = 3);

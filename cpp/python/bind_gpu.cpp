@@ -29,35 +29,6 @@ using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>
 
 #ifdef SSSPHERE_HAVE_VULKAN
 
-py::dict render_gpu_py(const Scene& scene, const std::string& integrator, int spp,
-                       uint64_t seed, int max_bounces, bool nee, float sphere_threshold,
-                       const std::string& models, bool record_paths, int batch, int lanes,
-                       py::object progress) {
-    GpuSceneData baked = bake_gpu_scene(scene, integrator, nee, sphere_threshold, models);
-    GpuRenderOptions opt;
-    opt.integrator = integrator;
-    opt.spp = spp;
-    opt.seed = seed;
-    opt.max_bounces = max_bounces;
-    opt.batch = batch;
-    opt.lanes = lanes;
-    opt.record_paths = record_paths;
-    RenderProgress cb(progress);
-    GpuRenderResult r;
-    {
-        py::gil_scoped_release release;
-        VulkanCompute vk;
-        GpuRenderer renderer(vk, baked);
-        r = renderer.render(opt, std::ref(cb));
-    }
-    cb.rethrow();
-    py::dict d = film_dict(r, spp, record_paths, cb.interrupted);
-    d["gpu_seconds"] = r.gpu_seconds;
-    d["step_seconds"] = 0.0;
-    d["device"] = r.device;
-    return d;
-}
-
 #endif
 
 #ifndef SSSPHERE_HAVE_VULKAN
@@ -84,10 +55,6 @@ void bind_gpu(py::module_& m) {
 #endif
     });
 #ifdef SSSPHERE_HAVE_VULKAN
-    m.def("render_gpu", &render_gpu_py, py::arg("scene"), py::arg("integrator"),
-          py::arg("spp"), py::arg("seed"), py::arg("max_bounces"), py::arg("nee"),
-          py::arg("sphere_threshold"), py::arg("models"), py::arg("record_paths") = false,
-          py::arg("batch") = 0, py::arg("lanes") = 0, py::arg("progress") = py::none());
     m.def(
         "bake_gpu_scene",
         [](const Scene& scene, const std::string& path, const std::string& integrator,
@@ -149,8 +116,7 @@ void bind_gpu(py::module_& m) {
         },
         py::arg("scene"), py::arg("origins"), py::arg("directions"), py::arg("tfar"));
 #else
-    for (const char* name :
-         {"render_gpu", "bake_gpu_scene", "gpu_sample_steps", "gpu_trace_rays"})
+    for (const char* name : {"bake_gpu_scene", "gpu_sample_steps", "gpu_trace_rays"})
         m.def(name, [](py::args, py::kwargs) { no_vulkan(); });
 #endif
 }

@@ -18,9 +18,10 @@
 namespace py = pybind11;
 using namespace sss;
 
-void bind_media(py::module_& m);  // bind_media.cpp
-void bind_nn(py::module_& m);     // bind_nn.cpp
-void bind_gpu(py::module_& m);    // bind_gpu.cpp
+void bind_media(py::module_& m);   // bind_media.cpp
+void bind_nn(py::module_& m);      // bind_nn.cpp
+void bind_gpu(py::module_& m);     // bind_gpu.cpp
+void bind_render(py::module_& m);  // bind_render.cpp
 
 namespace {
 
@@ -43,41 +44,6 @@ const Shape& shape_at(const Scene& s, int i) {
     return s.desc().shapes[i];
 }
 
-py::dict render_py(const Scene& scene, const std::string& integrator, int spp,
-                   uint64_t seed, int threads, int max_bounces, bool nee,
-                   float sphere_threshold, const std::string& models,
-                   const std::string& sphere_sampler, const std::string& step_nee,
-                   bool record_paths, py::object progress) {
-    RenderOptions opt;
-    opt.integrator = integrator;
-    opt.spp = spp;
-    opt.seed = seed;
-    opt.threads = threads;
-    opt.max_bounces = max_bounces;
-    opt.nee = nee;
-    opt.sphere_threshold = sphere_threshold;
-    opt.models = models;
-    if (sphere_sampler == "model")
-        opt.sphere_sampler = SphereSampler::Model;
-    else if (sphere_sampler == "walk")
-        opt.sphere_sampler = SphereSampler::Walk;
-    else
-        fail("sphere_sampler '", sphere_sampler,
-             "' is not allowed (allowed: 'model', 'walk')");
-    opt.step_nee = parse_step_nee(step_nee, "step_nee");
-    opt.record_paths = record_paths;
-    RenderProgress cb(progress);
-    RenderResult r;
-    {
-        py::gil_scoped_release release;
-        r = render(scene, opt, std::ref(cb));
-    }
-    cb.rethrow();
-    py::dict d = film_dict(r, spp, record_paths, cb.interrupted);
-    d["step_seconds"] = r.step_seconds;
-    return d;
-}
-
 }  // namespace
 
 PYBIND11_MODULE(_core, m) {
@@ -86,6 +52,7 @@ PYBIND11_MODULE(_core, m) {
     bind_media(m);
     bind_nn(m);
     bind_gpu(m);
+    bind_render(m);
 
     py::class_<Scene, std::shared_ptr<Scene>>(m, "Scene")
         .def(py::init([](const std::string& text, const std::string& base_dir,
@@ -164,14 +131,6 @@ PYBIND11_MODULE(_core, m) {
                << s.desc().render.integrator << "', " << s.desc().render.spp << " spp>";
             return os.str();
         });
-
-    m.def("render", &render_py, py::arg("scene"), py::arg("integrator"), py::arg("spp"),
-          py::arg("seed"), py::arg("threads"), py::arg("max_bounces"),
-          py::arg("nee") = true, py::arg("sphere_threshold") = kDefaultSphereThreshold,
-          py::arg("models") = "", py::arg("sphere_sampler") = "model",
-          py::arg("step_nee") = "hits", py::arg("record_paths") = false,
-          py::arg("progress") = py::none());
-    m.attr("DEFAULT_SPHERE_THRESHOLD") = kDefaultSphereThreshold;
 
     m.def(
         "load_mesh",

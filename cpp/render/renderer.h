@@ -10,34 +10,11 @@
 #include <string>
 #include <vector>
 
+#include "render/options.h"
 #include "render/scene.h"
 #include "render/sphere_tracing.h"
 
 namespace sss {
-
-struct RenderOptions {
-    std::string integrator = "pt";  // "pt" (path tracing) or "st" (sphere tracing)
-    int spp = 16;
-    uint64_t seed = 0;
-    int threads = 0;       // 0 = all cores
-    int max_bounces = -1;  // "st" allows only -1 (a sphere step is many events at once)
-    bool nee = true;       // next-event estimation (light sampling with MIS)
-    // "st" only. A collision at p takes a sphere step when sigma_t * r(p) >=
-    // sphere_threshold
-    // (>= 0; infinity: never, the image is then bit-identical to "pt").
-    float sphere_threshold = kDefaultSphereThreshold;
-    std::string
-        models;  // "st": the directory of lengthgen.json, pathgen.json, eventgen.json
-    SphereSampler sphere_sampler =
-        SphereSampler::Model;  // Walk: exact walks (validation)
-    // "st" with nee: how a sphere step's events get their direct light (StepNee).
-    StepNee step_nee = StepNee::Hits;
-    // Keep every path's event and step counts (RenderResult::path_events, path_steps):
-    // 8 bytes per path, at most kMaxRecordedPaths paths.
-    bool record_paths = false;
-};
-
-constexpr uint64_t kMaxRecordedPaths = uint64_t(1) << 27;
 
 struct RenderResult {
     int width = 0, height = 0;
@@ -58,6 +35,9 @@ struct RenderResult {
     uint64_t total_events = 0;
     uint64_t total_sphere_steps = 0;
     uint64_t total_paths = 0;
+    // Backend::Vulkan: the GPU time of the dispatches (timestamps) and the device's name.
+    double gpu_seconds = 0.0;
+    std::string device;
 };
 
 // Called from the calling thread about ten times a second with the fraction done; return

@@ -12,6 +12,7 @@
 #include "geometry/distance_grid.h"
 #include "geometry/mesh.h"
 #include "geometry/ray_tracer.h"
+#include "render/options.h"
 
 namespace sss {
 
@@ -52,11 +53,6 @@ struct Light {
     // Point and directional lights: no path can hit them, only light sampling sees them.
     bool is_delta() const { return type == Type::Point || type == Type::Directional; }
 };
-
-// Default sphere_threshold tau of integrator "st": a collision at p takes a sphere step
-// when sigma_t * r(p) >= tau. Chosen by measurement (render time against image error on
-// the sphere and bunny scenes): docs/sphere-tracing.md, "Choosing the threshold".
-constexpr float kDefaultSphereThreshold = 6.f;
 
 struct RenderSettings {
     std::string integrator = "pt";

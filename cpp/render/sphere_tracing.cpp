@@ -26,12 +26,6 @@ float float_above(double x) {
 
 }  // namespace
 
-StepNee parse_step_nee(const std::string& text, const char* what) {
-    if (text == "hits") return StepNee::Hits;
-    if (text == "event") return StepNee::Event;
-    fail(what, " '", text, "' is not allowed (allowed: 'hits', 'event')");
-}
-
 SphereTracing::SphereTracing(const Scene& scene, float threshold, SphereSampler sampler,
                              const std::string& models, bool nee, StepNee step_nee)
     : scene_(scene),

@@ -24,24 +24,6 @@ constexpr float kWalkSigmaMax = 200.f;
 // phi^N and Lambda use the true albedo). Further outside is an error.
 constexpr float kPhiClampTolerance = 1e-3f;
 
-// Where the steps come from: the learned models, or exact sphere walks (cpp/media; as
-// slow as path tracing, for validating the integrator without model error).
-enum class SphereSampler { Model, Walk };
-
-// How a step's events get their direct light
-// (docs/sphere-tracing.md#nee-for-a-sphere-step).
-//   Hits:  no light sampling at the step's events for area lights and the environment;
-//          their direct light is what the step's exit flight collects when it reaches a
-//          light (weight 1). Point and directional lights, which no flight can hit, get a
-//          connection from EventGen's representative event. Needs no EventGen where the
-//          scene has no delta lights.
-//   Event: the paper's: EventGen's representative event gets a connection to one light
-//          chosen among all, weighted by Lambda, with the MIS rule of the docs.
-enum class StepNee { Hits, Event };
-// "hits" or "event"; anything else throws sss::Error naming `what` and the allowed
-// values.
-StepNee parse_step_nee(const std::string& text, const char* what);
-
 // One step in world space.
 struct WorldSphereStep {
     int64_t N = 1;  // scattering events the step stands for (>= 1)

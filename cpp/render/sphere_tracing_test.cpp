@@ -375,9 +375,6 @@ TEST(SphereTracer, RefusesWhatTheModelsCannotDo) {
     phi.shapes[0].medium.albedo = Vec3(0.9005f);  // within kPhiClampTolerance: clamped
     EXPECT_EQ(err(phi, event), "");
 
-    EXPECT_HAS(error_of([] { parse_step_nee("events", "--step-nee"); }),
-               "--step-nee 'events' is not allowed (allowed: 'hits', 'event')");
-
     RenderOptions bounces = st_options(models.path(), 2.f);
     bounces.max_bounces = 5;
     EXPECT_HAS(err(desc, bounces), "max_bounces 5 is not supported by integrator 'st'");

@@ -12,8 +12,8 @@ import numpy as np
 
 from sssphere._progress import Progress
 from sssphere._version import __version__
-from sssphere.rendering import (BACKENDS, DEFAULT_SPHERE_THRESHOLD, INTEGRATORS, STEP_NEE, render_full,
-                             write_image)
+from sssphere import rendering
+from sssphere.rendering import RENDER_OPTIONS, write_image
 from sssphere.scene import SceneError, SceneWarning, load_scene
 
 IMAGE_SUFFIXES = (".exr", ".png")
@@ -37,7 +37,6 @@ def _checked(convert, ok, requirement: str):
 
 _positive_int = _checked(int, lambda v: v >= 1, ">= 1")
 _non_negative_int = _checked(int, lambda v: v >= 0, ">= 0")
-_threshold = _checked(float, lambda v: v >= 0, "a number >= 0 (inf: no sphere steps)")
 _positive_float = _checked(float, lambda v: 0 < v < float("inf"), "a positive number")
 
 
@@ -47,21 +46,21 @@ def _cmd_render(args: argparse.Namespace) -> int:
         raise SceneError(f"{out}: unsupported image format {out.suffix!r} (allowed: .exr, .png)")
     if out.parent != Path("") and not out.parent.is_dir():
         raise SceneError(f"{out}: output directory {str(out.parent)!r} does not exist")
+    # The render options as typed, checked and resolved in C++ with the scene's (one table
+    # for both command lines and the API: render/options.h)
+    text = {spec["name"]: getattr(args, spec["name"]) for spec in RENDER_OPTIONS
+            if spec["command_line"] and getattr(args, spec["name"]) is not None}
+    threads = int(text["threads"]) if text.get("threads", "").isdigit() else 0
     t0 = time.monotonic()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", SceneWarning)
-        scene = load_scene(args.scene, threads=args.threads)
+        scene = load_scene(args.scene, threads=threads)
     for w in caught:
         print(f"sssphere: warning: {w.message}", file=sys.stderr)
     load_s = time.monotonic() - t0
     bar = Progress(f"rendering {Path(args.scene).name}", enabled=not args.quiet)
     try:
-        result = render_full(
-            scene, integrator=args.integrator, spp=args.spp, seed=args.seed,
-            threads=args.threads, progress=bar, sphere_threshold=args.sphere_threshold,
-            models=args.models, step_nee=args.step_nee, nee=not args.no_nee,
-            backend=args.backend,
-        )
+        result = rendering._result(rendering._render(scene, bar, {}, text))
     finally:
         bar.close()
     write_image(out, result.image)
@@ -192,24 +191,15 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("render", help="render a scene file to an image")
     r.add_argument("scene", help="scene file (JSON, docs/scene-format.md)")
     r.add_argument("-o", "--output", required=True, help="output image (.exr linear, .png sRGB)")
-    r.add_argument("--spp", type=_positive_int, help="samples per pixel (default: the scene's)")
-    r.add_argument("--seed", type=_non_negative_int, help="random seed (default: the scene's)")
-    r.add_argument("--threads", type=_non_negative_int, default=0, help="worker threads (0 = all cores)")
-    r.add_argument("--integrator", choices=INTEGRATORS, help="integrator (default: the scene's)")
-    r.add_argument("--sphere-threshold", type=_threshold, metavar="TAU",
-                   help="st: a collision takes a sphere step where sigma_t * r >= TAU (default: the "
-                        "scene's, else %g; inf: never)" % DEFAULT_SPHERE_THRESHOLD)
-    r.add_argument("--models", metavar="DIR",
-                   help="st: directory of lengthgen.json, pathgen.json, eventgen.json (default: the "
-                        "scene's render.models, else the repository's models/)")
-    r.add_argument("--step-nee", choices=STEP_NEE, default="hits",
-                   help="st: the direct light of a sphere step's events: hits (default: from its "
-                        "exit flight; EventGen only for point and directional lights) or event "
-                        "(EventGen's representative event connects to every light)")
-    r.add_argument("--no-nee", action="store_true",
-                   help="no light sampling: emitters count only when paths hit them")
-    r.add_argument("--backend", choices=BACKENDS, default="cpu",
-                   help="cpu (default) or vulkan: the GPU path (docs/gpu.md)")
+    for spec in RENDER_OPTIONS:  # the table both command lines are built from
+        if not spec["command_line"]:
+            continue
+        flag = spec["name"].replace("_", "-")
+        if spec["kind"] == "flag":
+            r.add_argument(f"--no-{flag}", dest=spec["name"], action="store_const", const="false",
+                           help=spec["help"])
+        else:
+            r.add_argument(f"--{flag}", dest=spec["name"], metavar=spec["metavar"], help=spec["help"])
     r.add_argument("--aovs", action="store_true",
                    help="also write OUT_variance.exr, OUT_events.exr (scattering events per path) "
                         "and, for st, OUT_sphere_steps.exr")

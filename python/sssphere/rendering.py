@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import math
-import numbers
 import os
 from dataclasses import dataclass
 from typing import Callable, Optional, Union
@@ -11,14 +9,16 @@ from typing import Callable, Optional, Union
 import numpy as np
 
 from sssphere import _core
-from sssphere._core import SceneError
 from sssphere.model import DEFAULT_MODELS
 from sssphere.scene import Scene, load_scene
 
-INTEGRATORS = ("pt", "st")
-SPHERE_SAMPLERS = ("model", "walk")
-STEP_NEE = ("hits", "event")
-BACKENDS = ("cpu", "vulkan")
+# The render options are defined once, in C++ (render/options.h); these name their choices.
+RENDER_OPTIONS = _core.render_option_specs()  # name, kind, choices, metavar, help, command_line
+_SPECS = {s["name"]: s for s in RENDER_OPTIONS}
+INTEGRATORS = tuple(_SPECS["integrator"]["choices"])
+SPHERE_SAMPLERS = tuple(_SPECS["sphere_sampler"]["choices"])
+STEP_NEE = tuple(_SPECS["step_nee"]["choices"])
+BACKENDS = tuple(_SPECS["backend"]["choices"])
 DEFAULT_SPHERE_THRESHOLD = float(_core.DEFAULT_SPHERE_THRESHOLD)
 
 
@@ -44,6 +44,9 @@ class RenderResult:
     gpu_seconds : ``backend="vulkan"``: the GPU time of the render's dispatches (timestamps);
         else None.
     device : the Vulkan device that rendered (``backend="vulkan"``), else None.
+    options : the options the render used, resolved (defaults < the scene's render block <
+        the arguments): integrator, spp, seed, threads, max_bounces, nee, sphere_threshold,
+        models, sphere_sampler, step_nee, record_paths, backend.
     """
 
     image: np.ndarray
@@ -59,50 +62,16 @@ class RenderResult:
     path_events: Optional[np.ndarray] = None
     path_steps: Optional[np.ndarray] = None
     backend: str = "cpu"
+    options: Optional[dict] = None
     gpu_seconds: Optional[float] = None
     device: Optional[str] = None
 
 
-def _resolve_st(scene, sphere_threshold, models, sphere_sampler, step_nee="hits"):
-    """The sphere-tracing settings: arguments first, then the scene's render block, then the
-    defaults (threshold DEFAULT_SPHERE_THRESHOLD, the repository's models/)."""
-    if sphere_threshold is None:
-        sphere_threshold = scene.sphere_threshold
-    if isinstance(sphere_threshold, bool) or not isinstance(sphere_threshold, numbers.Real) \
-            or math.isnan(sphere_threshold) or sphere_threshold < 0:
-        raise SceneError(f"sphere_threshold must be a number >= 0 (inf: no sphere steps), "
-                         f"got {sphere_threshold!r}")
-    if models is None:
-        models = scene.models if scene.models is not None else DEFAULT_MODELS
-    if sphere_sampler not in SPHERE_SAMPLERS:
-        raise SceneError(f"sphere_sampler {sphere_sampler!r} is not allowed "
-                         f"(allowed: {', '.join(repr(s) for s in SPHERE_SAMPLERS)})")
-    if step_nee not in STEP_NEE:
-        raise SceneError(f"step_nee {step_nee!r} is not allowed "
-                         f"(allowed: {', '.join(repr(s) for s in STEP_NEE)})")
-    return float(sphere_threshold), os.fspath(models), sphere_sampler, step_nee
-
-
-def _resolve(scene, integrator, spp, seed, threads, max_bounces):
-    if not isinstance(scene, Scene):
-        scene = load_scene(scene)
-    integrator = scene.integrator if integrator is None else integrator
-    if integrator not in INTEGRATORS:
-        raise SceneError(
-            f"{scene.source}: integrator {integrator!r} is not available "
-            f"(allowed: {', '.join(repr(i) for i in INTEGRATORS)})"
-        )
-    spp = scene.spp if spp is None else spp
-    if isinstance(spp, bool) or not isinstance(spp, (int, np.integer)) or spp < 1:
-        raise SceneError(f"spp must be an integer >= 1, got {spp!r}")
-    seed = scene.seed if seed is None else seed
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise SceneError(f"seed must be an integer >= 0, got {seed!r}")
-    threads = 0 if threads is None else threads
-    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 0:
-        raise SceneError(f"threads must be an integer >= 0 (0 = all cores), got {threads!r}")
-    max_bounces = scene.max_bounces if max_bounces is None else max_bounces
-    return scene, integrator, int(spp), int(seed), int(threads), int(max_bounces)
+def _render(scene: Scene, progress, options: dict, text: Optional[dict] = None) -> dict:
+    """The C++ render on the options given (None: not given), resolved once in C++
+    (render/options.h: defaults < the scene's render block < command-line text < these)."""
+    given = {k: v for k, v in options.items() if v is not None}
+    return _core.render(scene, os.fspath(DEFAULT_MODELS), progress, text or {}, **given)
 
 
 def render_full(
@@ -113,17 +82,18 @@ def render_full(
     threads: Optional[int] = None,
     max_bounces: Optional[int] = None,
     progress: Optional[Callable[[float], Optional[bool]]] = None,
-    nee: bool = True,
+    nee: Optional[bool] = None,
     sphere_threshold: Optional[float] = None,
     models: Union[str, os.PathLike, None] = None,
-    sphere_sampler: str = "model",
-    step_nee: str = "hits",
-    record_paths: bool = False,
-    backend: str = "cpu",
+    sphere_sampler: Optional[str] = None,
+    step_nee: Optional[str] = None,
+    record_paths: Optional[bool] = None,
+    backend: Optional[str] = None,
 ) -> RenderResult:
     """Render and return the image with its variance and complexity (see RenderResult).
 
-    Settings left as None come from the scene's ``render`` block. ``progress(fraction)``
+    Options left as None come from the scene's ``render`` block, else their defaults (one
+    table for the API and both command lines: docs/options.md). ``progress(fraction)``
     is called about ten times a second; returning False stops early. Ctrl-C also stops
     early: the result then has ``interrupted=True`` and holds what was rendered.
     ``nee=False`` turns off light sampling (emitters count only when paths hit them).
@@ -150,31 +120,16 @@ def render_full(
     ``nee=True``, ``step_nee="hits"`` for ``"st"``, EventGen included).
     ``step_nee="event"``, ``sphere_sampler="walk"`` and ``threads`` are CPU-only.
     """
-    if backend not in BACKENDS:
-        raise SceneError(f"backend {backend!r} is not allowed "
-                         f"(allowed: {', '.join(repr(b) for b in BACKENDS)})")
-    scene, integrator, spp, seed, threads, max_bounces = _resolve(
-        scene, integrator, spp, seed, threads, max_bounces)
-    tau, models_dir, sampler, step_nee = _resolve_st(scene, sphere_threshold, models,
-                                                     sphere_sampler, step_nee)
-    if not isinstance(record_paths, (bool, np.bool_)):
-        raise SceneError(f"record_paths must be True or False, got {record_paths!r}")
-    if backend == "vulkan":
-        if threads not in (0,):
-            raise SceneError(f"threads={threads!r} is CPU-only (backend 'vulkan' uses the GPU's own)")
-        if step_nee != "hits":
-            raise SceneError(f"step_nee {step_nee!r} is CPU-only (backend 'vulkan' has "
-                             "step_nee 'hits' only)")
-        if sampler != "model":
-            raise SceneError(f"sphere_sampler {sampler!r} is CPU-only (backend 'vulkan' "
-                             "samples steps with the models)")
-        r = _core.render_gpu(scene, integrator, spp, seed, max_bounces, bool(nee), tau,
-                             models_dir if integrator == "st" else "",
-                             record_paths=bool(record_paths), progress=progress)
-    else:
-        r = _core.render(scene, integrator, spp, seed, threads, max_bounces, bool(nee), tau,
-                         models_dir if integrator == "st" else "", sampler, step_nee,
-                         record_paths=bool(record_paths), progress=progress)
+    if not isinstance(scene, Scene):
+        scene = load_scene(scene)
+    options = dict(integrator=integrator, spp=spp, seed=seed, threads=threads,
+                   max_bounces=max_bounces, nee=nee, sphere_threshold=sphere_threshold,
+                   models=models, sphere_sampler=sphere_sampler, step_nee=step_nee,
+                   record_paths=record_paths, backend=backend)
+    return _result(_render(scene, progress, options))
+
+
+def _result(r: dict) -> RenderResult:
     paths = max(1, int(r["total_paths"]))
     return RenderResult(
         image=r["image"],
@@ -189,7 +144,8 @@ def render_full(
         mean_sphere_steps_per_path=float(r["total_sphere_steps"]) / paths,
         path_events=r.get("path_events"),
         path_steps=r.get("path_steps"),
-        backend=backend,
+        backend=r["options"]["backend"],
+        options=r["options"],
         gpu_seconds=r.get("gpu_seconds"),
         device=r.get("device"),
     )
@@ -201,11 +157,11 @@ def render(
     spp: Optional[int] = None,
     seed: Optional[int] = None,
     threads: Optional[int] = None,
-    nee: bool = True,
+    nee: Optional[bool] = None,
     sphere_threshold: Optional[float] = None,
     models: Union[str, os.PathLike, None] = None,
-    step_nee: str = "hits",
-    backend: str = "cpu",
+    step_nee: Optional[str] = None,
+    backend: Optional[str] = None,
 ) -> np.ndarray:
     """Render a scene to a (height, width, 3) float32 array of linear radiance.
 

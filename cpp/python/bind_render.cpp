@@ -1,0 +1,180 @@
+// Rendering for Python: the option table, the options resolved from keyword arguments
+// (and from command-line text, for `sssphere render`), and a render on either backend.
+// The options are render/options.h's: defaults, checks and messages live there once.
+#include <pybind11/functional.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <cmath>
+#include <string>
+
+#include "core/check.h"
+#include "gpu/backends.h"
+#include "python/render_progress.h"
+#include "render/options.h"
+#include "render/scene.h"
+
+namespace py = pybind11;
+using namespace sss;
+
+namespace {
+
+using Kind = OptionSpec::Kind;
+
+bool is_bool(const py::handle& v) {
+    return PyBool_Check(v.ptr()) ||
+           std::string(py::str(py::type::of(v).attr("__name__"))) == "bool_";
+}
+
+// Overrides from keyword arguments (None: not set). A value of the wrong type gets the
+// message a value out of range would get, naming what is allowed.
+RenderOverrides overrides_from(const py::dict& text, const py::kwargs& kwargs) {
+    RenderOverrides o;
+    for (const auto& [key, value] : text)
+        set_override_from_text(o, py::str(key), py::str(value));
+    for (const auto& [key, value] : kwargs) {
+        const std::string name = py::str(key);
+        const OptionSpec& spec = render_option_spec(name);
+        if (value.is_none()) continue;
+        const std::string shown = py::repr(value);
+        switch (spec.kind) {
+            case Kind::Integer: {
+                int64_t v = 0;
+                bool ok = !is_bool(value) && PyIndex_Check(value.ptr());
+                if (ok) {
+                    try {
+                        v = py::int_(py::reinterpret_borrow<py::object>(value))
+                                .cast<int64_t>();
+                    } catch (const py::cast_error&) {
+                        ok = false;
+                    }
+                }
+                if (!ok) fail(name, " must be ", spec.allowed, ", got ", shown);
+                if (name == "spp") o.spp = v;
+                if (name == "seed") o.seed = v;
+                if (name == "threads") o.threads = v;
+                if (name == "max_bounces") o.max_bounces = v;
+                break;
+            }
+            case Kind::Number: {
+                if (is_bool(value) ||
+                    !(PyFloat_Check(value.ptr()) || PyIndex_Check(value.ptr())) ||
+                    std::isnan(value.cast<double>()))
+                    fail(name, " must be ", spec.allowed, ", got ", shown);
+                o.sphere_threshold = value.cast<double>();
+                break;
+            }
+            case Kind::Text: {
+                py::object path = py::module_::import("os").attr("fspath");
+                try {
+                    o.models = py::str(path(value));
+                } catch (const py::error_already_set&) {
+                    fail(name, " must be a path (str or os.PathLike), got ", shown);
+                }
+                break;
+            }
+            case Kind::Choice: {
+                if (!py::isinstance<py::str>(value))
+                    fail(name, " must be one of its names (a str), got ", shown);
+                const std::string v = py::str(value);
+                if (name == "integrator") o.integrator = v;
+                if (name == "sphere_sampler") o.sphere_sampler = v;
+                if (name == "step_nee") o.step_nee = v;
+                if (name == "backend") o.backend = v;
+                break;
+            }
+            case Kind::Flag: {
+                if (!is_bool(value)) fail(name, " must be True or False, got ", shown);
+                (name == "nee" ? o.nee : o.record_paths) = value.cast<bool>();
+                break;
+            }
+        }
+    }
+    return o;
+}
+
+py::dict options_dict(const RenderOptions& r) {
+    py::dict d;
+    d["integrator"] = r.integrator;
+    d["spp"] = r.spp;
+    d["seed"] = r.seed;
+    d["threads"] = r.threads;
+    d["max_bounces"] = r.max_bounces;
+    d["nee"] = r.nee;
+    d["sphere_threshold"] = r.sphere_threshold;
+    d["models"] = r.models;
+    d["sphere_sampler"] = to_string(r.sphere_sampler);
+    d["step_nee"] = to_string(r.step_nee);
+    d["record_paths"] = r.record_paths;
+    d["backend"] = to_string(r.backend);
+    return d;
+}
+
+}  // namespace
+
+void bind_render(py::module_& m) {
+    m.attr("DEFAULT_SPHERE_THRESHOLD") = kDefaultSphereThreshold;
+    m.def(
+        "render_option_specs",
+        []() {
+            py::list out;
+            for (const OptionSpec& s : render_option_specs()) {
+                static const char* kinds[] = {"integer", "number", "text", "choice",
+                                              "flag"};
+                py::dict d;
+                d["name"] = s.name;
+                d["kind"] = kinds[int(s.kind)];
+                d["choices"] = s.choices;
+                d["metavar"] = s.metavar;
+                d["help"] = s.help;
+                d["command_line"] = s.command_line;
+                out.append(d);
+            }
+            return out;
+        },
+        "The render options, one dict each: name, kind, choices, metavar, help, "
+        "command_line (render/options.h).");
+    m.def(
+        "resolve_render_options",
+        [](const Scene& scene, const std::string& default_models, const py::dict& text,
+           const py::kwargs& options) {
+            return options_dict(
+                resolve_render_options(scene.desc().render, scene.desc().source,
+                                       overrides_from(text, options), default_models));
+        },
+        py::arg("scene"), py::arg("default_models") = "", py::arg("text") = py::dict(),
+        "The options a render would use: defaults < the scene's render block < `text` "
+        "(command-line strings) < keyword arguments.");
+    m.def(
+        "render",
+        [](const Scene& scene, const std::string& default_models, py::object progress,
+           const py::dict& text, int gpu_batch, int gpu_lanes,
+           const py::kwargs& options) {
+            RenderOptions opt =
+                resolve_render_options(scene.desc().render, scene.desc().source,
+                                       overrides_from(text, options), default_models);
+            opt.gpu_batch = gpu_batch;
+            opt.gpu_lanes = gpu_lanes;
+            RenderProgress cb(progress);
+            RenderResult r;
+            {
+                py::gil_scoped_release release;
+                r = render_with_backend(scene, opt, std::ref(cb));
+            }
+            cb.rethrow();
+            py::dict d = film_dict(r, opt.spp, opt.record_paths, cb.interrupted);
+            d["step_seconds"] = r.step_seconds;
+            if (opt.backend == Backend::Vulkan) {
+                d["gpu_seconds"] = r.gpu_seconds;
+                d["device"] = r.device;
+            }
+            d["options"] = options_dict(opt);
+            return d;
+        },
+        py::arg("scene"), py::arg("default_models") = "",
+        py::arg("progress") = py::none(), py::arg("text") = py::dict(),
+        py::arg("gpu_batch") = 0, py::arg("gpu_lanes") = 0,
+        "Render with the resolved options (see resolve_render_options) on their "
+        "backend.");
+}

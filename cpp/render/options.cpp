@@ -1,0 +1,262 @@
+#include "render/options.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+
+#include "core/check.h"
+#include "render/scene.h"
+
+namespace sss {
+
+namespace {
+
+using Kind = OptionSpec::Kind;
+
+std::string quoted_list(const std::vector<std::string>& choices) {
+    std::string s;
+    for (const std::string& c : choices) s += (s.empty() ? "'" : ", '") + c + "'";
+    return s;
+}
+
+int64_t checked_integer(const std::string& name, int64_t v) {
+    const OptionSpec& s = render_option_spec(name);
+    if (v < s.lo || v > s.hi) fail(name, " must be ", s.allowed, ", got ", v);
+    return v;
+}
+
+std::string checked_choice(const std::string& name, const std::string& v) {
+    const OptionSpec& s = render_option_spec(name);
+    for (const std::string& c : s.choices)
+        if (v == c) return v;
+    fail(name, " '", v, "' is not allowed (allowed: ", quoted_list(s.choices), ")");
+}
+
+}  // namespace
+
+const std::vector<OptionSpec>& render_option_specs() {
+    constexpr int64_t kMaxInt32 = std::numeric_limits<int32_t>::max();
+    constexpr int64_t kMaxInt64 = std::numeric_limits<int64_t>::max();
+    static const std::vector<OptionSpec> specs = {
+        {"integrator",
+         Kind::Choice,
+         {"pt", "st"},
+         "NAME",
+         "pt (path tracing) or st (sphere tracing); default: the scene's, else pt",
+         true,
+         "pt or st"},
+        {"spp",
+         Kind::Integer,
+         {},
+         "N",
+         "samples per pixel (default: the scene's, else 16)",
+         true,
+         "an integer >= 1 (at most 16,777,216)",
+         1,
+         int64_t(1) << 24},
+        {"seed",
+         Kind::Integer,
+         {},
+         "N",
+         "random seed (default: the scene's, else 0)",
+         true,
+         "an integer >= 0",
+         0,
+         kMaxInt64},
+        {"threads",
+         Kind::Integer,
+         {},
+         "N",
+         "CPU worker threads (default 0: all cores)",
+         true,
+         "an integer >= 0 (0 = all cores)",
+         0,
+         4096},
+        {"max_bounces",
+         Kind::Integer,
+         {},
+         "N",
+         "scattering events per path, -1 = no limit (default: the scene's, else -1; st: "
+         "-1 "
+         "only)",
+         true,
+         "an integer >= -1 (-1: no limit)",
+         -1,
+         kMaxInt32},
+        {"nee",
+         Kind::Flag,
+         {},
+         "",
+         "light sampling with MIS at every scattering event (default); the command "
+         "lines' --no-nee turns it off: emitters then count only when paths hit them",
+         true,
+         "True or False"},
+        {"sphere_threshold",
+         Kind::Number,
+         {},
+         "TAU",
+         "st: a collision takes a sphere step where sigma_t * r >= TAU (default: the "
+         "scene's, else 6; inf: never)",
+         true,
+         "a number >= 0 (inf: no sphere steps)"},
+        {"models",
+         Kind::Text,
+         {},
+         "DIR",
+         "st: the directory of lengthgen.json, pathgen.json, eventgen.json (default: the "
+         "scene's render.models, else the shipped models)",
+         true,
+         "a directory path"},
+        {"sphere_sampler",
+         Kind::Choice,
+         {"model", "walk"},
+         "NAME",
+         "st: where steps come from: model (default) or walk (exact sphere walks, as "
+         "slow "
+         "as pt; CPU only)",
+         true,
+         "model or walk"},
+        {"step_nee",
+         Kind::Choice,
+         {"hits", "event"},
+         "NAME",
+         "st: the direct light of a sphere step's events: hits (default: from its exit "
+         "flight; EventGen only for point and directional lights) or event (EventGen's "
+         "representative event connects to every light; CPU only)",
+         true,
+         "hits or event"},
+        {"backend",
+         Kind::Choice,
+         {"cpu", "vulkan"},
+         "NAME",
+         "cpu (default) or vulkan: the GPU path, on a GPU or on Mesa's lavapipe "
+         "(docs/gpu.md)",
+         true,
+         "cpu or vulkan"},
+        {"record_paths",
+         Kind::Flag,
+         {},
+         "",
+         "keep every path's event and step counts (8 bytes per path)",
+         false,
+         "True or False"},
+    };
+    return specs;
+}
+
+const OptionSpec& render_option_spec(const std::string& name) {
+    for (const OptionSpec& s : render_option_specs())
+        if (name == s.name) return s;
+    std::string all;
+    for (const OptionSpec& s : render_option_specs())
+        all += (all.empty() ? "" : ", ") + std::string(s.name);
+    fail("unknown render option '", name, "' (allowed: ", all, ")");
+}
+
+void set_override_from_text(RenderOverrides& o, const std::string& name,
+                            const std::string& text) {
+    const OptionSpec& s = render_option_spec(name);
+    std::string flag = "--" + name;
+    for (char& c : flag)
+        if (c == '_') c = '-';
+    switch (s.kind) {
+        case Kind::Integer: {
+            char* end = nullptr;
+            errno = 0;
+            const long long v = std::strtoll(text.c_str(), &end, 10);
+            if (text.empty() || *end || errno == ERANGE)
+                fail(flag, ": expected ", s.allowed, ", got '", text, "'");
+            if (name == "spp") o.spp = v;
+            if (name == "seed") o.seed = v;
+            if (name == "threads") o.threads = v;
+            if (name == "max_bounces") o.max_bounces = v;
+            return;
+        }
+        case Kind::Number: {
+            char* end = nullptr;
+            const double v = std::strtod(text.c_str(), &end);
+            if (text.empty() || *end || std::isnan(v))
+                fail(flag, ": expected ", s.allowed, ", got '", text, "'");
+            o.sphere_threshold = v;
+            return;
+        }
+        case Kind::Text:
+            o.models = text;
+            return;
+        case Kind::Choice:
+            if (name == "integrator") o.integrator = text;
+            if (name == "sphere_sampler") o.sphere_sampler = text;
+            if (name == "step_nee") o.step_nee = text;
+            if (name == "backend") o.backend = text;
+            return;
+        case Kind::Flag: {
+            if (text != "true" && text != "false")
+                fail(flag, ": expected true or false, got '", text, "'");
+            (name == "nee" ? o.nee : o.record_paths) = text == "true";
+            return;
+        }
+    }
+}
+
+RenderOptions resolve_render_options(const RenderSettings& scene,
+                                     const std::string& source, const RenderOverrides& o,
+                                     const std::string& default_models) {
+    RenderOptions r;
+    // Defaults < scene < overrides, then every value checked.
+    r.integrator = checked_choice("integrator", o.integrator.value_or(scene.integrator));
+    r.spp = int(checked_integer("spp", o.spp.value_or(scene.spp)));
+    r.seed = uint64_t(checked_integer("seed", o.seed.value_or(int64_t(scene.seed))));
+    r.threads = int(checked_integer("threads", o.threads.value_or(0)));
+    r.max_bounces =
+        int(checked_integer("max_bounces", o.max_bounces.value_or(scene.max_bounces)));
+    r.nee = o.nee.value_or(true);
+    const double tau = o.sphere_threshold.value_or(scene.sphere_threshold);
+    if (!(tau >= 0.0))
+        fail("sphere_threshold must be a number >= 0 (inf: no sphere steps), got ", tau);
+    r.sphere_threshold = float(tau);
+    r.models = o.models                ? *o.models
+               : !scene.models.empty() ? scene.models
+                                       : default_models;
+    r.sphere_sampler =
+        checked_choice("sphere_sampler", o.sphere_sampler.value_or("model")) == "walk"
+            ? SphereSampler::Walk
+            : SphereSampler::Model;
+    r.step_nee = checked_choice("step_nee", o.step_nee.value_or("hits")) == "event"
+                     ? StepNee::Event
+                     : StepNee::Hits;
+    r.backend = checked_choice("backend", o.backend.value_or("cpu")) == "vulkan"
+                    ? Backend::Vulkan
+                    : Backend::Cpu;
+    r.record_paths = o.record_paths.value_or(false);
+
+    // Combinations
+    if (r.integrator == "st" && r.max_bounces != -1)
+        fail(source, ": max_bounces ", r.max_bounces,
+             " is not supported by integrator 'st' (allowed: -1): a sphere step stands "
+             "for "
+             "many scattering events at once");
+    if (r.backend == Backend::Vulkan) {
+        if (r.threads != 0)
+            fail("threads=", r.threads,
+                 " is CPU-only (backend 'vulkan' uses the GPU's own; allowed: 0)");
+        if (r.step_nee != StepNee::Hits)
+            fail(
+                "step_nee 'event' is CPU-only (backend 'vulkan' has step_nee 'hits' "
+                "only)");
+        if (r.sphere_sampler != SphereSampler::Model)
+            fail(
+                "sphere_sampler 'walk' is CPU-only (backend 'vulkan' samples steps with "
+                "the "
+                "models)");
+    }
+    return r;
+}
+
+const char* to_string(StepNee v) { return v == StepNee::Event ? "event" : "hits"; }
+const char* to_string(SphereSampler v) {
+    return v == SphereSampler::Walk ? "walk" : "model";
+}
+const char* to_string(Backend v) { return v == Backend::Vulkan ? "vulkan" : "cpu"; }
+
+}  // namespace sss

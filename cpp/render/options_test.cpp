@@ -1,0 +1,122 @@
+#include "render/options.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <set>
+
+#include "render/scene.h"
+#include "testing/errors.h"
+
+namespace sss {
+namespace {
+
+using test::error_of;
+
+RenderOptions resolve(const RenderSettings& scene, const RenderOverrides& o) {
+    return resolve_render_options(scene, "s.json", o, "shipped/");
+}
+
+TEST(RenderOptions, DefaultsThenSceneThenOverrides) {
+    RenderSettings scene;  // the scene file said nothing
+    RenderOptions d = resolve(scene, {});
+    const RenderOptions defaults;
+    EXPECT_EQ(d.integrator, defaults.integrator);
+    EXPECT_EQ(d.spp, defaults.spp);
+    EXPECT_EQ(d.sphere_threshold, kDefaultSphereThreshold);
+    EXPECT_EQ(d.models, "shipped/");
+    EXPECT_TRUE(d.nee);
+    EXPECT_EQ(d.backend, Backend::Cpu);
+
+    scene.integrator = "st";
+    scene.spp = 64;
+    scene.seed = 7;
+    scene.sphere_threshold = 3.f;
+    scene.models = "scene-models/";
+    RenderOptions s = resolve(scene, {});
+    EXPECT_EQ(s.integrator, "st");
+    EXPECT_EQ(s.spp, 64);
+    EXPECT_EQ(s.seed, 7u);
+    EXPECT_EQ(s.sphere_threshold, 3.f);
+    EXPECT_EQ(s.models, "scene-models/");
+
+    RenderOverrides o;
+    o.integrator = "pt";
+    o.spp = 5;
+    o.models = "mine/";
+    o.nee = false;
+    o.backend = "vulkan";
+    RenderOptions r = resolve(scene, o);
+    EXPECT_EQ(r.integrator, "pt");
+    EXPECT_EQ(r.spp, 5);
+    EXPECT_EQ(r.seed, 7u);  // not overridden: the scene's
+    EXPECT_EQ(r.models, "mine/");
+    EXPECT_FALSE(r.nee);
+    EXPECT_EQ(r.backend, Backend::Vulkan);
+}
+
+TEST(RenderOptions, BadValuesNameTheOptionAndWhatIsAllowed) {
+    RenderSettings scene;
+    auto err = [&](auto set) {
+        RenderOverrides o;
+        set(o);
+        return error_of([&] { resolve(scene, o); });
+    };
+    EXPECT_HAS(err([](auto& o) { o.spp = 0; }), "spp must be an integer >= 1");
+    EXPECT_HAS(err([](auto& o) { o.seed = -1; }), "seed must be an integer >= 0, got -1");
+    EXPECT_HAS(err([](auto& o) { o.threads = -2; }), "threads must be an integer >= 0");
+    EXPECT_HAS(err([](auto& o) { o.max_bounces = -3; }),
+               "max_bounces must be an integer >= -1");
+    EXPECT_HAS(err([](auto& o) { o.integrator = "mc"; }),
+               "integrator 'mc' is not allowed (allowed: 'pt', 'st')");
+    EXPECT_HAS(err([](auto& o) { o.step_nee = "paper"; }),
+               "step_nee 'paper' is not allowed (allowed: 'hits', 'event')");
+    EXPECT_HAS(err([](auto& o) { o.sphere_threshold = -1.0; }),
+               "sphere_threshold must be a number >= 0");
+    EXPECT_HAS(err([](auto& o) { o.sphere_threshold = std::nan(""); }),
+               "sphere_threshold must be a number >= 0");
+    EXPECT_HAS(err([](auto& o) { o.integrator = "st", o.max_bounces = 3; }),
+               "s.json: max_bounces 3 is not supported by integrator 'st' (allowed: -1)");
+    EXPECT_HAS(err([](auto& o) { o.backend = "vulkan", o.threads = 2; }),
+               "threads=2 is CPU-only");
+    EXPECT_HAS(err([](auto& o) { o.backend = "vulkan", o.step_nee = "event"; }),
+               "step_nee 'event' is CPU-only");
+    EXPECT_HAS(err([](auto& o) { o.backend = "cuda"; }),
+               "backend 'cuda' is not allowed (allowed: 'cpu', 'vulkan')");
+}
+
+TEST(RenderOptions, CommandLineTextIsParsedAndChecked) {
+    RenderOverrides o;
+    set_override_from_text(o, "spp", "12");
+    set_override_from_text(o, "sphere_threshold", "inf");
+    set_override_from_text(o, "nee", "false");
+    set_override_from_text(o, "step_nee", "event");
+    RenderOptions r = resolve(RenderSettings(), o);
+    EXPECT_EQ(r.spp, 12);
+    EXPECT_TRUE(std::isinf(r.sphere_threshold));
+    EXPECT_FALSE(r.nee);
+    EXPECT_EQ(r.step_nee, StepNee::Event);
+    EXPECT_HAS(error_of([&] { set_override_from_text(o, "spp", "1.5"); }),
+               "--spp: expected an integer >= 1");
+    EXPECT_HAS(
+        error_of([&] { set_override_from_text(o, "seed", "99999999999999999999"); }),
+        "--seed: expected an integer >= 0");
+    EXPECT_HAS(error_of([&] { set_override_from_text(o, "sphere_threshold", "nan"); }),
+               "--sphere-threshold: expected a number >= 0");
+    EXPECT_HAS(error_of([&] { set_override_from_text(o, "colour", "red"); }),
+               "unknown render option 'colour' (allowed: integrator, spp");
+}
+
+TEST(RenderOptions, TheTableNamesEveryOptionOnce) {
+    std::set<std::string> names;
+    for (const OptionSpec& s : render_option_specs()) {
+        EXPECT_TRUE(names.insert(s.name).second) << s.name;
+        EXPECT_NE(std::string(s.help), "") << s.name;
+        EXPECT_NE(std::string(s.allowed), "") << s.name;
+        EXPECT_EQ(s.kind == OptionSpec::Kind::Choice, !s.choices.empty()) << s.name;
+        if (s.kind == OptionSpec::Kind::Integer) EXPECT_LT(s.lo, s.hi) << s.name;
+    }
+}
+
+}  // namespace
+}  // namespace sss
