@@ -10,9 +10,12 @@ if [ ! -f build/dev/CTestTestfile.cmake ] || [ ! -f build/dev/python ]; then
   exit 2
 fi
 py=$(cat build/dev/python)   # the interpreter install.sh --dev installed into
+# ctest from the same environment (pip's cmake, which built build/dev), else from PATH
+ctest=$(dirname "$py")/ctest
+[ -x "$ctest" ] || ctest=ctest
 # Lint and format checks first (seconds): ruff (pyflakes, pycodestyle and bugbear rules from
 # pyproject.toml) and clang-format (.clang-format: Google base, 4-space indent, 90 columns).
 "$py" -m ruff check python tests bench scenes
 clang-format --dry-run --Werror $(git ls-files 'cpp/*.cpp' 'cpp/*.h')
-ctest --test-dir build/dev --output-on-failure -j "$(nproc)"
+"$ctest" --test-dir build/dev --output-on-failure -j "$(nproc)"
 "$py" -m pytest tests "$@"
