@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Training-data generation speed: `sssphere datagen` for 4M samples (issue target: under 10
+"""Training-data generation speed: `sssphere datagen` for 4M samples (target: under 10
 minutes on the 2-core CI machine; the published C# generator needed 12-24 hours).
 
 Runs the generator exactly as `sssphere datagen` does (same parameter sampling, same chunks)

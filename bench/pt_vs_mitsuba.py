@@ -225,7 +225,7 @@ def main(argv=None) -> int:
 
     threads = args.threads if args.threads > 0 else (os.cpu_count() or 1)
     # Mitsuba's scalar variants render on Dr.Jit's thread pool. Keep at least two workers
-    # (BUILD-NOTES: one worker hung while writing an EXR).
+    # (with one worker thread, Mitsuba 3.9 hung while writing an EXR).
     dr.set_thread_count(max(threads, 2) if args.threads == 0 else args.threads)
     settings = {
         "spp": args.spp, "resolution": args.resolution, "albedo": args.albedo, "g": args.g,

@@ -7,7 +7,7 @@ records for each render the time, the complexity (ordinary events and sphere ste
 and its error against the reference:
 
 * ``rmse_srgb``: RMSE of the sRGB-tonemapped images (clip to [0, 1], sRGB curve), noise and
-  bias together, as in DESIGN §6;
+  bias together (bench/README.md);
 * ``bias``: the relative difference of the image means per channel, with its one-sigma
   ``bias_sigma`` from the renders' variances (model error shows up here, noise averages out).
 

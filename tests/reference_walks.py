@@ -1,4 +1,4 @@
-"""A plain NumPy simulation of the canonical sphere problem (DESIGN §3, docs/notation.md).
+"""A plain NumPy simulation of the canonical sphere problem (docs/notation.md, "The canonical sphere problem").
 
 It is the test oracle for the C++ generator `sssphere.sphere_walks` (same signature, same
 keys) and the training-data source of the learning tests. Written for clarity first: all walks

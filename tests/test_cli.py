@@ -182,3 +182,10 @@ def test_both_command_lines_reject_a_bad_option_value_alike(tmp_path, small_scen
                              capture_output=True, text=True)
         for r in (py, cpp):
             assert r.returncode == 1 and message in r.stderr, (args, r.stderr)
+
+
+def test_the_options_page_lists_every_option():
+    with open(os.path.join(REPO, "docs", "options.md"), encoding="utf-8") as f:
+        page = f.read()
+    for spec in _core.render_option_specs():
+        assert f"| `{spec['name']}` |" in page, spec["name"]

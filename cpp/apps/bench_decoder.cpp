@@ -1,5 +1,5 @@
 // sssphere-bench-decoder: what a learned sphere step costs next to one path-traced
-// scattering event (DESIGN §6, issue 4: a step of LengthGen + PathGen should cost <= 3 PT
+// scattering event (bench/README.md: a step of LengthGen + PathGen should cost <= 3 PT
 // events). Single thread, float, best of several runs; writes JSON (bench/README.md).
 //
 //   sssphere-bench-decoder [--models DIR] [-o bench/results/decoder_cost.json] [--quick]

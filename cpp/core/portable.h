@@ -1,5 +1,5 @@
 // The common subset of C++ and GLSL in which core/frame.h and the headers of cpp/shared/
-// are written, so that the CPU and the shaders compile the same maths (STYLE.md, "Math
+// are written, so that the CPU and the shaders compile the same maths (docs/architecture.md, "Math
 // written once"). This is the C++ side; cpp/gpu/shaders/portable.glsl is the GLSL side.
 //
 // A portable header:

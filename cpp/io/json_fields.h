@@ -56,7 +56,7 @@ inline const char* type_name(const json& j) {
     }
 }
 
-// Unknown keys are errors (STYLE.md: parameter names are a contract).
+// Unknown keys are errors (parameter names are a contract: docs/architecture.md).
 inline void check_keys(const json& obj, const Field& f,
                        std::initializer_list<const char*> allowed) {
     if (!obj.is_object())

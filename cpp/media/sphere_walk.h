@@ -1,4 +1,4 @@
-// The canonical sphere problem (DESIGN §3, docs/notation.md "Sphere walks"): ground truth
+// The canonical sphere problem (docs/notation.md, "The canonical sphere problem"): ground truth
 // for training and evaluating the learned scattering models.
 //
 // A photon starts at the centre of the unit sphere travelling +z; the first scattering

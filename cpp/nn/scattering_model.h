@@ -1,4 +1,4 @@
-// The learned sphere step (DESIGN §3, §5; docs/model-format.md): LengthGen, PathGen and
+// The learned sphere step (docs/sphere-tracing.md, docs/model-format.md): LengthGen, PathGen and
 // EventGen loaded from one directory, sampled for an optical radius sigma = sigma_t * r,
 // the HG anisotropy g and the single-scattering albedo phi. Everything is in the
 // canonical exit frame of docs/notation.md (photon enters at the centre travelling +z).

@@ -105,7 +105,7 @@ Vec3 PathTracer::transmittance(const Vec3& p, const Vec3& w, float dist, int sha
 Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
                               int channel, Rng& rng, bool mis, bool delta_only) const {
     const Shape& s = scene_.desc().shapes[shape];
-    // A straight shadow ray never leaves a smooth dielectric boundary (DESIGN §2).
+    // A straight shadow ray never leaves a smooth dielectric boundary (docs/notation.md, "Next-event estimation").
     if (s.boundary.type == BoundaryType::Dielectric) return Vec3(0.f);
     // Every shadow ray first travels at least r through this medium.
     float sigma_min =
@@ -205,7 +205,7 @@ void PathTracer::start(PathState& ps, const Vec3& o, const Vec3& d,
     ps.o = o;
     ps.d = d;
     // RGB media with differing channels: each path transports one channel, chosen
-    // uniformly, with weight 3 (unbiased; DESIGN §2). Grey media: all three channels at
+    // uniformly, with weight 3 (unbiased; docs/notation.md, "Colour"). Grey media: all three channels at
     // once.
     if (!scene_.grey_media()) {
         ps.channel = std::min(2, int(ps.rng.uniform() * 3.f));

@@ -4,7 +4,7 @@
 // (MIS with phase sampling for area and environment lights). See docs/notation.md for the
 // conventions.
 //
-// With a SphereTracing policy it is the sphere tracer (integrator "st", DESIGN §5,
+// With a SphereTracing policy it is the sphere tracer (integrator "st",
 // docs/sphere-tracing.md): at a real collision deep enough inside a medium one learned
 // sphere step replaces the scattering events inside the largest sphere there; everything
 // else (flights, boundaries, lights, NEE, roulette) is the same code.
@@ -34,7 +34,7 @@ struct PathState {
     Vec3 o, d;  // position and direction
     Vec3 L{0.f}, beta{1.f};
     float beta_start = 1.f;
-    int channel = -1;  // the channel carried (-1: all three; RGB media, DESIGN §2)
+    int channel = -1;  // the channel carried (-1: all three; RGB media, docs/notation.md)
     int shape = -1;    // the shape whose medium holds the photon; -1 = vacuum
     // The last vertex did no light sampling that an emitter hit now must share with: the
     // camera, a specular interface, or a sphere step with StepNee::Hits (weight 1).

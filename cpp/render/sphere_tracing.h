@@ -1,4 +1,4 @@
-// The sphere-step policy of integrator "st" (DESIGN §5, docs/sphere-tracing.md): when and
+// The sphere-step policy of integrator "st" (docs/sphere-tracing.md): when and
 // how large a sphere step is, and one step sampled and mapped into the world. The path
 // logic around it (throughput, NEE weights, MIS state, roulette) is PathTracer's: "st" is
 // the path tracer with this policy switched on.
@@ -17,7 +17,7 @@ namespace sss {
 class ScatteringModel;
 
 // The largest optical radius of a step when exact walks stand in for the models (the same
-// as the models' training range, DESIGN §3).
+// as the models' training range, docs/notation.md).
 constexpr float kWalkSigmaMax = 200.f;
 // A scene albedo this close outside EventGen's training range of phi is clamped into it
 // for EventGen (only the choice of the representative event sees the clamp; the weights

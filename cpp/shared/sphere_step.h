@@ -1,4 +1,4 @@
-// The geometry and weights of one sphere step (DESIGN §5; docs/notation.md "The exit
+// The geometry and weights of one sphere step (docs/sphere-tracing.md; docs/notation.md "The exit
 // frame", docs/sphere-tracing.md). Value in, value out, and portable (core/portable.h):
 // the shaders compile it too.
 //

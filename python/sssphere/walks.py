@@ -1,6 +1,6 @@
 """Ground truth for the learned models: random walks in the canonical unit sphere.
 
-See DESIGN §3 and docs/notation.md ("Sphere walks"): a photon starts at the centre travelling
+See docs/notation.md ("The canonical sphere problem"): a photon starts at the centre travelling
 +z, scatters there (the first event counts) and alternates Henyey-Greenstein scattering with
 exponential flights of optical radius ``sigma_t`` until it leaves the sphere.
 """

@@ -1,4 +1,4 @@
-"""Fidelity report: learned models against ground-truth sphere walks (issue 3, item 6).
+"""Fidelity report: learned models against ground-truth sphere walks.
 
 On the paper's grid σ ∈ {1, 4, 20, 100} × g ∈ {−0.7, 0, 0.4, 0.9} (φ = ``ALBEDO`` for the
 representative event), ``samples`` walks per cell from the model and from ``sphere_walks``:
