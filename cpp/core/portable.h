@@ -1,6 +1,7 @@
 // The common subset of C++ and GLSL in which core/frame.h and the headers of cpp/shared/
-// are written, so that the CPU and the shaders compile the same maths (docs/architecture.md, "Math
-// written once"). This is the C++ side; cpp/gpu/shaders/portable.glsl is the GLSL side.
+// are written, so that the CPU and the shaders compile the same maths
+// (docs/architecture.md, "Math written once"). This is the C++ side;
+// cpp/gpu/shaders/portable.glsl is the GLSL side.
 //
 // A portable header:
 // - guards C++-only parts (includes, the namespace, member functions) with

@@ -56,6 +56,8 @@ public:
         : s_(rng_make(a, b, c)) {}
     uint32_t next_u32() { return rng_next_u32(s_); }
     float uniform() { return rng_uniform(s_); }
+    // For the portable functions that draw from the stream (shared/path.h).
+    RngState& state() { return s_; }
 
 private:
     RngState s_;

@@ -1,7 +1,7 @@
-// A conservative distance field to a closed mesh (docs/notation.md, "Distance grid"): exact point-to-triangle
-// distances (CGAL AABB tree) at the nodes of a regular grid over the mesh bounds, and at
-// query time the 1-Lipschitz bound  r(p) = max_corners( d(node) - |p - node| ),  which is
-// never larger than the true distance from p to the surface.
+// A conservative distance field to a closed mesh (docs/notation.md, "Distance grid"):
+// exact point-to-triangle distances (CGAL AABB tree) at the nodes of a regular grid over
+// the mesh bounds, and at query time the 1-Lipschitz bound  r(p) = max_corners( d(node) -
+// |p - node| ),  which is never larger than the true distance from p to the surface.
 #pragma once
 
 #include <cstdint>

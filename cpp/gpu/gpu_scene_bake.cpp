@@ -160,8 +160,9 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
     h.counts[2] = uint32_t(c.width);
     h.counts[3] = uint32_t(c.height);
     h.lighting[0] = uint32_t(desc.lights.size());
-    // A straight shadow ray never leaves a dielectric boundary (docs/notation.md, "Next-event estimation"): with only
-    // those, NEE finds nothing and the shaders skip it (the same estimator).
+    // A straight shadow ray never leaves a dielectric boundary (docs/notation.md,
+    // "Next-event estimation"): with only those, NEE finds nothing and the shaders skip
+    // it (the same estimator).
     h.lighting[1] = nee && index_matched && !desc.lights.empty() ? 1u : 0u;
     h.lighting[2] = num_delta;
     // The area lights' quads, after the shapes in Scene's order (its ray tracer's).

@@ -1,5 +1,5 @@
-// The canonical sphere problem (docs/notation.md, "The canonical sphere problem"): ground truth
-// for training and evaluating the learned scattering models.
+// The canonical sphere problem (docs/notation.md, "The canonical sphere problem"): ground
+// truth for training and evaluating the learned scattering models.
 //
 // A photon starts at the centre of the unit sphere travelling +z; the first scattering
 // event is at the centre and counts. It alternates Henyey-Greenstein scattering and

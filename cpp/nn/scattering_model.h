@@ -1,7 +1,8 @@
-// The learned sphere step (docs/sphere-tracing.md, docs/model-format.md): LengthGen, PathGen and
-// EventGen loaded from one directory, sampled for an optical radius sigma = sigma_t * r,
-// the HG anisotropy g and the single-scattering albedo phi. Everything is in the
-// canonical exit frame of docs/notation.md (photon enters at the centre travelling +z).
+// The learned sphere step (docs/sphere-tracing.md, docs/model-format.md): LengthGen,
+// PathGen and EventGen loaded from one directory, sampled for an optical radius sigma =
+// sigma_t * r, the HG anisotropy g and the single-scattering albedo phi. Everything is in
+// the canonical exit frame of docs/notation.md (photon enters at the centre travelling
+// +z).
 //
 // One step, in the order it consumes the Rng (both implementations consume it
 // identically):

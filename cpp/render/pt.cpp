@@ -7,6 +7,7 @@
 #include "render/sphere_tracing.h"
 #include "shared/fresnel.h"
 #include "shared/hg.h"
+#include "shared/path.h"
 #include "shared/ray_offset.h"
 #include "shared/sampling.h"
 #include "shared/sphere_step.h"
@@ -16,29 +17,9 @@ namespace sss {
 namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
-// Russian roulette starts once the throughput fell below this fraction of its start
-// value.
-constexpr float kRouletteThreshold = 0.1f;
-// Shadow rays whose transmittance is bounded (by the distance grid) below this value are
-// traced with probability bound / kShadowRoulette and reweighted: unbiased, and it skips
-// almost every shadow ray deep inside a dense medium.
-// 0.1 by measurement (docs/notation.md): the image variance barely changes, the time
-// drops.
-constexpr float kShadowRoulette = 0.1f;
-// Shadow rays cross at most this many boundaries (then the light counts as blocked): the
-// crossings of one ray are collected on the stack.
-constexpr int kMaxShadowCrossings = 64;
 
 float extinction(const Medium& m, int channel) {
     return channel < 0 ? m.sigma_t.x : m.sigma_t[channel];
-}
-
-// Transmittance exp(-sigma_t d) per channel; a zero extinction gives 1 even for d = inf.
-Vec3 beer(Vec3 sigma_t, float d) {
-    Vec3 tr;
-    for (int c = 0; c < 3; ++c)
-        tr[c] = sigma_t[c] > 0.f ? std::exp(-sigma_t[c] * d) : 1.f;
-    return tr;
 }
 
 // The origin of a ray leaving the surface point of `hit` in direction w: past the hit
@@ -47,15 +28,8 @@ Vec3 leave(const Hit& hit, const Vec3& w) {
     return offset_ray_origin(hit.p, hit.p_error, hit.normal, w);
 }
 
-// Path Russian roulette after a scattering event or sphere step, once the throughput
-// fell below kRouletteThreshold of its start value: false ends the path.
 bool survives_roulette(Vec3& beta, float beta_start, Rng& rng) {
-    float q = max_component(beta) / beta_start;
-    if (q < kRouletteThreshold) {
-        if (rng.uniform() >= q) return false;
-        beta /= q;
-    }
-    return true;
+    return survives_roulette(beta, beta_start, rng.state());  // shared/path.h
 }
 
 }  // namespace
@@ -71,9 +45,7 @@ PathTracer::PathTracer(const Scene& scene, int max_bounces, bool nee,
 float PathTracer::area_light_pdf(int light, const Vec3& p, const Vec3& w, float t,
                                  const Vec3& n) const {
     const Light& l = scene_.desc().lights[light];
-    float area = length(cross(l.edge1, l.edge2));
-    float cos_l = std::abs(dot(w, n));
-    return cos_l > 0.f ? t * t / (cos_l * area) : 0.f;
+    return sss::area_light_pdf(length(cross(l.edge1, l.edge2)), w, t, n);
 }
 
 Vec3 PathTracer::transmittance(const Vec3& p, const Vec3& w, float dist, int shape,
@@ -105,7 +77,8 @@ Vec3 PathTracer::transmittance(const Vec3& p, const Vec3& w, float dist, int sha
 Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
                               int channel, Rng& rng, bool mis, bool delta_only) const {
     const Shape& s = scene_.desc().shapes[shape];
-    // A straight shadow ray never leaves a smooth dielectric boundary (docs/notation.md, "Next-event estimation").
+    // A straight shadow ray never leaves a smooth dielectric boundary (docs/notation.md,
+    // "Next-event estimation").
     if (s.boundary.type == BoundaryType::Dielectric) return Vec3(0.f);
     // Every shadow ray first travels at least r through this medium.
     float sigma_min =
@@ -205,8 +178,8 @@ void PathTracer::start(PathState& ps, const Vec3& o, const Vec3& d,
     ps.o = o;
     ps.d = d;
     // RGB media with differing channels: each path transports one channel, chosen
-    // uniformly, with weight 3 (unbiased; docs/notation.md, "Colour"). Grey media: all three channels at
-    // once.
+    // uniformly, with weight 3 (unbiased; docs/notation.md, "Colour"). Grey media: all
+    // three channels at once.
     if (!scene_.grey_media()) {
         ps.channel = std::min(2, int(ps.rng.uniform() * 3.f));
         ps.beta = Vec3(0.f);

@@ -1,6 +1,6 @@
-// The geometry and weights of one sphere step (docs/sphere-tracing.md; docs/notation.md "The exit
-// frame", docs/sphere-tracing.md). Value in, value out, and portable (core/portable.h):
-// the shaders compile it too.
+// The geometry and weights of one sphere step (docs/sphere-tracing.md; docs/notation.md
+// "The exit frame", docs/sphere-tracing.md). Value in, value out, and portable
+// (core/portable.h): the shaders compile it too.
 //
 // The canonical step is a unit sphere entered at its centre travelling +z. Its exit frame
 // puts the exit point at x = (sin theta, 0, cos theta), with n = x, b = +y, t = b x n =

@@ -9,6 +9,7 @@
 #include "core/rng.h"
 #include "shared/fresnel.h"
 #include "shared/hg.h"
+#include "shared/path.h"
 #include "shared/ray_offset.h"
 #include "shared/sampling.h"
 #include "shared/softplus.h"

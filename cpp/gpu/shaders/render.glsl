@@ -46,37 +46,11 @@ layout(push_constant) uniform Push {
 
 layout(constant_id = 12) const bool NEE = false;
 
-// As pt.cpp.
-const float kRouletteThreshold = 0.1;
-const float kShadowRoulette = 0.1;
-const int kMaxShadowCrossings = 64;
-
-bool survives_roulette(inout vec3 beta, float beta_start, inout RngState rng) {
-    float q = max(beta.x, max(beta.y, beta.z)) / beta_start;
-    if (q < kRouletteThreshold) {
-        if (rng_uniform(rng) >= q) return false;
-        beta /= q;
-    }
-    return true;
-}
-
 // The origin of a ray leaving the surface point of `hit` in direction w (PathTracer's
 // leave(): shared/ray_offset.h).
 vec3 leave(Hit hit, vec3 w) { return offset_ray_origin(hit.p, hit.p_error, hit.normal, w); }
 
 bool is_black(vec3 v) { return v.x == 0.0 && v.y == 0.0 && v.z == 0.0; }
-
-// Per channel exp(-sigma_t d); a zero extinction gives 1 even for d = inf.
-vec3 beer(vec3 sigma_t, float d) {
-    return mix(vec3(1.0), exp(-sigma_t * d), greaterThan(sigma_t, vec3(0.0)));
-}
-
-// The solid-angle pdf at p of a uniform point on an area light of that area, seen at
-// distance t along w from a surface of normal n.
-float area_light_pdf(float area, vec3 w, float t, vec3 n) {
-    float cos_l = abs(dot(w, n));
-    return cos_l > 0.0 ? t * t / (cos_l * area) : 0.0;
-}
 
 // PathTracer::transmittance from p along w over dist, starting in `shape` (-1: vacuum):
 // Beer's law through the media it crosses at index-matched boundaries; 0 when a dielectric
