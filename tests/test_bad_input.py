@@ -3,7 +3,9 @@ never a crash, a hang or a NaN image."""
 
 import json
 import math
+import os
 
+import numpy as np
 import pytest
 
 import sssphere
@@ -147,3 +149,57 @@ def test_bad_image_paths(tmp_path):
         sssphere.write_image(tmp_path / "no" / "a.exr", img)
     with pytest.raises(SceneError, match="shape"):
         sssphere.write_image(tmp_path / "a.exr", np.zeros((2, 2, 2), np.float32))
+
+
+# ---------------------------------------------------------------------------------------------
+# Input that used to crash, hang or pass silently
+
+
+def test_deeply_nested_json_is_refused_not_a_crash(tmp_path):
+    (tmp_path / "deep.json").write_text("[" * 100_000 + "]" * 100_000)
+    with pytest.raises(SceneError, match=r"deep.json: \[0\]\[0\].*JSON nested deeper than 64 levels"):
+        sssphere.load_scene(tmp_path / "deep.json")
+    deep = []
+    for _ in range(100_000):
+        deep = [deep]
+    with pytest.raises(SceneError, match="nested too deeply"):
+        sssphere.load_scene({"camera": deep})
+
+
+def test_a_key_given_twice_is_refused(tmp_path, small_scene):
+    text = json.dumps(small_scene).replace('"spp": 4', '"spp": 4, "spp": 8')
+    (tmp_path / "dup.json").write_text(text)
+    with pytest.raises(SceneError, match=r"dup.json: render.spp: key 'spp' appears twice in one object"):
+        sssphere.load_scene(tmp_path / "dup.json")
+
+
+def test_inputs_that_are_not_regular_files_are_refused(tmp_path, small_scene):
+    fifo = tmp_path / "fifo.obj"
+    os.mkfifo(fifo)
+    small_scene["shapes"][0] = {"mesh": str(fifo), "medium": {"sigma_t": 1, "albedo": 0.5}}
+    with pytest.raises(SceneError, match=r"fifo.obj: is not a regular file .* a mesh file must be a regular"):
+        sssphere.load_scene(small_scene)
+    os.mkfifo(tmp_path / "scene.json")
+    with pytest.raises(SceneError, match="scene.json: is not a regular file"):
+        sssphere.load_scene(tmp_path / "scene.json")
+    with pytest.raises(SceneError, match="x.exr: is not a regular file"):
+        os.mkfifo(tmp_path / "x.exr")
+        sssphere.read_image(tmp_path / "x.exr")
+
+
+def test_outputs_are_replaced_whole(tmp_path):
+    from sssphere._files import atomic_output
+
+    out = tmp_path / "image.exr"
+    sssphere.write_image(out, np.ones((4, 4, 3)))
+    sssphere.write_image(out, np.full((4, 4, 3), 2.0))
+    assert sssphere.read_image(out).max() == 2.0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["image.exr"]  # no temporary left
+    # A write that fails half-way leaves the previous file as it was
+    target = tmp_path / "walks.npz"
+    target.write_bytes(b"previous")
+    with pytest.raises(RuntimeError), atomic_output(target) as tmp:
+        tmp.write_bytes(b"half")
+        raise RuntimeError("interrupted")
+    assert target.read_bytes() == b"previous"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["image.exr", "walks.npz"]

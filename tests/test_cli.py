@@ -59,13 +59,13 @@ def test_cli_errors_are_clear(tmp_path, small_scene, args, expected):
     assert "Traceback" not in r.stderr
 
 
-def _interrupt_after_start(cmd, tmp_path):
+def _interrupt_after_start(cmd, tmp_path, sig=signal.SIGINT, after=1.0):
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     # The progress bar's first output says the render has started (after the scene build,
     # which takes longer on a loaded machine); then a few passes.
     first = proc.stderr.read(1)
-    time.sleep(1.0)
-    proc.send_signal(signal.SIGINT)
+    time.sleep(after)
+    proc.send_signal(sig)
     _, err = proc.communicate(timeout=120)
     return proc.returncode, first + err
 
@@ -189,3 +189,29 @@ def test_the_options_page_lists_every_option():
         page = f.read()
     for spec in _core.render_option_specs():
         assert f"| `{spec['name']}` |" in page, spec["name"]
+
+
+@pytest.mark.parametrize("cli", ["python", "cpp"])
+def test_sigterm_writes_the_partial_image_and_exits_143(tmp_path, slow_scene, cli):
+    """SIGTERM (kill, batch schedulers) stops a render as Ctrl-C does, within a second, and
+    says so by its exit status 143 (128 + 15)."""
+    out = tmp_path / "partial.exr"
+    cmd = ([sys.executable, "-m", "sssphere.cli", "render"] if cli == "python" else [_cpp_cli()])
+    start = time.monotonic()
+    code, err = _interrupt_after_start([*cmd, str(slow_scene), "-o", str(out)], tmp_path, signal.SIGTERM)
+    assert code == 143, err
+    assert time.monotonic() - start < 30  # not the 2^16 spp the scene asks for
+    assert "wrote the partial image" in err
+    img = sssphere.read_image(out)
+    assert np.all(np.isfinite(img)) and img.max() > 0
+
+
+def test_sigterm_keeps_the_walks_datagen_finished(tmp_path):
+    out = tmp_path / "walks.npz"
+    code, err = _interrupt_after_start([sys.executable, "-m", "sssphere.cli", "datagen", "--samples",
+                                        "2000000", "-o", str(out)], tmp_path, signal.SIGTERM, after=5.0)
+    assert code == 143, err
+    assert "interrupted: wrote the walks finished so far" in err
+    with np.load(out) as data:
+        assert 0 < len(data["N"]) < 2_000_000 and len(data["N"]) % 10_000 == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["walks.npz"]

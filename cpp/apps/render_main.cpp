@@ -18,8 +18,10 @@
 
 namespace {
 
-volatile std::sig_atomic_t g_interrupted = 0;
-void on_sigint(int) { g_interrupted = 1; }
+// Ctrl-C and SIGTERM (kill, batch schedulers) stop the render; the image so far is
+// written and the exit status says which: 130 or 143.
+volatile std::sig_atomic_t g_signal = 0;
+void on_signal(int sig) { g_signal = sig; }
 
 // The shipped decoders when neither --models nor the scene names any: those installed
 // with the Python package beside this program (a wheel puts the program in <env>/bin and
@@ -106,14 +108,15 @@ int main(int argc, char** argv) {
             desc.render, desc.source, overrides, shipped_models());
         sss::Scene scene(std::move(desc), opt.threads);
 
-        std::signal(SIGINT, on_sigint);
+        std::signal(SIGINT, on_signal);
+        std::signal(SIGTERM, on_signal);
         sss::RenderResult r = sss::render_with_backend(scene, opt, [&](double f) {
             if (!quiet) {
                 int filled = int(f * 40);
                 std::fprintf(stderr, "\r[%-40s] %5.1f%%",
                              std::string(filled, '#').c_str(), 100 * f);
             }
-            return !g_interrupted;
+            return g_signal == 0;
         });
         if (!quiet) std::fprintf(stderr, "\n");
         sss::write_image(out_path, r.image, r.width, r.height);
@@ -143,7 +146,7 @@ int main(int argc, char** argv) {
                      out_path.c_str(), r.seconds,
                      paths > 0 ? r.total_events / paths : 0.0, steps.c_str(),
                      r.device.empty() ? "" : " on ", r.device.c_str());
-        return r.cancelled ? 130 : 0;
+        return r.cancelled ? 128 + (g_signal ? int(g_signal) : SIGINT) : 0;
     } catch (const std::exception& e) {
         std::cerr << "sssphere-render: error: " << e.what() << "\n";
         return 1;

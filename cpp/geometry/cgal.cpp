@@ -21,6 +21,7 @@
 #include <thread>
 
 #include "core/check.h"
+#include "core/files.h"
 #include "geometry/distance_grid.h"
 #include "geometry/mesh.h"
 
@@ -75,7 +76,7 @@ TriangleMesh load_mesh(const std::string& path) {
     if (ext != ".obj" && ext != ".ply" && ext != ".off" && ext != ".stl")
         fail(path, ": unsupported mesh format '", ext,
              "' (allowed: .obj, .ply, .off, .stl)");
-    if (!fs::exists(path)) fail(path, ": mesh file does not exist");
+    check_input_file(path, "mesh file");
     if (!std::ifstream(path).good()) fail(path, ": mesh file cannot be read");
 
     std::vector<Point> points;

@@ -4,6 +4,7 @@
 #include <fstream>
 
 #include "core/check.h"
+#include "core/files.h"
 
 namespace sss {
 
@@ -69,6 +70,7 @@ void save_gpu_scene(const GpuSceneData& scene, const std::string& path) {
 }
 
 GpuSceneData load_gpu_scene(const std::string& path) {
+    check_input_file(path, "baked scene file");
     std::ifstream in(path, std::ios::binary);
     if (!in) fail(path, ": cannot be read");
     char magic[8] = {};

@@ -57,7 +57,7 @@ TEST(GpuScene, OldAndForeignFilesAreRefused) {
     EXPECT_HAS(error_of([&] { load_gpu_scene(other); }),
                "not a baked GPU scene (no SSSGPU02 header)");
     EXPECT_HAS(error_of([&] { load_gpu_scene(temp_path("missing.bin")); }),
-               "cannot be read");
+               "baked scene file does not exist");
     std::remove(old_file.c_str());
     std::remove(other.c_str());
 }

@@ -1,12 +1,15 @@
 #include "io/image_io.h"
 
 #include <OpenImageIO/imageio.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <string>
 
 #include "core/check.h"
+#include "core/files.h"
 
 namespace sss {
 
@@ -34,13 +37,25 @@ void write_image(const std::string& path, const std::vector<float>& pixels, int 
     std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
     SSS_CHECK(pixels.size() == size_t(width) * height * channels);
 
+    // Written to a temporary file beside it (same extension: it picks the format), then
+    // renamed into place: an interrupted or failed write never leaves a truncated image
+    // where the previous one was.
+    const fs::path target(path);
+    const std::string tmp = (target.parent_path() /
+                             ("." + target.stem().string() + ".tmp-" +
+                              std::to_string(::getpid()) + target.extension().string()))
+                                .string();
+    auto cleanup = [&] {
+        std::error_code ec;
+        fs::remove(tmp, ec);
+    };
     auto out = OIIO::ImageOutput::create(path);
     if (!out) fail(path, ": cannot create an image writer: ", OIIO::geterror());
     bool ok;
     if (ext == ".exr") {
         OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::FLOAT);
         spec.attribute("compression", "zip");
-        ok = out->open(path, spec) &&
+        ok = out->open(tmp, spec) &&
              out->write_image(OIIO::TypeDesc::FLOAT, pixels.data());
     } else {
         std::vector<unsigned char> bytes(pixels.size());
@@ -48,16 +63,30 @@ void write_image(const std::string& path, const std::vector<float>& pixels, int 
             bytes[i] = (unsigned char)std::lround(255.f * linear_to_srgb(pixels[i]));
         OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::UINT8);
         spec.attribute("oiio:ColorSpace", "sRGB");
-        ok = out->open(path, spec) &&
-             out->write_image(OIIO::TypeDesc::UINT8, bytes.data());
+        ok =
+            out->open(tmp, spec) && out->write_image(OIIO::TypeDesc::UINT8, bytes.data());
     }
-    if (!ok) fail(path, ": cannot write image: ", out->geterror());
-    if (!out->close()) fail(path, ": cannot finish writing image: ", out->geterror());
+    if (!ok) {
+        const std::string why = out->geterror();
+        cleanup();
+        fail(path, ": cannot write image: ", why);
+    }
+    if (!out->close()) {
+        const std::string why = out->geterror();
+        cleanup();
+        fail(path, ": cannot finish writing image: ", why);
+    }
+    std::error_code ec;
+    fs::rename(tmp, target, ec);
+    if (ec) {
+        cleanup();
+        fail(path, ": cannot move the written image into place: ", ec.message());
+    }
 }
 
 std::vector<float> read_image(const std::string& path, int* width, int* height,
                               int* channels) {
-    if (!std::filesystem::exists(path)) fail(path, ": image file does not exist");
+    check_input_file(path, "image file");
     auto in = OIIO::ImageInput::open(path);
     if (!in) fail(path, ": cannot read image: ", OIIO::geterror());
     const OIIO::ImageSpec& spec = in->spec();

@@ -5,10 +5,12 @@
 
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <initializer_list>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <string>
+#include <vector>
 
 #include "core/check.h"
 
@@ -53,6 +55,77 @@ inline const char* type_name(const json& j) {
             return "an object";
         default:
             return "a number";
+    }
+}
+
+// Parsed files nest at most this deep (scenes need 4 levels, model files 5); deeper input
+// is refused while it is parsed, before it can exhaust the stack of a recursive consumer.
+constexpr int kMaxJsonDepth = 64;
+
+// Parses `text` (named `source` in messages): malformed JSON, nesting deeper than
+// kMaxJsonDepth and an object with the same key twice (which JSON parsers otherwise
+// resolve silently, the last one winning) are errors naming the place.
+// `hint` (optional) adds a sentence to the message of malformed JSON.
+inline json parse_json(const std::string& text, const std::string& source,
+                       const std::function<std::string()>& hint = {}) {
+    // The path to where the parser is, one entry per open object or array, for messages.
+    struct Level {
+        bool object;
+        std::string name;            // how the parent names this level
+        std::set<std::string> keys;  // objects: the keys seen so far
+        std::string key;             // objects: the last key
+        size_t index = 0;            // arrays: the next element's index
+    };
+    std::vector<Level> levels;
+    auto where = [&]() {
+        std::string path;
+        for (size_t i = 1; i < levels.size(); ++i) path += levels[i].name;
+        if (!levels.empty() && levels.back().object && !levels.back().key.empty())
+            path += (path.empty() ? "" : ".") + levels.back().key;
+        if (path.size() > 60) path = path.substr(0, 57) + "...";
+        return path.empty() ? std::string("(top level)") : path;
+    };
+    auto child_name = [&]() -> std::string {
+        if (levels.empty()) return "";
+        Level& parent = levels.back();
+        if (parent.object) return (levels.size() > 1 ? "." : "") + parent.key;
+        return "[" + std::to_string(parent.index++) + "]";
+    };
+    json::parser_callback_t cb = [&](int depth, json::parse_event_t event, json& parsed) {
+        using E = json::parse_event_t;
+        if (depth > kMaxJsonDepth)
+            fail(source, ": ", where(), ": JSON nested deeper than ", kMaxJsonDepth,
+                 " levels (allowed: at most ", kMaxJsonDepth, ")");
+        switch (event) {
+            case E::object_start:
+            case E::array_start: {
+                std::string name = child_name();
+                levels.push_back({event == E::object_start, name, {}, {}, 0});
+                break;
+            }
+            case E::object_end:
+            case E::array_end:
+                if (!levels.empty()) levels.pop_back();
+                break;
+            case E::key: {
+                Level& l = levels.back();
+                const std::string key = parsed.get<std::string>();
+                l.key = key;
+                if (!l.keys.insert(key).second)
+                    fail(source, ": ", where(), ": key '", key,
+                         "' appears twice in one object (allowed: once)");
+                break;
+            }
+            case E::value:
+                if (!levels.empty() && !levels.back().object) ++levels.back().index;
+                break;
+        }
+        return true;
+    };
+    try {
+        return json::parse(text, cb);
+    } catch (const json::exception& e) {
+        fail(source, ": malformed JSON: ", e.what(), hint ? hint() : std::string());
     }
 }
 

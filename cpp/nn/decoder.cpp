@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "core/check.h"
+#include "core/files.h"
 #include "io/json_fields.h"
 #include "shared/softplus.h"
 
@@ -153,12 +154,7 @@ std::string parse_error_hint(const std::string& text) {
 }  // namespace
 
 Decoder parse_decoder(const std::string& text, const std::string& source) {
-    json j;
-    try {
-        j = json::parse(text);
-    } catch (const json::parse_error& e) {
-        fail(source, ": malformed JSON: ", e.what(), parse_error_hint(text));
-    }
+    json j = parse_json(text, source, [&] { return parse_error_hint(text); });
     Field root{source, ""};
     if (!j.is_object()) root.error("expected a JSON object, got ", type_name(j));
 
@@ -253,8 +249,7 @@ Decoder parse_decoder(const std::string& text, const std::string& source) {
 }
 
 Decoder load_decoder(const std::string& path) {
-    if (std::filesystem::is_directory(path))
-        fail(path, ": is a directory, not a model file");
+    if (std::filesystem::exists(path)) check_input_file(path, "model file");
     std::ifstream in(path, std::ios::binary);
     if (!in) fail(path, ": cannot open the model file (missing or unreadable)");
     std::ostringstream text;

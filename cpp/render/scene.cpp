@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "core/check.h"
+#include "core/files.h"
 #include "io/json_fields.h"
 
 namespace sss {
@@ -338,12 +339,7 @@ void warn_past_limits(SceneDesc& d, double extent) {
 
 SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
                       const std::string& source) {
-    json root;
-    try {
-        root = json::parse(json_text);
-    } catch (const json::exception& e) {
-        fail(source, ": malformed JSON: ", e.what());
-    }
+    json root = parse_json(json_text, source);
     SceneDesc d;
     d.source = source;
     Field f{d.source, ""};
@@ -395,8 +391,7 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
 
 SceneDesc load_scene_file(const std::string& path) {
     namespace fs = std::filesystem;
-    if (!fs::exists(path)) fail(path, ": scene file does not exist");
-    if (fs::is_directory(path)) fail(path, ": is a directory, not a scene file");
+    check_input_file(path, "scene file");
     std::ifstream in(path);
     if (!in) fail(path, ": scene file cannot be read");
     std::stringstream ss;

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 import time
 import warnings
@@ -86,7 +87,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
     )
     if not np.all(np.isfinite(result.image)):
         print("warning: the image has non-finite pixels", file=sys.stderr)
-    return 130 if result.interrupted else 0
+    return _interrupted_status() if result.interrupted else 0
 
 
 def _cmd_datagen(args: argparse.Namespace) -> int:
@@ -101,11 +102,15 @@ def _cmd_datagen(args: argparse.Namespace) -> int:
     finally:
         bar.close()
     n = len(data["N"])
+    if interrupted and n == 0:
+        print(f"interrupted before the first walks finished: wrote nothing to {args.output}",
+              file=sys.stderr)
+        return _interrupted_status()
     what = "interrupted: wrote the walks finished so far to" if interrupted else "wrote"
     print(f"{what} {args.output} ({n} walks in {seconds:.1f}s, {n / max(seconds, 1e-9):,.0f} "
           f"walks/s; mean N {data['N'].mean() if n else 0:.1f}, "
           f"P(N = 1) {np.mean(data['N'] == 1) if n else 0:.3f})", file=sys.stderr)
-    return 130 if interrupted else 0
+    return _interrupted_status() if interrupted else 0
 
 
 def _learn_modules():
@@ -250,8 +255,24 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+# SIGTERM (kill, batch schedulers, container runtimes) stops a long command as Ctrl-C does:
+# the work done so far is written, and the exit status is 143 (128 + SIGTERM) instead of 130.
+_terminated = False
+
+
+def _on_sigterm(signum, frame):
+    global _terminated
+    _terminated = True
+    raise KeyboardInterrupt
+
+
+def _interrupted_status() -> int:
+    return 128 + signal.SIGTERM if _terminated else 130
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         return args.func(args)
     except SceneError as e:

@@ -70,10 +70,14 @@ def load_scene(
     """
     threads = 0 if threads is None else int(threads)
     if isinstance(scene, dict):
-        bad = _find_non_finite(scene, "")
+        try:
+            bad = _find_non_finite(scene, "")
+            text = json.dumps(scene)
+        except RecursionError:
+            raise SceneError("<dict>: nested too deeply (the scene format nests at most a few "
+                             "levels)") from None
         if bad:
             raise SceneError(f"<dict>: {bad}: value is not a finite number")
-        text = json.dumps(scene)
         base = str(base_dir) if base_dir is not None else os.getcwd()
         return _warned(_core.Scene(text, base, "<dict>", threads))
     path = Path(scene)
@@ -81,6 +85,9 @@ def load_scene(
         raise SceneError(f"{path}: scene file does not exist")
     if path.is_dir():
         raise SceneError(f"{path}: is a directory, not a scene file")
+    if not path.is_file():  # a FIFO, device or socket would block the read
+        raise SceneError(f"{path}: is not a regular file (a FIFO, device or socket?); a scene file "
+                         "must be a regular file")
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as e:

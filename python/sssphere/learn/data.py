@@ -37,6 +37,8 @@ from typing import Callable
 
 import numpy as np
 
+from sssphere._files import atomic_output
+
 VECTOR_KEYS = ("sigma", "g", "phi", "N", "cos_theta", "alpha", "beta")
 MATRIX_KEYS = ("X", "W")
 REQUIRED_KEYS = VECTOR_KEYS + MATRIX_KEYS
@@ -171,7 +173,11 @@ def save_training_data(path, data: dict | TrainingData, meta: dict | None = None
     validate_arrays(arrays, path)
     if meta:
         arrays["meta"] = np.array(json.dumps(meta))
-    np.savez(path, **arrays)
+    path = Path(path)
+    if path.suffix != ".npz":  # as np.savez names it
+        path = path.with_name(path.name + ".npz")
+    with atomic_output(path) as tmp, open(tmp, "wb") as f:
+        np.savez(f, **arrays)
 
 
 def sample_conditions(n: int, rng: np.random.Generator, sigma_max: float = 200.0,

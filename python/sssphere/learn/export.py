@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from sssphere._files import atomic_output
 from sssphere.learn.models import CVAE, GaussianMLP
 from sssphere.learn.spec import (FORMAT, FORMAT_VERSION, NOTATION_VERSION, SPECS, SPECS_BY_NAME,
                                  Encoding, ModelSpec, round9)
@@ -145,11 +146,11 @@ def write_model(out_dir, spec: ModelSpec, model: CVAE, encodings: dict, training
     out = Path(out_dir)
     obj = decoder_json(spec, model.decoder, encodings, training, metrics)
     json_path = out / f"{spec.file_stem}.json"
-    tmp = json_path.with_suffix(".json.tmp")
-    tmp.write_text(_dumps(obj) + "\n", encoding="utf-8")
-    tmp.replace(json_path)
+    with atomic_output(json_path) as tmp:
+        tmp.write_text(_dumps(obj) + "\n", encoding="utf-8")
     onnx_path = out / f"{spec.file_stem}.onnx"
-    export_onnx(model.decoder, spec.input_width, onnx_path)
+    with atomic_output(onnx_path) as tmp:
+        export_onnx(model.decoder, spec.input_width, tmp)
     return [json_path, onnx_path]
 
 
@@ -166,7 +167,8 @@ def save_checkpoint(path, trained: dict) -> Path:
         }
     buf = io.BytesIO()
     torch.save(blob, buf)
-    Path(path).write_bytes(buf.getvalue())
+    with atomic_output(path) as tmp:
+        tmp.write_bytes(buf.getvalue())
     return Path(path)
 
 
