@@ -40,8 +40,8 @@ RenderOverrides overrides_from(const py::dict& text, const py::kwargs& kwargs) {
         const std::string shown = py::repr(value);
         switch (spec.kind) {
             case Kind::Integer: {
-                int64_t v = 0;
                 bool ok = !is_bool(value) && PyIndex_Check(value.ptr());
+                int64_t v = 0;
                 if (ok) {
                     try {
                         v = py::int_(py::reinterpret_borrow<py::object>(value))
@@ -51,44 +51,34 @@ RenderOverrides overrides_from(const py::dict& text, const py::kwargs& kwargs) {
                     }
                 }
                 if (!ok) fail(name, " must be ", spec.allowed, ", got ", shown);
-                if (name == "spp") o.spp = v;
-                if (name == "seed") o.seed = v;
-                if (name == "threads") o.threads = v;
-                if (name == "max_bounces") o.max_bounces = v;
+                set_override(o, name, v);
                 break;
             }
-            case Kind::Number: {
+            case Kind::Number:
                 if (is_bool(value) ||
                     !(PyFloat_Check(value.ptr()) || PyIndex_Check(value.ptr())) ||
                     std::isnan(value.cast<double>()))
                     fail(name, " must be ", spec.allowed, ", got ", shown);
-                o.sphere_threshold = value.cast<double>();
+                set_override(o, name, value.cast<double>());
                 break;
-            }
-            case Kind::Text: {
-                py::object path = py::module_::import("os").attr("fspath");
+            case Kind::Text:
                 try {
-                    o.models = py::str(path(value));
+                    set_override(o, name,
+                                 std::string(py::str(
+                                     py::module_::import("os").attr("fspath")(value))));
                 } catch (const py::error_already_set&) {
                     fail(name, " must be a path (str or os.PathLike), got ", shown);
                 }
                 break;
-            }
-            case Kind::Choice: {
+            case Kind::Choice:
                 if (!py::isinstance<py::str>(value))
                     fail(name, " must be one of its names (a str), got ", shown);
-                const std::string v = py::str(value);
-                if (name == "integrator") o.integrator = v;
-                if (name == "sphere_sampler") o.sphere_sampler = v;
-                if (name == "step_nee") o.step_nee = v;
-                if (name == "backend") o.backend = v;
+                set_override(o, name, std::string(py::str(value)));
                 break;
-            }
-            case Kind::Flag: {
+            case Kind::Flag:
                 if (!is_bool(value)) fail(name, " must be True or False, got ", shown);
-                (name == "nee" ? o.nee : o.record_paths) = value.cast<bool>();
+                set_override(o, name, value.cast<bool>());
                 break;
-            }
         }
     }
     return o;

@@ -154,6 +154,29 @@ const OptionSpec& render_option_spec(const std::string& name) {
     fail("unknown render option '", name, "' (allowed: ", all, ")");
 }
 
+void set_override(RenderOverrides& o, const std::string& name, const OptionValue& v) {
+    const OptionSpec& s = render_option_spec(name);
+    const Kind given = std::holds_alternative<int64_t>(v)  ? Kind::Integer
+                       : std::holds_alternative<double>(v) ? Kind::Number
+                       : std::holds_alternative<bool>(v)   ? Kind::Flag
+                                                           : Kind::Text;
+    const bool text_kind = s.kind == Kind::Text || s.kind == Kind::Choice;
+    if (given != s.kind && !(text_kind && given == Kind::Text))
+        fail("internal: render option '", name, "' set with a value of another kind");
+    if (name == "integrator") o.integrator = std::get<std::string>(v);
+    if (name == "models") o.models = std::get<std::string>(v);
+    if (name == "sphere_sampler") o.sphere_sampler = std::get<std::string>(v);
+    if (name == "step_nee") o.step_nee = std::get<std::string>(v);
+    if (name == "backend") o.backend = std::get<std::string>(v);
+    if (name == "spp") o.spp = std::get<int64_t>(v);
+    if (name == "seed") o.seed = std::get<int64_t>(v);
+    if (name == "threads") o.threads = std::get<int64_t>(v);
+    if (name == "max_bounces") o.max_bounces = std::get<int64_t>(v);
+    if (name == "sphere_threshold") o.sphere_threshold = std::get<double>(v);
+    if (name == "nee") o.nee = std::get<bool>(v);
+    if (name == "record_paths") o.record_paths = std::get<bool>(v);
+}
+
 void set_override_from_text(RenderOverrides& o, const std::string& name,
                             const std::string& text) {
     const OptionSpec& s = render_option_spec(name);
@@ -167,35 +190,22 @@ void set_override_from_text(RenderOverrides& o, const std::string& name,
             const long long v = std::strtoll(text.c_str(), &end, 10);
             if (text.empty() || *end || errno == ERANGE)
                 fail(flag, ": expected ", s.allowed, ", got '", text, "'");
-            if (name == "spp") o.spp = v;
-            if (name == "seed") o.seed = v;
-            if (name == "threads") o.threads = v;
-            if (name == "max_bounces") o.max_bounces = v;
-            return;
+            return set_override(o, name, int64_t(v));
         }
         case Kind::Number: {
             char* end = nullptr;
             const double v = std::strtod(text.c_str(), &end);
             if (text.empty() || *end || std::isnan(v))
                 fail(flag, ": expected ", s.allowed, ", got '", text, "'");
-            o.sphere_threshold = v;
-            return;
+            return set_override(o, name, v);
         }
         case Kind::Text:
-            o.models = text;
-            return;
         case Kind::Choice:
-            if (name == "integrator") o.integrator = text;
-            if (name == "sphere_sampler") o.sphere_sampler = text;
-            if (name == "step_nee") o.step_nee = text;
-            if (name == "backend") o.backend = text;
-            return;
-        case Kind::Flag: {
+            return set_override(o, name, text);
+        case Kind::Flag:
             if (text != "true" && text != "false")
                 fail(flag, ": expected true or false, got '", text, "'");
-            (name == "nee" ? o.nee : o.record_paths) = text == "true";
-            return;
-        }
+            return set_override(o, name, text == "true");
     }
 }
 

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <variant>
 #include <vector>
 
 namespace sss {
@@ -88,6 +89,11 @@ struct OptionSpec {
 // The row of option `name`; throws sss::Error naming the options there are.
 const OptionSpec& render_option_spec(const std::string& name);
 const std::vector<OptionSpec>& render_option_specs();
+
+// A value of an option's kind: Integer, Number, Flag; Text and Choice take the string.
+using OptionValue = std::variant<int64_t, double, std::string, bool>;
+// Sets override `name` (checked when resolved). Throws sss::Error for an unknown name.
+void set_override(RenderOverrides& o, const std::string& name, const OptionValue& value);
 
 // Sets override `name` from its command-line text, checked ("--spp: expected an integer
 // >= 1, got 'x'"). Flags take "true" or "false". Throws sss::Error.
