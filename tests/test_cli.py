@@ -215,3 +215,19 @@ def test_sigterm_keeps_the_walks_datagen_finished(tmp_path):
     with np.load(out) as data:
         assert 0 < len(data["N"]) < 2_000_000 and len(data["N"]) % 10_000 == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["walks.npz"]
+
+
+@pytest.mark.parametrize("cli", ["python", "cpp"])
+def test_time_limit_option_stops_the_render_and_reports_the_spp(tmp_path, slow_scene, cli):
+    """--time-limit S ends a render of the scene's 2^16 spp after S seconds of rendering,
+    writes an image of the whole passes done, says how many spp that is and exits 0."""
+    out = tmp_path / "timed.exr"
+    cmd = ([sys.executable, "-m", "sssphere.cli", "render"] if cli == "python" else [_cpp_cli()])
+    r = subprocess.run([*cmd, str(slow_scene), "-o", str(out), "--time-limit", "0.5", "--quiet",
+                        "--seed", "4"], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert "time limit reached" in r.stderr, r.stderr
+    spp = int(re.search(r"(\d+) spp", r.stderr).group(1))
+    assert 1 <= spp < 1 << 16
+    expected = sssphere.render(sssphere.load_scene(slow_scene), spp=spp, seed=4)
+    np.testing.assert_allclose(sssphere.read_image(out), expected, rtol=1e-5, atol=1e-7)

@@ -606,6 +606,18 @@ def test_gpu_dispatches_start_at_one_sample_and_grow_at_most_fourfold():
     np.testing.assert_array_equal(stopped["samples"], 1)
 
 
+def test_gpu_time_limit_stops_between_dispatches_with_the_spp_reached():
+    """A time limit ends a GPU render between dispatches (every dispatch covers every pixel,
+    so the samples stay uniform); the image is that of a render of the spp reached."""
+    scene = sssphere.load_scene(sphere_scene(res=(16, 16), sigma_t=30.0))
+    r = sssphere.render_full(scene, backend="vulkan", time_limit=0.5, seed=7)
+    assert r.time_limit_reached and not r.interrupted
+    assert 1 <= r.spp < 1 << 24 and np.all(r.samples == r.spp)
+    assert r.seconds < 30
+    full = sssphere.render_full(scene, backend="vulkan", spp=r.spp, seed=7)
+    np.testing.assert_array_equal(r.image, full.image)
+
+
 @pytest.mark.parametrize("integrator", ["pt", "st"])
 def test_gpu_render_is_deterministic(integrator, model_dir):
     """The same seed gives the same image whatever the batching of samples into dispatches

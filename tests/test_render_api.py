@@ -157,3 +157,52 @@ def test_nee_with_mis_agrees_with_plain_path_tracing(small_scene, lights):
         chi2 = float((z ** 2).sum())
         assert stats.chi2.sf(chi2, n) > 1e-3, f"channel {c}: chi2 {chi2:.1f} over {n} blocks"
         assert np.abs(z).max() < stats.norm.isf(1e-3 / (2 * n)), (c, np.abs(z).max())
+
+
+def test_a_stopped_render_keeps_whole_passes_so_every_pixel_has_its_first_samples(small_scene):
+    small_scene["render"]["spp"] = 1 << 14
+    small_scene["shapes"][0]["medium"]["sigma_t"] = 200
+    calls = []
+
+    def progress(fraction):
+        calls.append(fraction)
+        return len(calls) < 4
+
+    r = sssphere.render_full(small_scene, progress=progress, seed=5, threads=2)
+    assert r.interrupted and not r.time_limit_reached
+    assert 0 < r.spp < 1 << 14
+    assert np.all(r.samples == r.spp)
+    # The same samples as a render of r.spp from the start: pixel means agree to rounding
+    # (the passes group the sums differently).
+    full = sssphere.render_full(small_scene, spp=r.spp, seed=5, threads=1)
+    np.testing.assert_allclose(r.image, full.image, rtol=1e-5, atol=1e-7)
+    assert r.mean_events_per_path == pytest.approx(full.mean_events_per_path, rel=1e-12)
+
+
+def test_time_limit_stops_with_whole_passes_and_reports_the_spp_reached(small_scene):
+    small_scene["shapes"][0]["medium"]["sigma_t"] = 200
+    scene = sssphere.load_scene(small_scene)
+    del small_scene["render"]["spp"]
+    # No spp given: the time alone ends it (spp would otherwise be 2**24, hours here).
+    r = sssphere.render_full(dict(small_scene, render={"time_limit": 0.5}), seed=2)
+    assert r.time_limit_reached and not r.interrupted
+    assert r.options["time_limit"] == 0.5 and r.options["spp"] == 1 << 24
+    assert 1 <= r.spp < 1 << 24 and np.all(r.samples == r.spp)
+    assert r.seconds < 30  # stopped, not run to 2**24 spp
+    full = sssphere.render_full(scene, spp=r.spp, seed=2)
+    np.testing.assert_allclose(r.image, full.image, rtol=1e-5, atol=1e-7)
+    # A limit not reached changes nothing but the grouping of the sums.
+    unhurried = sssphere.render_full(scene, spp=8, seed=2, time_limit=600)
+    assert not unhurried.time_limit_reached and unhurried.spp == 8
+    np.testing.assert_allclose(unhurried.image, sssphere.render_full(scene, spp=8, seed=2).image,
+                               rtol=1e-6, atol=0)
+
+
+def test_time_limit_is_checked(small_scene):
+    scene = sssphere.load_scene(small_scene)
+    for bad in (-1, float("inf"), "1"):
+        with pytest.raises(ValueError, match="time_limit must be a number >= 0"):
+            sssphere.render_full(scene, time_limit=bad)
+    small_scene["render"]["time_limit"] = -2
+    with pytest.raises(sssphere.SceneError, match=r"render\.time_limit.*0 \(no limit\) to 1e9"):
+        sssphere.load_scene(small_scene)

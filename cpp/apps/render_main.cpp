@@ -141,11 +141,13 @@ int main(int argc, char** argv) {
                               r.total_sphere_steps / paths);
             steps = buf;
         }
-        std::fprintf(stderr, "%s %s: %.2f s, %.1f scattering events%s per path%s%s\n",
-                     r.cancelled ? "interrupted; wrote the partial image" : "wrote",
-                     out_path.c_str(), r.seconds,
-                     paths > 0 ? r.total_events / paths : 0.0, steps.c_str(),
-                     r.device.empty() ? "" : " on ", r.device.c_str());
+        std::fprintf(
+            stderr, "%s %s: %.2f s, %d spp, %.1f scattering events%s per path%s%s\n",
+            r.cancelled            ? "interrupted; wrote the partial image"
+            : r.time_limit_reached ? "time limit reached; wrote"
+                                   : "wrote",
+            out_path.c_str(), r.seconds, r.spp, paths > 0 ? r.total_events / paths : 0.0,
+            steps.c_str(), r.device.empty() ? "" : " on ", r.device.c_str());
         return r.cancelled ? 128 + (g_signal ? int(g_signal) : SIGINT) : 0;
     } catch (const std::exception& e) {
         std::cerr << "sssphere-render: error: " << e.what() << "\n";

@@ -32,6 +32,8 @@ RenderResult render_with_backend(const Scene& scene, const RenderOptions& option
     r.path_steps = std::move(g.path_steps);
     r.seconds = g.seconds;
     r.cancelled = g.cancelled;
+    r.time_limit_reached = g.time_limit_reached;
+    r.spp = g.spp;
     r.total_events = g.total_events;
     r.total_sphere_steps = g.total_sphere_steps;
     r.total_paths = g.total_paths;

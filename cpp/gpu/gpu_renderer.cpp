@@ -149,13 +149,31 @@ GpuRenderResult GpuRenderer::render(const RenderOptions& opt,
     int done = 0;
     int next = opt.gpu_batch > 0 ? batch : 1;  // samples per pixel of the next dispatch
     double dispatch_seconds = 0.0;             // wall time of the dispatches so far
+    auto elapsed = [&] {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+            .count();
+    };
+    const bool timed = opt.time_limit > 0.0;
     while (done < opt.spp) {
-        if (progress && !progress(double(done) / opt.spp)) {
+        // A time limit stops the render once a dispatch is in (every pixel then has the
+        // same samples) and sizes the last dispatches to end near it.
+        if (timed && done > 0 && elapsed() >= opt.time_limit) {
+            r.time_limit_reached = true;
+            break;
+        }
+        double f = double(done) / opt.spp;
+        if (timed) f = std::min(1.0, std::max(f, elapsed() / opt.time_limit));
+        if (progress && !progress(f)) {
             r.cancelled = true;
             break;
         }
         const auto dispatch_start = std::chrono::steady_clock::now();
-        const int b = std::min(next, opt.spp - done);
+        int b = std::min(next, opt.spp - done);
+        if (timed && done > 0 && opt.gpu_batch <= 0) {
+            const double left = opt.time_limit - elapsed();
+            b = int(std::clamp(left * done / std::max(dispatch_seconds, 1e-9), 1.0,
+                               double(b)));
+        }
         const size_t paths = size_t(b) * pixels;
         RenderPush push{uint32_t(opt.seed), uint32_t(opt.seed >> 32), uint32_t(done),
                         int32_t(opt.max_bounces), uint32_t(paths)};
@@ -215,6 +233,7 @@ GpuRenderResult GpuRenderer::render(const RenderOptions& opt,
     r.events.assign(pixels, 0.f);
     r.sphere_steps.assign(pixels, 0.f);
     r.samples.assign(pixels, uint32_t(done));
+    r.spp = done;
     const double n = done;
     for (size_t p = 0; p < pixels; ++p) {
         r.total_paths += uint64_t(done);

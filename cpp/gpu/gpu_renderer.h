@@ -27,7 +27,9 @@ struct GpuRenderResult {
     std::vector<uint32_t> path_events, path_steps;  // (spp, height, width), record_paths
     double seconds = 0.0;      // wall time of the render (uploads and sums included)
     double gpu_seconds = 0.0;  // the dispatches alone, from GPU timestamps
-    bool cancelled = false;
+    bool cancelled = false;    // stopped by the progress callback
+    bool time_limit_reached = false;  // stopped by RenderOptions::time_limit
+    int spp = 0;                      // samples every pixel has
     uint64_t total_events = 0, total_sphere_steps = 0, total_paths = 0;
     std::string device;
 };

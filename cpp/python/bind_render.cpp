@@ -98,6 +98,7 @@ py::dict options_dict(const RenderOptions& r) {
     d["step_nee"] = to_string(r.step_nee);
     d["record_paths"] = r.record_paths;
     d["backend"] = to_string(r.backend);
+    d["time_limit"] = r.time_limit;
     return d;
 }
 

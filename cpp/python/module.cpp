@@ -72,7 +72,9 @@ PYBIND11_MODULE(_core, m) {
                                [](const Scene& s) { return s.desc().warnings; })
         .def_property_readonly("integrator",
                                [](const Scene& s) { return s.desc().render.integrator; })
-        .def_property_readonly("spp", [](const Scene& s) { return s.desc().render.spp; })
+        .def_property_readonly(
+            "spp",
+            [](const Scene& s) { return s.desc().render.spp.value_or(kDefaultSpp); })
         .def_property_readonly("seed",
                                [](const Scene& s) { return s.desc().render.seed; })
         .def_property_readonly("max_bounces",
@@ -128,7 +130,8 @@ PYBIND11_MODULE(_core, m) {
             os << "<sssphere.Scene '" << s.desc().source << "': " << s.desc().camera.width
                << "x" << s.desc().camera.height << ", " << s.num_shapes() << " shape(s), "
                << s.desc().lights.size() << " light(s), integrator '"
-               << s.desc().render.integrator << "', " << s.desc().render.spp << " spp>";
+               << s.desc().render.integrator << "', "
+               << s.desc().render.spp.value_or(kDefaultSpp) << " spp>";
             return os.str();
         });
 

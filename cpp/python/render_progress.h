@@ -39,6 +39,8 @@ pybind11::dict film_dict(const Result& r, int spp, bool record_paths, bool inter
     }
     d["seconds"] = r.seconds;
     d["cancelled"] = r.cancelled;
+    d["time_limit_reached"] = r.time_limit_reached;
+    d["spp"] = r.spp;
     d["interrupted"] = interrupted;
     d["total_events"] = r.total_events;
     d["total_sphere_steps"] = r.total_sphere_steps;

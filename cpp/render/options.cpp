@@ -134,6 +134,15 @@ const std::vector<OptionSpec>& render_option_specs() {
          "(docs/gpu.md)",
          true,
          "cpu or vulkan"},
+        {"time_limit",
+         Kind::Number,
+         {},
+         "S",
+         "stop after S seconds of rendering with the passes every pixel has finished; "
+         "spp stays the most it takes and defaults to unlimited (default: the scene's, "
+         "else none)",
+         true,
+         "a number >= 0 (seconds; 0: no limit)"},
         {"record_paths",
          Kind::Flag,
          {},
@@ -173,6 +182,7 @@ void set_override(RenderOverrides& o, const std::string& name, const OptionValue
     if (name == "threads") o.threads = std::get<int64_t>(v);
     if (name == "max_bounces") o.max_bounces = std::get<int64_t>(v);
     if (name == "sphere_threshold") o.sphere_threshold = std::get<double>(v);
+    if (name == "time_limit") o.time_limit = std::get<double>(v);
     if (name == "nee") o.nee = std::get<bool>(v);
     if (name == "record_paths") o.record_paths = std::get<bool>(v);
 }
@@ -215,7 +225,14 @@ RenderOptions resolve_render_options(const RenderSettings& scene,
     RenderOptions r;
     // Defaults < scene < overrides, then every value checked.
     r.integrator = checked_choice("integrator", o.integrator.value_or(scene.integrator));
-    r.spp = int(checked_integer("spp", o.spp.value_or(scene.spp)));
+    const double time_limit = o.time_limit.value_or(scene.time_limit);
+    if (!(time_limit >= 0.0) || std::isinf(time_limit))
+        fail("time_limit must be a number >= 0 (seconds; 0: no limit), got ", time_limit);
+    r.time_limit = time_limit;
+    // With a time limit and no spp given, the time alone ends the render.
+    const int64_t default_spp =
+        time_limit > 0 ? render_option_spec("spp").hi : kDefaultSpp;
+    r.spp = int(checked_integer("spp", o.spp.value_or(scene.spp.value_or(default_spp))));
     r.seed = uint64_t(checked_integer("seed", o.seed.value_or(int64_t(scene.seed))));
     r.threads = int(checked_integer("threads", o.threads.value_or(0)));
     r.max_bounces =

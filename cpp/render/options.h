@@ -36,13 +36,15 @@ enum class StepNee { Hits, Event };
 
 enum class Backend { Cpu, Vulkan };
 
+constexpr int kDefaultSpp = 16;
+
 // record_paths keeps 8 bytes per path, for at most this many paths.
 constexpr uint64_t kMaxRecordedPaths = uint64_t(1) << 27;
 
 // A render's options, resolved and checked.
 struct RenderOptions {
     std::string integrator = "pt";  // "pt" (path tracing) or "st" (sphere tracing)
-    int spp = 16;
+    int spp = kDefaultSpp;
     uint64_t seed = 0;
     int threads = 0;       // CPU worker threads; 0 = all cores
     int max_bounces = -1;  // scattering events per path; -1 = no limit ("st": only -1)
@@ -60,6 +62,9 @@ struct RenderOptions {
     // Vulkan, for benchmarks (no result depends on them): samples per pixel per dispatch
     // (0: sized by time) and invocations per dispatch (0: one path each).
     int gpu_batch = 0, gpu_lanes = 0;
+    // Seconds of rendering after which the render stops with the passes every pixel has
+    // finished (at least one sample per pixel); spp stays the most it takes. 0: none.
+    double time_limit = 0.0;
 };
 
 // A caller's overrides: every option it sets; the others come from the scene file's
@@ -68,7 +73,7 @@ struct RenderOptions {
 struct RenderOverrides {
     std::optional<std::string> integrator, models, sphere_sampler, step_nee, backend;
     std::optional<int64_t> spp, seed, threads, max_bounces;
-    std::optional<double> sphere_threshold;
+    std::optional<double> sphere_threshold, time_limit;
     std::optional<bool> nee, record_paths;
 };
 

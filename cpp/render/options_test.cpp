@@ -55,6 +55,29 @@ TEST(RenderOptions, DefaultsThenSceneThenOverrides) {
     EXPECT_EQ(r.backend, Backend::Vulkan);
 }
 
+TEST(RenderOptions, ATimeLimitWithoutSppLeavesTheTimeToEndTheRender) {
+    RenderSettings scene;
+    RenderOverrides o;
+    o.time_limit = 2.5;
+    RenderOptions r = resolve(scene, o);
+    EXPECT_EQ(r.time_limit, 2.5);
+    EXPECT_EQ(r.spp, render_option_spec("spp").hi);  // no spp given: unlimited
+    scene.spp = 64;                                  // an spp given stays the most
+    EXPECT_EQ(resolve(scene, o).spp, 64);
+    o.spp = 8;
+    EXPECT_EQ(resolve(scene, o).spp, 8);
+    scene.time_limit = 9.0;  // the scene's limit, overridden by the caller's
+    EXPECT_EQ(resolve(scene, {}).time_limit, 9.0);
+    EXPECT_EQ(resolve(scene, o).time_limit, 2.5);
+    for (double bad : {-1.0, double(INFINITY), double(NAN)}) {
+        o.time_limit = bad;
+        EXPECT_NE(error_of([&] {
+                      resolve(scene, o);
+                  }).find("time_limit must be a number >= 0 (seconds; 0: no limit)"),
+                  std::string::npos);
+    }
+}
+
 TEST(RenderOptions, BadValuesNameTheOptionAndWhatIsAllowed) {
     RenderSettings scene;
     auto err = [&](auto set) {

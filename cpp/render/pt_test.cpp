@@ -111,7 +111,7 @@ TEST(Renderer, IdenticalForAnyThreadCount) {
     EXPECT_NE(a.image, c.image);
 }
 
-TEST(Renderer, CancelKeepsFinishedPassesAndCountsThem) {
+TEST(Renderer, StoppingKeepsWholePassesSoEveryPixelHasTheSameSamples) {
     Scene scene(furnace_scene(Vec3(20.f), 0.2f, BoundaryType::IndexMatched), 1);
     RenderOptions opt;
     opt.spp = 4096;
@@ -119,12 +119,21 @@ TEST(Renderer, CancelKeepsFinishedPassesAndCountsThem) {
     int calls = 0;
     RenderResult r = render(scene, opt, [&](double) { return ++calls < 3; });
     EXPECT_TRUE(r.cancelled);
-    uint64_t total = 0;
+    EXPECT_FALSE(r.time_limit_reached);
+    EXPECT_LT(r.spp, opt.spp);
     for (size_t p = 0; p < r.samples.size(); ++p) {
-        total += r.samples[p];
-        if (r.samples[p] > 0) {
-            EXPECT_TRUE(std::isfinite(r.image[3 * p]));
-        }
+        EXPECT_EQ(r.samples[p], uint32_t(r.spp));
+        EXPECT_TRUE(std::isfinite(r.image[3 * p]));
     }
-    EXPECT_LT(total, uint64_t(opt.spp) * r.samples.size());
+    EXPECT_EQ(r.total_paths, uint64_t(r.spp) * r.samples.size());
+
+    // A time limit stops the same way, once the first pass is in.
+    opt.time_limit = 0.2;
+    opt.spp = 1 << 20;  // hours
+    RenderResult t = render(scene, opt);
+    EXPECT_TRUE(t.time_limit_reached);
+    EXPECT_FALSE(t.cancelled);
+    EXPECT_GE(t.spp, 1);
+    EXPECT_LT(t.spp, opt.spp);
+    for (uint32_t n : t.samples) EXPECT_EQ(n, uint32_t(t.spp));
 }

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <thread>
@@ -23,11 +24,8 @@ constexpr int kTile = 16;
 // together (SphereTracing::sample_group), which is what makes a step cheap.
 constexpr int kPathsInFlight = SphereTracing::kMaxGroup;
 
-struct TileState {
-    std::mutex mutex;
-    std::condition_variable merged;
-    int passes_merged = 0;
-};
+// Passes a tile may run ahead of the film (the passes every tile has finished).
+constexpr int kPassesAhead = 4;
 
 // Work items 0 .. count-1 (camera_ray(item, state) starts one, record(item, sample)
 // takes its result), traced kPathsInFlight at a time: each runs until it ends or waits
@@ -93,6 +91,8 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
     const int W = cam.width, H = cam.height;
     if (opt.spp <= 0) fail("spp must be >= 1, got ", opt.spp);
     if (opt.threads < 0) fail("threads must be >= 0 (0 = all cores), got ", opt.threads);
+    if (!(opt.time_limit >= 0.0))
+        fail("time_limit must be a number > 0 (seconds; 0: none), got ", opt.time_limit);
     if (opt.integrator != "pt" && opt.integrator != "st")
         fail(scene.desc().source, ": integrator '", opt.integrator,
              "' is not available (allowed: \"pt\", \"st\")");
@@ -117,47 +117,130 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
 
     const int tiles_x = (W + kTile - 1) / kTile, tiles_y = (H + kTile - 1) / kTile;
     const int num_tiles = tiles_x * tiles_y;
+    const size_t pixels = size_t(W) * H;
+    const bool timed = opt.time_limit > 0.0;
+    const auto start = std::chrono::steady_clock::now();
+    auto elapsed = [&] {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+            .count();
+    };
+    std::atomic<int64_t> done_samples{0};  // traced, merged or not
+
     // Passes of 1, 2, 4, ... samples per pixel up to spp/16, then spp/16 each: an
     // interrupted render has a uniform, early image and loses at most 1/16 of the work.
+    // With a time limit, a pass after the first is also at most what about 1/16 of the
+    // limit renders at the speed measured so far. Passes are made as the tiles reach
+    // them; pass p is samples [pass_starts[p], pass_starts[p + 1]).
+    std::mutex schedule_mutex;
     std::vector<int> pass_starts{0};
     const int chunk = std::max(1, (opt.spp + 15) / 16);
-    for (int size = 1; pass_starts.back() < opt.spp; size = std::min(2 * size, chunk))
-        pass_starts.push_back(std::min(opt.spp, pass_starts.back() + size));
-    const int num_passes = int(pass_starts.size()) - 1;
-    auto pass_begin = [&](int p) { return pass_starts[p]; };
-    const int64_t num_tasks = int64_t(num_tiles) * num_passes;
+    int last_size = 0;
+    // The samples of pass p, or false when the passes before it hold all spp.
+    auto pass_bounds = [&](int p, int& s0, int& s1) {
+        std::lock_guard<std::mutex> lock(schedule_mutex);
+        while (int(pass_starts.size()) <= p + 1 && pass_starts.back() < opt.spp) {
+            int size = last_size == 0 ? 1 : std::min(2 * last_size, chunk);
+            const double spp_done = double(done_samples) / double(pixels), t = elapsed();
+            if (timed && spp_done > 0 && t > 0)
+                size = int(
+                    std::clamp(spp_done / t * opt.time_limit / 16, 1.0, double(size)));
+            last_size = size;
+            pass_starts.push_back(std::min(opt.spp, pass_starts.back() + size));
+        }
+        if (int(pass_starts.size()) <= p + 1) return false;
+        s0 = pass_starts[p];
+        s1 = pass_starts[p + 1];
+        return true;
+    };
 
-    std::vector<double> sum(size_t(W) * H * 3, 0.0), sum_sq(size_t(W) * H * 3, 0.0);
-    std::vector<uint64_t> events(size_t(W) * H, 0), steps(size_t(W) * H, 0);
-    std::vector<uint32_t> count(size_t(W) * H, 0);
-    std::vector<TileState> tiles(num_tiles);
+    // The film. A finished (tile, pass) waits in `pending` until every tile has finished
+    // that pass; whole passes are then added in order. So every pixel holds the same
+    // samples (an interrupted render too), and the floating-point sums do not depend on
+    // scheduling: the image is bit-identical for any thread count.
+    struct TileSums {
+        std::vector<double> sum, sum_sq;
+        std::vector<uint64_t> events, steps;
+    };
+    std::vector<double> sum(pixels * 3, 0.0), sum_sq(pixels * 3, 0.0);
+    std::vector<uint64_t> events(pixels, 0), steps(pixels, 0);
+    std::mutex film_mutex;
+    std::condition_variable film_changed;
+    std::map<int, std::vector<TileSums>> pending;  // pass -> its finished tiles
+    std::map<int, int> tiles_finished;             // pass -> how many
+    int passes_merged = 0;
+    auto tile_rect = [&](int tile, int& x0, int& y0, int& x1, int& y1) {
+        x0 = (tile % tiles_x) * kTile;
+        y0 = (tile / tiles_x) * kTile;
+        x1 = std::min(W, x0 + kTile);
+        y1 = std::min(H, y0 + kTile);
+    };
+    // Under film_mutex: adds every pass all tiles have finished, in order.
+    auto merge_finished_passes = [&] {
+        for (auto it = pending.begin();
+             it != pending.end() && it->first == passes_merged &&
+             tiles_finished[passes_merged] == num_tiles;
+             it = pending.erase(it)) {
+            for (int tile = 0; tile < num_tiles; ++tile) {
+                const TileSums& t = it->second[tile];
+                int x0, y0, x1, y1;
+                tile_rect(tile, x0, y0, x1, y1);
+                for (int y = y0, i = 0; y < y1; ++y)
+                    for (int x = x0; x < x1; ++x, ++i) {
+                        const size_t p = size_t(y) * W + x;
+                        for (int c = 0; c < 3; ++c) {
+                            sum[3 * p + c] += t.sum[3 * i + c];
+                            sum_sq[3 * p + c] += t.sum_sq[3 * i + c];
+                        }
+                        events[p] += t.events[i];
+                        steps[p] += t.steps[i];
+                    }
+            }
+            tiles_finished.erase(passes_merged);
+            ++passes_merged;
+            film_changed.notify_all();
+        }
+    };
 
     PinholeCamera camera(cam);
     // Where no step can happen, "st" is "pt" path for path: trace it as "pt".
     const SphereTracing* stepper =
         sphere_tracing && sphere_tracing->may_step() ? sphere_tracing.get() : nullptr;
     PathTracer tracer(scene, opt.max_bounces, opt.nee, stepper);
-    std::atomic<int64_t> next_task{0}, done_samples{0};
+    std::atomic<int64_t> next_task{0};
     std::atomic<bool> cancel{false};
     std::mutex error_mutex;
     std::string error;
     double step_seconds = 0.0;  // summed over the threads, each under error_mutex
-    const double total_samples = double(W) * H * opt.spp;
+    const double total_samples = double(pixels) * opt.spp;
+
+    // Stops every worker, also those waiting for the film.
+    auto stop = [&] {
+        cancel = true;
+        std::lock_guard<std::mutex> lock(film_mutex);
+        film_changed.notify_all();
+    };
 
     auto worker = [&]() {
         double my_step_seconds = 0.0;
-        std::vector<double> s, s2;
-        std::vector<uint64_t> ev, st;
-        for (int64_t task; !cancel && (task = next_task.fetch_add(1)) < num_tasks;) {
+        for (int64_t task; !cancel;) {
+            task = next_task.fetch_add(1);
+            // Tasks go pass by pass: task = pass * num_tiles + tile.
             const int pass = int(task / num_tiles), tile = int(task % num_tiles);
-            const int x0 = (tile % tiles_x) * kTile, y0 = (tile / tiles_x) * kTile;
-            const int x1 = std::min(W, x0 + kTile), y1 = std::min(H, y0 + kTile);
-            const int s0 = pass_begin(pass), s1 = pass_begin(pass + 1);
+            int s0, s1;
+            if (!pass_bounds(pass, s0, s1)) break;
+            {
+                // At most kPassesAhead passes wait for a slow tile: bounded memory.
+                std::unique_lock<std::mutex> lock(film_mutex);
+                film_changed.wait(
+                    lock, [&] { return pass < passes_merged + kPassesAhead || cancel; });
+            }
+            if (cancel) break;
+            int x0, y0, x1, y1;
+            tile_rect(tile, x0, y0, x1, y1);
             const int n = (x1 - x0) * (y1 - y0);
-            s.assign(size_t(n) * 3, 0.0);
-            s2.assign(size_t(n) * 3, 0.0);
-            ev.assign(size_t(n), 0);
-            st.assign(size_t(n), 0);
+            TileSums t{std::vector<double>(size_t(n) * 3),
+                       std::vector<double>(size_t(n) * 3), std::vector<uint64_t>(n),
+                       std::vector<uint64_t>(n)};
             // Sample k of tile pixel i (in row order) is work item i * m + (k - s0).
             const int m = s1 - s0;
             auto camera_ray = [&](int item, PathState& ps) {
@@ -177,11 +260,11 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
                 }
                 for (int c = 0; c < 3; ++c) {
                     double v = ps.radiance[c];
-                    s[3 * i + c] += v;
-                    s2[3 * i + c] += v * v;
+                    t.sum[3 * i + c] += v;
+                    t.sum_sq[3 * i + c] += v * v;
                 }
-                ev[i] += ps.scatter_events;
-                st[i] += ps.sphere_steps;
+                t.events[i] += ps.scatter_events;
+                t.steps[i] += ps.sphere_steps;
             };
             bool complete = true;
             try {
@@ -201,38 +284,25 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
                     }
                 done_samples += n * m;
             } catch (const std::exception& e) {
-                std::lock_guard<std::mutex> lock(error_mutex);
-                if (error.empty()) error = e.what();
-                cancel = true;
+                {
+                    std::lock_guard<std::mutex> lock(error_mutex);
+                    if (error.empty()) error = e.what();
+                }
+                stop();
                 complete = false;
             }
-            // Merge in pass order so the floating-point sums do not depend on scheduling.
-            TileState& ts = tiles[tile];
-            std::unique_lock<std::mutex> lock(ts.mutex);
-            ts.merged.wait(lock, [&] { return ts.passes_merged == pass || cancel; });
-            if (!complete || ts.passes_merged != pass) {
-                ts.merged.notify_all();
-                continue;
-            }
-            for (int y = y0, i = 0; y < y1; ++y)
-                for (int x = x0; x < x1; ++x, ++i) {
-                    size_t p = size_t(y) * W + x;
-                    for (int c = 0; c < 3; ++c) {
-                        sum[3 * p + c] += s[3 * i + c];
-                        sum_sq[3 * p + c] += s2[3 * i + c];
-                    }
-                    events[p] += ev[i];
-                    steps[p] += st[i];
-                    count[p] += uint32_t(s1 - s0);
-                }
-            ts.passes_merged = pass + 1;
-            ts.merged.notify_all();
+            if (!complete) break;
+            std::lock_guard<std::mutex> lock(film_mutex);
+            std::vector<TileSums>& row = pending[pass];
+            if (row.empty()) row.resize(num_tiles);
+            row[tile] = std::move(t);
+            ++tiles_finished[pass];
+            merge_finished_passes();
         }
         std::lock_guard<std::mutex> lock(error_mutex);
         step_seconds += my_step_seconds;
     };
 
-    auto start = std::chrono::steady_clock::now();
     int threads = opt.threads > 0
                       ? opt.threads
                       : int(std::max(1u, std::thread::hardware_concurrency()));
@@ -247,25 +317,31 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
             --running;
             done_cv.notify_all();
         });
-    // The calling thread reports progress and relays cancellation.
-    bool user_cancelled = false;
+    // The calling thread reports progress, relays cancellation and keeps the time limit
+    // (once the first pass is in: a time-limited render has at least one sample a pixel).
+    bool user_cancelled = false, time_up = false;
     {
         std::unique_lock<std::mutex> lock(done_mutex);
         while (running > 0) {
-            done_cv.wait_for(lock, std::chrono::milliseconds(100));
-            if (progress && !user_cancelled) {
-                lock.unlock();
-                bool go_on = progress(std::min(1.0, done_samples / total_samples));
-                lock.lock();
-                if (!go_on) {
+            double wait = 0.1;
+            if (timed) wait = std::clamp(opt.time_limit - elapsed(), 0.001, wait);
+            done_cv.wait_for(lock, std::chrono::duration<double>(wait));
+            if (running == 0) break;
+            lock.unlock();
+            if (timed && !time_up && !user_cancelled && elapsed() >= opt.time_limit) {
+                std::lock_guard<std::mutex> film_lock(film_mutex);
+                time_up = passes_merged > 0;
+            }
+            if (time_up) stop();
+            if (progress && !user_cancelled && !time_up) {
+                double f = done_samples / total_samples;
+                if (timed) f = std::max(f, elapsed() / opt.time_limit);
+                if (!progress(std::min(1.0, f))) {
                     user_cancelled = true;
-                    cancel = true;
-                    for (TileState& ts : tiles) {
-                        std::lock_guard<std::mutex> tl(ts.mutex);
-                        ts.merged.notify_all();
-                    }
+                    stop();
                 }
             }
+            lock.lock();
         }
     }
     for (auto& t : pool) t.join();
@@ -276,28 +352,30 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
     r.width = W;
     r.height = H;
     r.cancelled = user_cancelled;
-    r.seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    r.time_limit_reached = time_up;
+    r.seconds = elapsed();
     r.step_seconds = step_seconds;
-    r.image.assign(size_t(W) * H * 3, 0.f);
-    r.variance.assign(size_t(W) * H * 3, 0.f);
-    r.events.assign(size_t(W) * H, 0.f);
-    r.sphere_steps.assign(size_t(W) * H, 0.f);
-    r.samples = count;
+    r.spp = pass_starts[passes_merged];
+    r.image.assign(pixels * 3, 0.f);
+    r.variance.assign(pixels * 3, 0.f);
+    r.events.assign(pixels, 0.f);
+    r.sphere_steps.assign(pixels, 0.f);
+    r.samples.assign(pixels, uint32_t(r.spp));
     if (opt.record_paths) {
-        // A pass traced but not merged (cancelled) is not among the samples: clear it.
-        for (size_t p = 0; p < size_t(W) * H; ++p)
-            for (size_t k = count[p]; k < size_t(opt.spp); ++k)
-                path_events[k * W * H + p] = path_steps[k * W * H + p] = 0;
+        // Samples traced but not merged (cancelled) are not among the samples: clear
+        // them.
+        std::fill(path_events.begin() + int64_t(r.spp) * int64_t(pixels),
+                  path_events.end(), 0u);
+        std::fill(path_steps.begin() + int64_t(r.spp) * int64_t(pixels), path_steps.end(),
+                  0u);
         r.path_events = std::move(path_events);
         r.path_steps = std::move(path_steps);
     }
-    for (size_t p = 0; p < size_t(W) * H; ++p) {
-        double n = count[p];
-        r.total_paths += count[p];
+    const double n = r.spp;
+    r.total_paths = uint64_t(r.spp) * pixels;
+    for (size_t p = 0; p < pixels && n > 0; ++p) {
         r.total_events += events[p];
         r.total_sphere_steps += steps[p];
-        if (n == 0) continue;
         r.events[p] = float(double(events[p]) / n);
         r.sphere_steps[p] = float(double(steps[p]) / n);
         for (int c = 0; c < 3; ++c) {

@@ -1,8 +1,9 @@
 // Film and multithreaded rendering. The image is rendered in passes (1, 2, 4, ... samples
 // per pixel, then spp/16 each) over 16x16 tiles; each (pixel, sample) has its own random
-// stream, and tiles merge their passes in order, so the result is bit-identical for any
-// thread count. Cancelling (progress callback returning false) keeps every finished
-// (tile, pass): each pixel is the mean of its own samples.
+// stream, and whole passes are added to the film in order, so the result is
+// bit-identical for any thread count. Stopping early (the progress callback returning
+// false, or RenderOptions::time_limit) keeps every pass all pixels have finished, so
+// every pixel has the same samples (RenderResult::spp).
 #pragma once
 
 #include <cstdint>
@@ -31,7 +32,9 @@ struct RenderResult {
     // Time spent sampling sphere steps (decoders, frames; "st"), summed over the threads:
     // divided by total_sphere_steps, the cost of one step in the render.
     double step_seconds = 0.0;
-    bool cancelled = false;
+    int spp = 0;  // samples every pixel has: the options' spp unless stopped early
+    bool cancelled = false;           // stopped by the progress callback (Ctrl-C)
+    bool time_limit_reached = false;  // stopped by RenderOptions::time_limit
     uint64_t total_events = 0;
     uint64_t total_sphere_steps = 0;
     uint64_t total_paths = 0;

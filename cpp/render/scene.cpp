@@ -265,7 +265,7 @@ Light parse_light(const json& j, const Field& f, Vec3d frame) {
 RenderSettings parse_render(const json& j, const Field& f, const std::string& base_dir) {
     check_keys(j, f,
                {"integrator", "spp", "seed", "max_bounces", "grid_resolution",
-                "sphere_threshold", "models"});
+                "sphere_threshold", "models", "time_limit"});
     RenderSettings r;
     if (j.contains("integrator"))
         r.integrator = string_in(j["integrator"], f.at("integrator"), {"pt", "st"});
@@ -280,6 +280,9 @@ RenderSettings parse_render(const json& j, const Field& f, const std::string& ba
     if (j.contains("grid_resolution"))
         r.grid_resolution = int(integer_in(j["grid_resolution"], f.at("grid_resolution"),
                                            2, 512, "2 to 512"));
+    if (j.contains("time_limit"))
+        r.time_limit = number_in(j["time_limit"], f.at("time_limit"), 0.0, 1e9,
+                                 "0 (no limit) to 1e9 seconds");
     if (j.contains("sphere_threshold"))
         r.sphere_threshold = float(number_in(
             j["sphere_threshold"], f.at("sphere_threshold"), 0.0, 1e30, "0 to 1e30"));

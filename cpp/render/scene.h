@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -56,9 +57,11 @@ struct Light {
 
 struct RenderSettings {
     std::string integrator = "pt";
-    int spp = 16;
+    std::optional<int>
+        spp;  // unset: RenderOptions' default (unlimited with a time limit)
     uint64_t seed = 0;
-    int max_bounces = -1;  // scattering events per path; -1 = no limit
+    int max_bounces = -1;     // scattering events per path; -1 = no limit
+    double time_limit = 0.0;  // seconds of rendering; 0: no limit
     // Distance-grid cells along a shape's largest side; 0 = per shape, by its medium
     // (Scene::auto_grid_resolution).
     int grid_resolution = 0;

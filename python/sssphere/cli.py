@@ -71,16 +71,16 @@ def _cmd_render(args: argparse.Namespace) -> int:
         write_image(f"{stem}_events.exr", result.events[:, :, None])
         if result.mean_sphere_steps_per_path > 0:
             write_image(f"{stem}_sphere_steps.exr", result.sphere_steps[:, :, None])
-    spp_done = int(result.samples.min()) if result.samples.size else 0
-    what = "interrupted: wrote the partial image" if result.interrupted else "wrote"
+    what = ("interrupted: wrote the partial image" if result.interrupted
+            else "time limit reached: wrote" if result.time_limit_reached else "wrote")
     steps = ""
     if result.mean_sphere_steps_per_path > 0:
         step_ns = 1e9 * result.step_seconds / (result.mean_sphere_steps_per_path * result.samples.sum())
         steps = f" + {result.mean_sphere_steps_per_path:.1f} sphere steps" + (
             f" ({step_ns:.0f} ns each)" if result.step_seconds > 0 else "")
     print(
-        f"{what} {out} ({scene.width}x{scene.height}, {spp_done}"
-        f"{'' if not result.interrupted else '+'} spp; scene built in {load_s:.2f}s, "
+        f"{what} {out} ({scene.width}x{scene.height}, {result.spp} spp; "
+        f"scene built in {load_s:.2f}s, "
         f"rendered in {result.seconds:.2f}s; {result.mean_events_per_path:.1f} scattering "
         f"events{steps} per path)",
         file=sys.stderr,

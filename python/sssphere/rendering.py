@@ -31,11 +31,14 @@ class RenderResult:
     events : (height, width) float32, mean ordinary scattering events per path (complexity
         picture; with ``integrator="st"`` the events not inside sphere steps).
     sphere_steps : (height, width) float32, mean sphere steps per path (0 for ``"pt"``).
-    samples : (height, width) uint32, samples taken per pixel (fewer if interrupted).
+    samples : (height, width) uint32, samples taken per pixel: ``spp`` everywhere.
+    spp : samples per pixel reached: the options' spp, fewer if stopped early (every pixel
+        has the same samples: a render stops between passes).
     seconds : wall-clock render time.
     step_seconds : time spent sampling sphere steps (decoders and frames, ``"st"``), summed
         over the threads; step_seconds / (mean_sphere_steps_per_path * paths) is one step.
     interrupted : True if Ctrl-C (or a progress callback returning False) stopped it early.
+    time_limit_reached : True if ``time_limit`` stopped it before ``spp``.
     mean_events_per_path, mean_sphere_steps_per_path : the same two counts over the whole image.
     path_events, path_steps : with ``record_paths=True``, (spp, height, width) uint32: the
         ordinary events and sphere steps of every path, sample k of pixel (y, x) at [k, y, x]
@@ -46,7 +49,7 @@ class RenderResult:
     device : the Vulkan device that rendered (``backend="vulkan"``), else None.
     options : the options the render used, resolved (defaults < the scene's render block <
         the arguments): integrator, spp, seed, threads, max_bounces, nee, sphere_threshold,
-        models, sphere_sampler, step_nee, record_paths, backend.
+        models, sphere_sampler, step_nee, record_paths, backend, time_limit.
     """
 
     image: np.ndarray
@@ -54,9 +57,11 @@ class RenderResult:
     events: np.ndarray
     sphere_steps: np.ndarray
     samples: np.ndarray
+    spp: int
     seconds: float
     step_seconds: float
     interrupted: bool
+    time_limit_reached: bool
     mean_events_per_path: float
     mean_sphere_steps_per_path: float
     path_events: Optional[np.ndarray] = None
@@ -89,6 +94,7 @@ def render_full(
     step_nee: Optional[str] = None,
     record_paths: Optional[bool] = None,
     backend: Optional[str] = None,
+    time_limit: Optional[float] = None,
 ) -> RenderResult:
     """Render and return the image with its variance and complexity (see RenderResult).
 
@@ -111,6 +117,11 @@ def render_full(
     ``"event"`` (the paper's) from EventGen's event connecting to every kind of light
     (docs/sphere-tracing.md, "NEE for a sphere step").
 
+    ``time_limit=S`` stops the render after S seconds of rendering (the scene's
+    ``render.time_limit``, else none) with the passes every pixel has finished, at least one
+    sample per pixel: ``spp`` is then the most it takes, and unlimited unless given.
+    The result's ``spp`` and ``time_limit_reached`` say where it stopped.
+
     ``record_paths=True`` also returns every path's event and step counts (``path_events``,
     ``path_steps``; 8 bytes per path, at most 2**27 paths): the distribution of path
     lengths, not only their means.
@@ -125,7 +136,7 @@ def render_full(
     options = dict(integrator=integrator, spp=spp, seed=seed, threads=threads,
                    max_bounces=max_bounces, nee=nee, sphere_threshold=sphere_threshold,
                    models=models, sphere_sampler=sphere_sampler, step_nee=step_nee,
-                   record_paths=record_paths, backend=backend)
+                   record_paths=record_paths, backend=backend, time_limit=time_limit)
     return _result(_render(scene, progress, options))
 
 
@@ -137,9 +148,11 @@ def _result(r: dict) -> RenderResult:
         events=r["events"],
         sphere_steps=r["sphere_steps"],
         samples=r["samples"],
+        spp=int(r["spp"]),
         seconds=float(r["seconds"]),
         step_seconds=float(r["step_seconds"]),
         interrupted=bool(r["cancelled"]),
+        time_limit_reached=bool(r["time_limit_reached"]),
         mean_events_per_path=float(r["total_events"]) / paths,
         mean_sphere_steps_per_path=float(r["total_sphere_steps"]) / paths,
         path_events=r.get("path_events"),
@@ -162,17 +175,18 @@ def render(
     models: Union[str, os.PathLike, None] = None,
     step_nee: Optional[str] = None,
     backend: Optional[str] = None,
+    time_limit: Optional[float] = None,
 ) -> np.ndarray:
     """Render a scene to a (height, width, 3) float32 array of linear radiance.
 
     ``integrator="st"`` renders with sphere tracing; ``sphere_threshold``, ``models`` and
     ``step_nee`` are described in render_full, and so is ``backend`` (``"vulkan"``: the GPU
-    path). Ctrl-C raises KeyboardInterrupt (use render_full to keep a
+    path) and ``time_limit`` (seconds). Ctrl-C raises KeyboardInterrupt (use render_full to keep a
     partial image).
     """
     result = render_full(scene, integrator=integrator, spp=spp, seed=seed, threads=threads, nee=nee,
                          sphere_threshold=sphere_threshold, models=models, step_nee=step_nee,
-                         backend=backend)
+                         backend=backend, time_limit=time_limit)
     if result.interrupted:
         raise KeyboardInterrupt
     return result.image
