@@ -123,6 +123,21 @@ def test_consistently_fixable_orientation_is_fixed(tmp_path):
     assert volume == pytest.approx(1.0)
 
 
+def test_what_fuzzing_found_in_the_mesh_readers(tmp_path):
+    """Inputs from tests/fuzz/regressions, as a user would meet them. A PLY header with a
+    property before any element crashed CGAL's reader (now refused before it reads); a
+    mesh with vertices no face uses overflowed a buffer in CGAL's orientation (now the
+    unused vertices are dropped)."""
+    ply = tmp_path / "bad.ply"
+    ply.write_text("ply\nformat ascii 1.0\nproperty float x\nelement vertex 1\nend_header\n0\n")
+    with pytest.raises(SceneError, match=r"bad\.ply: malformed PLY header, line 3: a 'property' "
+                                         r"line before any 'element' line"):
+        sssphere.load_mesh(ply)
+    _write_off(tmp_path / "extra.off", CUBE_V + [(5, 5, 5), (6, 6, 6)], CUBE_F)
+    v, t = sssphere.load_mesh(tmp_path / "extra.off")
+    assert len(v) == 8 and t.max() == 7
+
+
 @pytest.mark.parametrize(
     "kwargs, expected",
     [

@@ -18,6 +18,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <thread>
 
 #include "core/check.h"
@@ -67,6 +68,51 @@ float round_down(double d) {
     return std::max(f, 0.f);
 }
 
+// Checks a PLY header before CGAL reads the file: CGAL 5.5's reader writes through a
+// dangling pointer when a `property` line comes before any `element` line (found by
+// fuzzing: tests/fuzz/regressions/mesh_ply/property-before-element). The header is
+// "ply", a format line, then comment, obj_info, element and property lines up to
+// end_header; anything else is refused, naming the line.
+void check_ply_header(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::string line;
+    bool element = false, format = false;
+    for (int n = 1; std::getline(in, line); ++n) {
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        std::istringstream words(line);
+        std::string keyword;
+        words >> keyword;
+        auto bad = [&](const char* why) {
+            fail(path, ": malformed PLY header, line ", n, ": ", why);
+        };
+        if (n == 1) {
+            if (keyword != "ply") bad("the file must start with 'ply'");
+        } else if (keyword == "format") {
+            std::string kind;
+            words >> kind;
+            if (kind != "ascii" && kind != "binary_little_endian" &&
+                kind != "binary_big_endian")
+                bad("format must be ascii, binary_little_endian or binary_big_endian");
+            format = true;
+        } else if (keyword == "element") {
+            std::string name;
+            long long count = -1;
+            if (!(words >> name >> count) || count < 0)
+                bad("expected 'element NAME COUNT' with COUNT >= 0");
+            element = true;
+        } else if (keyword == "property") {
+            if (!element) bad("a 'property' line before any 'element' line");
+        } else if (keyword == "end_header") {
+            if (!format) bad("end_header before a 'format' line");
+            return;
+        } else if (keyword != "comment" && keyword != "obj_info" && !keyword.empty()) {
+            bad("expected comment, obj_info, element, property or end_header");
+        }
+        if (n > 100000) bad("no end_header in the first 100,000 lines");
+    }
+    fail(path, ": malformed PLY header: no end_header line");
+}
+
 }  // namespace
 
 TriangleMesh load_mesh(const std::string& path) {
@@ -78,6 +124,7 @@ TriangleMesh load_mesh(const std::string& path) {
              "' (allowed: .obj, .ply, .off, .stl)");
     check_input_file(path, "mesh file");
     if (!std::ifstream(path).good()) fail(path, ": mesh file cannot be read");
+    if (ext == ".ply") check_ply_header(path);
 
     std::vector<Point> points;
     std::vector<std::vector<std::size_t>> polygons;
@@ -140,6 +187,10 @@ TriangleMesh make_closed_mesh(std::vector<Vec3> positions,
                  " is degenerate (zero area); allowed: triangles of non-zero area");
     }
     PMP::merge_duplicate_polygons_in_polygon_soup(points, tris);
+    // Vertices no face uses (OBJ and PLY may hold them) would be isolated vertices of the
+    // surface mesh, which orient_to_bound_a_volume reads out of bounds (found by fuzzing:
+    // tests/fuzz/regressions/mesh_obj/unused-vertices).
+    PMP::remove_isolated_points_in_polygon_soup(points, tris);
 
     if (!PMP::orient_polygon_soup(points, tris))
         fail(what,
@@ -204,6 +255,10 @@ DistanceGrid DistanceGrid::build(const TriangleMesh& mesh, int resolution, int t
     std::vector<Triangle> tris = cgal_triangles(mesh);
     Tree tree(tris.begin(), tris.end());
     tree.accelerate_distance_queries();
+    // CGAL builds the tree and its search structure lazily, at the first query, behind a
+    // check of a plain bool (a data race if the threads make that first query: found by
+    // ThreadSanitizer): one query here builds both before the threads share them.
+    tree.closest_point(Point(0, 0, 0));
     SurfaceMesh sm = to_surface_mesh(mesh);
     CGAL::Side_of_triangle_mesh<SurfaceMesh, K> side(sm);
     side(Point(0, 0, 0));  // builds its internal tree before the threads share it

@@ -1,0 +1,126 @@
+#!/usr/bin/env bash
+# Sanitizer runs (docs/fuzzing.md), each in its own build directory, never touching
+# build/dev or the virtual environment:
+#   bash scripts/sanitize.sh address [--ci]   build/asan: AddressSanitizer + UBSan (gcc), the
+#                                             GoogleTest suite and the fuzz replays (ctest)
+#                                             and pytest against the sanitized modules
+#   bash scripts/sanitize.sh thread           build/tsan: ThreadSanitizer, the threaded
+#                                             render and walk tests (ctest)
+# --ci: a bounded pytest run for CI (see below); ctest runs in full either way.
+# Extra arguments after these go to pytest (address only), e.g. -k scene.
+# Needs the dev environment (bash scripts/install.sh --dev): its python, pytest and cmake.
+# Environment: JOBS (parallel build and test jobs, default nproc).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+repo=$PWD
+mode=${1:-}
+shift || true
+ci=0
+if [ "${1:-}" = "--ci" ]; then
+  ci=1
+  shift
+fi
+case "$mode" in
+  address | thread) ;;
+  *)
+    echo "usage: bash scripts/sanitize.sh address [--ci] [pytest args] | thread" >&2
+    exit 2
+    ;;
+esac
+py=.venv/bin/python
+[ -f build/dev/python ] && py=$(cat build/dev/python)
+if [ ! -x "$py" ]; then
+  echo "sanitize.sh: no dev environment: run 'bash scripts/install.sh --dev' first" >&2
+  exit 2
+fi
+bin=$(dirname "$py")
+cmake=$bin/cmake
+ctest=$bin/ctest
+[ -x "$cmake" ] || cmake=cmake
+[ -x "$ctest" ] || ctest=ctest
+jobs=${JOBS:-$(nproc)}
+export CXX=${CXX:-g++}
+
+# UBSan: print a stack and fail the test (the build has -fno-sanitize-recover=undefined).
+export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+
+if [ "$mode" = thread ]; then
+  dir=build/tsan
+  "$cmake" -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DSSSPHERE_SANITIZE=thread -DSSSPHERE_TESTS=ON -DSSSPHERE_PYTHON=OFF
+  "$cmake" --build "$dir" -j "$jobs" --target sssphere_tests
+  # Embree and oneTBB are not instrumented: TSan cannot see their synchronisation, so the
+  # suppressions name only reports whose every frame below the race is in those libraries.
+  export TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1 suppressions=$repo/scripts/tsan.supp"
+  # The tests that run work on several threads: the renderer (thread pool, cancel), the
+  # sphere tracer's and the walks' thread-count invariance, the batched model, and the
+  # scene build (distance grids built on several threads).
+  "$ctest" --test-dir "$dir" --output-on-failure -j "$jobs" \
+    -R 'Renderer\.|ThreadCount|PathsInFlight|DistanceGrid\.|^Scene\.|SceneBuild\.'
+  exit 0
+fi
+
+dir=build/asan
+"$cmake" -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DSSSPHERE_SANITIZE=address -DSSSPHERE_TESTS=ON -DSSSPHERE_PYTHON=ON \
+  -DPython_EXECUTABLE="$py"
+"$cmake" --build "$dir" -j "$jobs"
+
+# Leaks are checked in the C++ tests (LeakSanitizer runs at exit of each test binary),
+# except in those that load a Vulkan driver: Mesa's lavapipe, which the Vulkan loader
+# loads and unloads again, leaves one 128-byte block of its own behind, which
+# LeakSanitizer can only show as "<unknown module>" (the library is gone by then), so no
+# suppression can name it. Those tests still run under ASan and UBSan.
+export ASAN_OPTIONS=abort_on_error=0:detect_stack_use_after_return=0:strict_string_checks=1
+gpu_tests='Vulkan|Gpu'
+"$ctest" --test-dir "$dir" --output-on-failure -j "$jobs" -E "$gpu_tests"
+ASAN_OPTIONS=$ASAN_OPTIONS:detect_leaks=0 \
+  "$ctest" --test-dir "$dir" --output-on-failure -j "$jobs" -R "$gpu_tests"
+
+# pytest against the sanitized extension modules. The editable install's import hook
+# (.venv/.../_editable_skbc_sssphere.py) would load build/dev's modules, so pyroot/ holds
+# a copy of the package with the ASan-built _core and _image, the shipped models beside
+# it (where an installed package finds them, model.py), and a sitecustomize.py that
+# removes that hook; PYTHONPATH carries all three to pytest and to the CLI subprocesses
+# of the tests.
+pyroot=$dir/pyroot
+rm -rf "$pyroot"
+mkdir -p "$pyroot"
+cp -r python/sssphere "$pyroot/sssphere"
+find "$pyroot" -name __pycache__ -prune -exec rm -rf {} +
+cp "$dir"/cpp/_core.*.so "$dir"/cpp/_image.*.so "$pyroot/sssphere/"
+ln -s "$repo/models" "$pyroot/sssphere/models"
+cat > "$pyroot/sitecustomize.py" <<'EOF'
+# Written by scripts/sanitize.sh: import sssphere from this directory, not the editable
+# install's build (its import hook is put first on sys.meta_path by a .pth file).
+import sys
+
+sys.meta_path[:] = [f for f in sys.meta_path
+                    if type(f).__name__ != "ScikitBuildRedirectingFinder"]
+EOF
+# The interpreter is not instrumented, so the ASan runtime must be loaded first. Leak
+# checking is off in Python: CPython keeps interned objects and module state alive at
+# exit on purpose, which LeakSanitizer reports as thousands of leaks that are not ours.
+# libstdc++ is preloaded with it: ASan intercepts __cxa_throw, and finds the real one only
+# if libstdc++ is loaded when ASan starts (the interpreter does not link it), else the first
+# C++ exception aborts with "CHECK failed: ... real___cxa_throw".
+preload="$("$CXX" -print-file-name=libasan.so) $("$CXX" -print-file-name=libstdc++.so)"
+export ASAN_OPTIONS=detect_leaks=0:detect_stack_use_after_return=0
+export PYTHONPATH=$repo/$pyroot
+# The memory test of test_load.py measures the resident size, which ASan changes by design
+# (freed memory waits in its quarantine, up to 256 MB): it runs in the plain build only.
+pytest_args=(--deselect tests/test_load.py::test_memory_stays_flat_over_a_thousand_load_render_cycles)
+if [ "$ci" = 1 ]; then
+  # CI, bounded (the whole suite takes about 3x its plain time under ASan): every reader
+  # and its errors, the render API (options, stops, time limits, determinism), renders
+  # from threads at once, the command lines, and the learned step with both samplers.
+  pytest_args+=(tests/test_bad_input.py tests/test_render_api.py tests/test_load.py
+                tests/test_cli.py tests/test_st.py)
+else
+  pytest_args+=(tests)
+fi
+pytest_args+=("$@")
+# Check that the sanitized modules are the ones imported, then the tests
+LD_PRELOAD=$preload "$py" -c \
+  "import sssphere._core as c, sssphere._image as i; print('sanitized:', c.__file__, i.__file__)"
+LD_PRELOAD=$preload "$py" -m pytest -p no:cacheprovider "${pytest_args[@]}"
