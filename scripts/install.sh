@@ -45,8 +45,9 @@ packages=(build-essential libembree-dev libtbb-dev libcgal-dev libgmp-dev libmpf
 # The GPU path (cpp/gpu/): the Vulkan loader and headers, glslc for the compute shaders, and
 # Mesa's drivers, whose lavapipe runs those shaders on CPU-only machines and in CI.
 packages+=(libvulkan-dev glslc mesa-vulkan-drivers)
-# --dev: clang-format for the C++ format check in scripts/test.sh.
-if [ "$dev" -eq 1 ]; then packages+=(clang-format); fi
+# --dev: clang-format for the C++ format check in scripts/test.sh, and clang with libFuzzer
+# for the fuzz targets (scripts/fuzz.sh, docs/fuzzing.md).
+if [ "$dev" -eq 1 ]; then packages+=(clang-format clang-14 libclang-rt-14-dev); fi
 apt_command="apt-get update && apt-get install -y --no-install-recommends ${packages[*]}"
 
 # --- The platform: Debian's packages are what we build against -----------------------------
