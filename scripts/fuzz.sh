@@ -91,14 +91,16 @@ run_target() {
   # No leak checks for the image targets: OpenImageIO (not instrumented) leaks its error
   # string when libpng longjmps out of a corrupt file (PNGInput::PngReadCallback), and
   # our wrapper holds OpenImageIO's objects in unique_ptr only.
-  [[ "$t" == image_* ]] && extra+=(-detect_leaks=0)
+  # LeakSanitizer's check at exit is turned off for them too (ASAN_OPTIONS below).
+  local asan_options=$ASAN_OPTIONS
+  [[ "$t" == image_* ]] && extra+=(-detect_leaks=0) && asan_options=$ASAN_OPTIONS:detect_leaks=0
   # FUZZ_KEEP_GOING=1: carry on past findings (libFuzzer's fork mode; each one is saved)
   [ "${FUZZ_KEEP_GOING:-0}" = 1 ] &&
     extra+=(-fork=1 -ignore_crashes=1 -ignore_ooms=1 -ignore_timeouts=1)
   local rc=0
   # bash's time: wall, user and system seconds of libFuzzer and its children
   { TIMEFORMAT='%R %U %S'
-    time "$exe" -max_total_time="$seconds" -timeout="$timeout" -rss_limit_mb="$rss_mb" \
+    time ASAN_OPTIONS=$asan_options "$exe" -max_total_time="$seconds" -timeout="$timeout" -rss_limit_mb="$rss_mb" \
       -max_len=16384 -print_final_stats=1 -artifact_prefix="$findings/$t/" "${extra[@]}" \
       "${inputs[@]}" > "$log" 2>&1 || rc=$?
   } 2> "$work/$t.time"

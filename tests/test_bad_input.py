@@ -4,6 +4,7 @@ never a crash, a hang or a NaN image."""
 import json
 import math
 import os
+import re
 
 import numpy as np
 import pytest
@@ -136,6 +137,58 @@ def test_what_fuzzing_found_in_the_mesh_readers(tmp_path):
     _write_off(tmp_path / "extra.off", CUBE_V + [(5, 5, 5), (6, 6, 6)], CUBE_F)
     v, t = sssphere.load_mesh(tmp_path / "extra.off")
     assert len(v) == 8 and t.max() == 7
+
+
+def _ply(fmt, verts, faces, vtype="float", itype="int"):
+    head = (f"ply\nformat {fmt} 1.0\ncomment ours\nelement vertex {len(verts)}\n"
+            f"property {vtype} x\nproperty {vtype} y\nproperty {vtype} z\n"
+            f"element face {len(faces)}\nproperty list uchar {itype} vertex_indices\nend_header\n")
+    if fmt == "ascii":
+        body = "".join(" ".join(map(str, v)) + "\n" for v in verts)
+        body += "".join(f"{len(f)} " + " ".join(map(str, f)) + "\n" for f in faces)
+        return head.encode() + body.encode()
+    order = "<" if fmt == "binary_little_endian" else ">"
+    body = b"".join(np.array(v, dtype=order + "f4").tobytes() for v in verts)
+    body += b"".join(bytes([len(f)]) + np.array(f, dtype=order + "i4").tobytes() for f in faces)
+    return head.encode() + body
+
+
+@pytest.mark.parametrize("fmt", ["ascii", "binary_little_endian", "binary_big_endian"])
+def test_our_ply_and_off_readers_read_what_cgals_did(tmp_path, fmt):
+    """PLY and OFF are read by our own readers (CGAL's crashed on malformed files): every
+    encoding and the format's alternative type names give the cube the OFF file gives."""
+    _write_off(tmp_path / "cube.off", CUBE_V, CUBE_F)
+    expected = sssphere.load_mesh(tmp_path / "cube.off")
+    (tmp_path / "cube.ply").write_bytes(_ply(fmt, CUBE_V, CUBE_F))
+    for got in (sssphere.load_mesh(tmp_path / "cube.ply"),):
+        np.testing.assert_array_equal(got[0], expected[0])
+        np.testing.assert_array_equal(got[1], expected[1])
+    (tmp_path / "named.ply").write_bytes(_ply(fmt, CUBE_V, CUBE_F, "float32", "int32"))
+    np.testing.assert_array_equal(sssphere.load_mesh(tmp_path / "named.ply")[1], expected[1])
+
+
+@pytest.mark.parametrize(
+    "name, text, expected",
+    [
+        ("neg.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n-3 0 1 2\n",
+         "line 6: face 0 needs its vertex count (0 to 65536)"),
+        ("short.off", "OFF\n8 6 0\n0 0 0\n", "names 8 vertices and 6 faces but has 1 lines"),
+        ("idx.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 x\n", "vertex index 'x'"),
+        ("4d.off", "4OFF\n1 0 0\n0 0 0 0\n", "OFF variant '4OFF' is not supported"),
+        ("type.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty int33 x\nend_header\n1\n",
+         "line 4: unknown property type"),
+        ("end.ply", "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
+         "property float z\nend_header\n0 0 0\n1 1\n", "the file ends in element 'vertex' 1"),
+        ("list.ply", "ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int vertex_indices\n"
+         "end_header\n3 0 1 -2\n", "vertex index -2 is not allowed"),
+        ("noxyz.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n0\n",
+         "needs the scalar properties x, y and z"),
+    ],
+)
+def test_malformed_ply_and_off_files_get_a_line_or_element_named(tmp_path, name, text, expected):
+    (tmp_path / name).write_text(text)
+    with pytest.raises(SceneError, match=re.escape(expected)):
+        sssphere.load_mesh(tmp_path / name)
 
 
 @pytest.mark.parametrize(

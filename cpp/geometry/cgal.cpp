@@ -25,6 +25,7 @@
 #include "core/files.h"
 #include "geometry/distance_grid.h"
 #include "geometry/mesh.h"
+#include "geometry/polygon_readers.h"
 
 namespace sss {
 
@@ -68,51 +69,6 @@ float round_down(double d) {
     return std::max(f, 0.f);
 }
 
-// Checks a PLY header before CGAL reads the file: CGAL 5.5's reader writes through a
-// dangling pointer when a `property` line comes before any `element` line (found by
-// fuzzing: tests/fuzz/regressions/mesh_ply/property-before-element). The header is
-// "ply", a format line, then comment, obj_info, element and property lines up to
-// end_header; anything else is refused, naming the line.
-void check_ply_header(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::string line;
-    bool element = false, format = false;
-    for (int n = 1; std::getline(in, line); ++n) {
-        if (!line.empty() && line.back() == '\r') line.pop_back();
-        std::istringstream words(line);
-        std::string keyword;
-        words >> keyword;
-        auto bad = [&](const char* why) {
-            fail(path, ": malformed PLY header, line ", n, ": ", why);
-        };
-        if (n == 1) {
-            if (keyword != "ply") bad("the file must start with 'ply'");
-        } else if (keyword == "format") {
-            std::string kind;
-            words >> kind;
-            if (kind != "ascii" && kind != "binary_little_endian" &&
-                kind != "binary_big_endian")
-                bad("format must be ascii, binary_little_endian or binary_big_endian");
-            format = true;
-        } else if (keyword == "element") {
-            std::string name;
-            long long count = -1;
-            if (!(words >> name >> count) || count < 0)
-                bad("expected 'element NAME COUNT' with COUNT >= 0");
-            element = true;
-        } else if (keyword == "property") {
-            if (!element) bad("a 'property' line before any 'element' line");
-        } else if (keyword == "end_header") {
-            if (!format) bad("end_header before a 'format' line");
-            return;
-        } else if (keyword != "comment" && keyword != "obj_info" && !keyword.empty()) {
-            bad("expected comment, obj_info, element, property or end_header");
-        }
-        if (n > 100000) bad("no end_header in the first 100,000 lines");
-    }
-    fail(path, ": malformed PLY header: no end_header line");
-}
-
 }  // namespace
 
 TriangleMesh load_mesh(const std::string& path) {
@@ -124,18 +80,25 @@ TriangleMesh load_mesh(const std::string& path) {
              "' (allowed: .obj, .ply, .off, .stl)");
     check_input_file(path, "mesh file");
     if (!std::ifstream(path).good()) fail(path, ": mesh file cannot be read");
-    if (ext == ".ply") check_ply_header(path);
 
     std::vector<Point> points;
     std::vector<std::vector<std::size_t>> polygons;
-    bool ok = false;
-    try {
-        ok = CGAL::IO::read_polygon_soup(path, points, polygons,
-                                         CGAL::parameters::verbose(false));
-    } catch (const std::exception& e) {
-        fail(path, ": cannot parse mesh: ", e.what());
+    if (ext == ".ply" || ext == ".off") {
+        // Our readers: CGAL's crash on malformed PLY and OFF files (polygon_readers.h).
+        PolygonSoup soup = ext == ".ply" ? read_ply(path) : read_off(path);
+        for (size_t i = 0; i + 2 < soup.xyz.size(); i += 3)
+            points.emplace_back(soup.xyz[i], soup.xyz[i + 1], soup.xyz[i + 2]);
+        polygons = std::move(soup.polygons);
+    } else {
+        bool ok = false;
+        try {
+            ok = CGAL::IO::read_polygon_soup(path, points, polygons,
+                                             CGAL::parameters::verbose(false));
+        } catch (const std::exception& e) {
+            fail(path, ": cannot parse mesh: ", e.what());
+        }
+        if (!ok) fail(path, ": cannot parse mesh (malformed ", ext, " file)");
     }
-    if (!ok) fail(path, ": cannot parse mesh (malformed ", ext, " file)");
     if (points.empty() || polygons.empty()) fail(path, ": mesh has no faces");
 
     std::vector<Vec3> pos;
