@@ -115,11 +115,10 @@ export PYTHONPATH=$repo/$pyroot
 pytest_args=(--deselect tests/test_load.py::test_memory_stays_flat_over_a_thousand_load_render_cycles)
 if [ "$ci" = 1 ]; then
   # CI, bounded (the whole suite takes about 3x its plain time under ASan): every reader
-  # and its errors, the render API (options, stops, time limits, determinism), renders
-  # from threads at once and the command lines (about 8 minutes on 2 cores; all of them
-  # with test_st.py: 12.6 minutes, 104 tests).
-  pytest_args+=(tests/test_bad_input.py tests/test_render_api.py tests/test_load.py
-                tests/test_cli.py)
+  # and its errors, the render API (options, stops, time limits, determinism) and renders
+  # from threads at once (a few minutes on 2 cores; with test_cli.py and test_st.py, 104
+  # tests, 12.6 minutes).
+  pytest_args+=(tests/test_bad_input.py tests/test_render_api.py tests/test_load.py)
 else
   pytest_args+=(tests)
 fi

@@ -1,5 +1,6 @@
 #include "geometry/polygon_readers.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -121,7 +122,8 @@ public:
     double next(Type t, const std::string& where) {
         if (format_ == Format::Ascii) return next_word(t, where);
         const int n = size_of(t);
-        if (data_.size() - at_ < size_t(n)) fail(path_, ": the file ends in ", where);
+        if (at_ > data_.size() || data_.size() - at_ < size_t(n))
+            fail(path_, ": the file ends in ", where);
         unsigned char b[8];
         std::memcpy(b, data_.data() + at_, size_t(n));
         at_ += size_t(n);
@@ -197,7 +199,7 @@ PolygonSoup read_ply(const std::string& path) {
         size_t eol = data.find('\n', at);
         if (eol == std::string::npos) eol = data.size();
         std::string line = data.substr(at, eol - at);
-        at = eol + 1;
+        at = std::min(eol + 1, data.size());  // a last line without '\n' ends the data
         if (!line.empty() && line.back() == '\r') line.pop_back();
         const std::vector<std::string> w = words_of(line);
         auto bad = [&](const char* why) {

@@ -93,7 +93,16 @@ std::vector<float> read_image(const std::string& path, int* width, int* height,
     *width = spec.width;
     *height = spec.height;
     *channels = spec.nchannels;
-    std::vector<float> px(size_t(spec.width) * spec.height * spec.nchannels);
+    // A header may claim any size: refuse what no image of ours needs before allocating
+    // (found by fuzzing: an EXR of a few bytes asked for gigabytes).
+    const int64_t pixels = int64_t(spec.width) * int64_t(spec.height);
+    if (spec.width < 1 || spec.height < 1 || spec.nchannels < 1 || spec.nchannels > 4 ||
+        pixels > (int64_t(1) << 26) || spec.depth > 1)
+        fail(path, ": image of ", spec.width, " x ", spec.height, " pixels and ",
+             spec.nchannels,
+             " channels is not allowed (allowed: 1 to 4 channels, at most 2^26 pixels, "
+             "2D)");
+    std::vector<float> px(size_t(pixels) * size_t(spec.nchannels));
     if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, px.data()))
         fail(path, ": cannot read image: ", in->geterror());
     return px;
