@@ -35,16 +35,22 @@ def test_render_full_gives_variance_and_complexity(small_scene):
     assert r.mean_events_per_path > 0 and not r.interrupted
 
 
-def test_progress_callback_can_stop_early(small_scene):
+def _stopped_after(small_scene, calls, **options):
+    """A render of 2^14 spp of a dense ball that the progress callback stops at its
+    `calls`-th call; returns the result and the fractions the callback saw."""
     small_scene["render"]["spp"] = 1 << 14
     small_scene["shapes"][0]["medium"]["sigma_t"] = 200
     seen = []
 
     def progress(fraction):
         seen.append(fraction)
-        return len(seen) < 2
+        return len(seen) < calls
 
-    r = sssphere.render_full(small_scene, progress=progress)
+    return sssphere.render_full(small_scene, progress=progress, **options), seen
+
+
+def test_progress_callback_can_stop_early(small_scene):
+    r, seen = _stopped_after(small_scene, 2)
     assert r.interrupted
     assert r.samples.sum() < (1 << 14) * r.samples.size
     assert np.all(np.isfinite(r.image))
@@ -160,15 +166,7 @@ def test_nee_with_mis_agrees_with_plain_path_tracing(small_scene, lights):
 
 
 def test_a_stopped_render_keeps_whole_passes_so_every_pixel_has_its_first_samples(small_scene):
-    small_scene["render"]["spp"] = 1 << 14
-    small_scene["shapes"][0]["medium"]["sigma_t"] = 200
-    calls = []
-
-    def progress(fraction):
-        calls.append(fraction)
-        return len(calls) < 4
-
-    r = sssphere.render_full(small_scene, progress=progress, seed=5, threads=2)
+    r, _ = _stopped_after(small_scene, 4, seed=5, threads=2)
     assert r.interrupted and not r.time_limit_reached
     assert 0 < r.spp < 1 << 14
     assert np.all(r.samples == r.spp)
