@@ -4,14 +4,27 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 #include "core/check.h"
 #include "core/files.h"
 
 namespace sss {
+
+namespace {
+
+std::string lower_extension(const std::string& path) {
+    std::string ext = std::filesystem::path(path).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+    return ext;
+}
+
+}  // namespace
 
 float linear_to_srgb(float v) {
     v = std::clamp(std::isfinite(v) ? v : 0.f, 0.f, 1.f);
@@ -20,8 +33,7 @@ float linear_to_srgb(float v) {
 
 void check_output_image(const std::string& path) {
     namespace fs = std::filesystem;
-    std::string ext = fs::path(path).extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+    const std::string ext = lower_extension(path);
     if (ext != ".exr" && ext != ".png")
         fail(path, ": unsupported image format '", ext, "' (allowed: .exr, .png)");
     fs::path parent = fs::path(path).parent_path();
@@ -33,8 +45,7 @@ void write_image(const std::string& path, const std::vector<float>& pixels, int 
                  int height, int channels) {
     namespace fs = std::filesystem;
     check_output_image(path);
-    std::string ext = fs::path(path).extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+    const std::string ext = lower_extension(path);
     SSS_CHECK(pixels.size() == size_t(width) * height * channels);
 
     // Written to a temporary file beside it (same extension: it picks the format), then
@@ -84,20 +95,175 @@ void write_image(const std::string& path, const std::vector<float>& pixels, int 
     }
 }
 
+namespace {
+
+// Limits on what read_image accepts: no image of ours needs more, and a header of a few
+// bytes must not make a reader allocate gigabytes.
+constexpr int64_t kMaxImagePixels = int64_t(1) << 26;
+constexpr int kMaxImageChannels = 4;
+constexpr int64_t kMaxChunkPixels = int64_t(1) << 22;
+
+// Reads the header of an OpenEXR file (the layout of "OpenEXR File Layout",
+// openexr.com) and refuses, before OpenEXR sees it, what would make OpenEXR allocate more
+// than the file holds: an attribute whose size runs past the end of the file (OpenEXR
+// allocates the declared size first), a data window beyond the pixel limit, or a chunk
+// offset table longer than the file. Multi-part and deep files are refused (not
+// supported). Found by fuzzing (docs/fuzzing.md).
+void check_exr_header(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    in.seekg(0, std::ios::end);
+    const int64_t file_size = in.tellg();
+    in.seekg(0);
+    auto bad = [&](const auto&... what) {
+        fail(path, ": not a readable OpenEXR file: ", what...);
+    };
+    auto read_u32 = [&] {
+        unsigned char b[4];
+        if (!in.read(reinterpret_cast<char*>(b), 4)) bad("the header ends early");
+        return uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 |
+               uint32_t(b[3]) << 24;
+    };
+    auto read_string = [&](size_t max_length) {
+        std::string str;
+        char c;
+        while (in.get(c) && c != '\0') {
+            if (str.size() == max_length) bad("a name in the header is too long");
+            str += c;
+        }
+        if (!in) bad("the header ends early");
+        return str;
+    };
+    if (read_u32() != 20000630u) bad("wrong magic number");
+    const uint32_t version = read_u32();
+    if ((version & 0xff) != 2) bad("version ", version & 0xff, " (allowed: 2)");
+    const bool tiled = version & 0x200, long_names = version & 0x400;
+    if (version & 0x800) bad("deep data is not supported");
+    if (version & 0x1000) bad("multi-part files are not supported");
+    const size_t max_name = long_names ? 255 : 31;
+
+    bool have_window = false;
+    int channels = 0;
+    int64_t width = 0, height = 0;
+    int64_t lines_per_chunk = 0, tile_w = 0, tile_h = 0;
+    for (;;) {
+        const std::string name = read_string(max_name);
+        if (name.empty()) break;
+        const std::string type = read_string(max_name);
+        const int64_t size = int32_t(read_u32());
+        const int64_t at = in.tellg();
+        if (size < 0 || at + size > file_size)
+            bad("attribute '", name, "' claims ", size,
+                " bytes, more than the file holds");
+        if (name == "dataWindow") {
+            if (type != "box2i" || size != 16) bad("dataWindow is not a box2i");
+            const int64_t x0 = int32_t(read_u32()), y0 = int32_t(read_u32());
+            const int64_t x1 = int32_t(read_u32()), y1 = int32_t(read_u32());
+            width = x1 - x0 + 1;
+            height = y1 - y0 + 1;
+            have_window = true;
+        } else if (name == "compression" && size == 1) {
+            // Scan lines per chunk of each compression (NONE, RLE, ZIPS, ZIP, PIZ, PXR24,
+            // B44, B44A, DWAA, DWAB)
+            constexpr std::array<int, 10> lines{1, 1, 1, 16, 32, 16, 32, 32, 32, 256};
+            const int c = in.get();
+            if (c < 0 || c >= int(lines.size())) bad("unknown compression ", c);
+            lines_per_chunk = lines[c];
+        } else if (name == "channels") {
+            // chlist: per channel a name, then pixel type, pLinear and 3 reserved bytes,
+            // x and y sampling (4 + 4 + 4 + 4 bytes); an empty name ends the list
+            if (type != "chlist") bad("channels is not a chlist");
+            channels = 0;
+            for (;;) {
+                const std::string channel = read_string(max_name);
+                if (channel.empty()) break;
+                if (++channels > kMaxImageChannels)
+                    fail(path, ": more than ", kMaxImageChannels,
+                         " channels is not allowed (allowed: 1 to 4)");
+                const uint32_t pixel_type = read_u32();
+                read_u32();
+                const uint32_t x_sampling = read_u32(), y_sampling = read_u32();
+                if (pixel_type > 2)
+                    bad("channel '", channel, "' has unknown pixel type ", pixel_type);
+                if (x_sampling != 1 || y_sampling != 1)
+                    bad("channel '", channel, "' is subsampled (not supported)");
+            }
+            if (int64_t(in.tellg()) > at + size)
+                bad("the channel list overruns its size");
+        } else if (name == "tiles" && size == 9) {
+            tile_w = read_u32();
+            tile_h = read_u32();
+        }
+        in.seekg(at + size);
+    }
+    if (!have_window) bad("no dataWindow");
+    if (channels == 0) bad("no channels");
+    if (lines_per_chunk == 0) bad("no compression");
+    if (width < 1 || height < 1 || width > kMaxImagePixels || height > kMaxImagePixels ||
+        width * height > kMaxImagePixels)
+        fail(path, ": image of ", width, " x ", height,
+             " pixels is not allowed (allowed: at most 2^26 pixels)");
+    // OpenEXR decodes a chunk (a block of scan lines, or a tile of the first level) at a
+    // time and allocates several buffers of a whole chunk each (twelve of up to 1 GB for
+    // a file the fuzzer made): chunks are limited to 2^22 pixels (a 16384-pixel-wide
+    // image in blocks of 256 lines). Each chunk has an 8-byte offset in the table that
+    // follows the header.
+    int64_t chunks = 0, chunk_w = width, chunk_h = lines_per_chunk;
+    if (tiled) {
+        if (tile_w < 1 || tile_h < 1 || tile_w > kMaxImagePixels ||
+            tile_h > kMaxImagePixels)
+            bad("tiled, but no valid tile size");
+        chunk_w = tile_w;
+        chunk_h = tile_h;
+        chunks = ((width + tile_w - 1) / tile_w) * ((height + tile_h - 1) / tile_h);
+    } else {
+        chunks = (height + lines_per_chunk - 1) / lines_per_chunk;
+    }
+    if (chunk_w * chunk_h > kMaxChunkPixels)
+        fail(path, ": image of ", width, " x ", height, " pixels in chunks of ", chunk_w,
+             " x ", chunk_h,
+             " is not allowed (allowed: chunks of at most 2^22 pixels; scan-line blocks "
+             "are as wide as the image)");
+    if (int64_t(in.tellg()) + 8 * chunks > file_size)
+        bad("the file is shorter than its table of ", chunks, " chunk offsets");
+}
+
+// The format's signature at the start of the file: OIIO would otherwise try every reader
+// it has on a file whose content does not match its extension.
+bool starts_with(const std::string& path, const std::string& magic) {
+    std::ifstream in(path, std::ios::binary);
+    std::string head(magic.size(), '\0');
+    return in.read(head.data(), std::streamsize(head.size())) && head == magic;
+}
+
+}  // namespace
+
 std::vector<float> read_image(const std::string& path, int* width, int* height,
                               int* channels) {
     check_input_file(path, "image file");
-    auto in = OIIO::ImageInput::open(path);
-    if (!in) fail(path, ": cannot read image: ", OIIO::geterror());
-    const OIIO::ImageSpec& spec = in->spec();
+    const std::string ext = lower_extension(path);
+    if (ext == ".exr") {
+        if (!starts_with(path, std::string("\x76\x2f\x31\x01", 4)))
+            fail(path, ": is not an OpenEXR file (wrong signature)");
+        check_exr_header(path);
+    } else if (ext == ".png") {
+        if (!starts_with(path, "\x89PNG\r\n\x1a\n"))
+            fail(path, ": is not a PNG file (wrong signature)");
+    } else {
+        fail(path, ": unsupported image format '", ext, "' (allowed: .exr, .png)");
+    }
+    // Only the reader of that format (no fall-back to the others)
+    auto in = OIIO::ImageInput::create(ext.substr(1));
+    OIIO::ImageSpec spec;
+    if (!in || !in->open(path, spec))
+        fail(path, ": cannot read image: ", in ? in->geterror() : OIIO::geterror());
     *width = spec.width;
     *height = spec.height;
     *channels = spec.nchannels;
     // A header may claim any size: refuse what no image of ours needs before allocating
     // (found by fuzzing: an EXR of a few bytes asked for gigabytes).
     const int64_t pixels = int64_t(spec.width) * int64_t(spec.height);
-    if (spec.width < 1 || spec.height < 1 || spec.nchannels < 1 || spec.nchannels > 4 ||
-        pixels > (int64_t(1) << 26) || spec.depth > 1)
+    if (spec.width < 1 || spec.height < 1 || spec.nchannels < 1 ||
+        spec.nchannels > kMaxImageChannels || pixels > kMaxImagePixels || spec.depth > 1)
         fail(path, ": image of ", spec.width, " x ", spec.height, " pixels and ",
              spec.nchannels,
              " channels is not allowed (allowed: 1 to 4 channels, at most 2^26 pixels, "
