@@ -141,7 +141,7 @@ int main(int argc, char** argv) {
                 RenderOptions opt;
                 opt.integrator = integrator;
                 opt.spp = 1;
-                const GpuRenderResult warm = renderer.render(opt);  // pipeline, caches
+                const RenderResult warm = renderer.render(opt);  // pipeline, caches
                 opt.spp = spp;
                 // Fixed dispatches, not the renderer's default ramp by time: a benchmark
                 // times full ones.
@@ -149,7 +149,7 @@ int main(int argc, char** argv) {
                     1, (int64_t(1) << 20) / (int64_t(warm.width) * warm.height)));
                 opt.gpu_batch = batch > 0 ? batch : std::min(full, spp);
                 opt.gpu_lanes = lanes;
-                GpuRenderResult r;
+                RenderResult r;
                 for (int k = 0; k < repeat; ++k) {
                     r = renderer.render(opt);
                     std::printf(

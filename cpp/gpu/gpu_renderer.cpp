@@ -96,8 +96,7 @@ GpuRenderer::GpuRenderer(VulkanCompute& vk, const GpuSceneData& scene)
                              constants, kModelUniform);
 }
 
-GpuRenderResult GpuRenderer::render(const RenderOptions& opt,
-                                    const GpuProgressFn& progress) {
+RenderResult GpuRenderer::render(const RenderOptions& opt, const ProgressFn& progress) {
     const auto start = std::chrono::steady_clock::now();
     if (opt.integrator != "pt" && opt.integrator != "st")
         fail("integrator '", opt.integrator, "' is not allowed (allowed: 'pt', 'st')");
@@ -136,12 +135,11 @@ GpuRenderResult GpuRenderer::render(const RenderOptions& opt,
     std::vector<float> rad(size_t(batch) * pixels * 4);
     std::vector<uint32_t> cnt(size_t(batch) * pixels * 2);
 
-    GpuRenderResult r;
+    RenderResult r;
     r.width = width_;
     r.height = height_;
     r.device = vk_.device_name();
-    std::vector<double> sum(pixels * 3, 0.0), sum_sq(pixels * 3, 0.0);
-    std::vector<uint64_t> events(pixels, 0), steps(pixels, 0);
+    Film film(pixels);
     if (opt.record_paths) {
         r.path_events.assign(size_t(opt.spp) * pixels, 0);
         r.path_steps.assign(size_t(opt.spp) * pixels, 0);
@@ -204,13 +202,7 @@ GpuRenderResult GpuRenderer::render(const RenderOptions& opt,
         for (int k = 0; k < b; ++k) {
             for (size_t p = 0; p < pixels; ++p) {
                 const size_t at = size_t(k) * pixels + p;
-                for (int c = 0; c < 3; ++c) {
-                    const double v = rad[4 * at + c];
-                    sum[3 * p + c] += v;
-                    sum_sq[3 * p + c] += v * v;
-                }
-                events[p] += cnt[2 * at];
-                steps[p] += cnt[2 * at + 1];
+                film.add_sample(p, &rad[4 * at], cnt[2 * at], cnt[2 * at + 1]);
                 if (opt.record_paths) {
                     r.path_events[size_t(done + k) * pixels + p] = cnt[2 * at];
                     r.path_steps[size_t(done + k) * pixels + p] = cnt[2 * at + 1];
@@ -228,29 +220,7 @@ GpuRenderResult GpuRenderer::render(const RenderOptions& opt,
     }
     if (progress && !r.cancelled) progress(1.0);
 
-    r.image.assign(pixels * 3, 0.f);
-    r.variance.assign(pixels * 3, 0.f);
-    r.events.assign(pixels, 0.f);
-    r.sphere_steps.assign(pixels, 0.f);
-    r.samples.assign(pixels, uint32_t(done));
-    r.spp = done;
-    const double n = done;
-    for (size_t p = 0; p < pixels; ++p) {
-        r.total_paths += uint64_t(done);
-        r.total_events += events[p];
-        r.total_sphere_steps += steps[p];
-        if (done == 0) continue;
-        r.events[p] = float(double(events[p]) / n);
-        r.sphere_steps[p] = float(double(steps[p]) / n);
-        for (int c = 0; c < 3; ++c) {
-            const double mean = sum[3 * p + c] / n;
-            r.image[3 * p + c] = float(mean);
-            const double var =
-                n > 1 ? std::max(0.0, (sum_sq[3 * p + c] - n * mean * mean) / (n - 1))
-                      : 0.0;
-            r.variance[3 * p + c] = float(var / n);
-        }
-    }
+    film.finish(done, r);
     r.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return r;

@@ -1,7 +1,7 @@
 // Integrators "pt" and "st" on a Vulkan device (cpp/gpu/shaders/render.glsl): one GPU
 // invocation per path (or per `lanes`-th path), paths of up to `batch` samples of every
-// pixel per dispatch, the per-path results summed on the host into the same film
-// statistics as the CPU renderer's. Lights are sampled as the baked scene says
+// pixel per dispatch, the per-path results summed on the host into the CPU renderer's
+// film (render/film.h). Lights are sampled as the baked scene says
 // (gpu_scene_bake.h). Depends on Vulkan and the baked scene only, not on
 // Embree or CGAL.
 #pragma once
@@ -13,30 +13,10 @@
 
 #include "gpu/gpu_scene.h"
 #include "gpu/vulkan_compute.h"
+#include "render/film.h"
 #include "render/options.h"
 
 namespace sss {
-
-struct GpuRenderResult {
-    int width = 0, height = 0;
-    std::vector<float> image;         // (height, width, 3) mean radiance
-    std::vector<float> variance;      // (height, width, 3) variance of that mean
-    std::vector<float> events;        // (height, width) mean scattering events per path
-    std::vector<float> sphere_steps;  // (height, width) mean sphere steps per path
-    std::vector<uint32_t> samples;    // (height, width) samples taken
-    std::vector<uint32_t> path_events, path_steps;  // (spp, height, width), record_paths
-    double seconds = 0.0;      // wall time of the render (uploads and sums included)
-    double gpu_seconds = 0.0;  // the dispatches alone, from GPU timestamps
-    bool cancelled = false;    // stopped by the progress callback
-    bool time_limit_reached = false;  // stopped by RenderOptions::time_limit
-    int spp = 0;                      // samples every pixel has
-    uint64_t total_events = 0, total_sphere_steps = 0, total_paths = 0;
-    std::string device;
-};
-
-// Called between dispatches with the fraction done; false stops the render (the samples
-// of the finished dispatches are kept).
-using GpuProgressFn = std::function<bool(double)>;
 
 class GpuRenderer {
 public:
@@ -48,8 +28,7 @@ public:
     // quarter of a second, at most 4x the last and about 2^20 paths) and gpu_lanes
     // (invocations per dispatch, each rendering every lanes-th path; 0: one path each).
     // No result depends on the knobs. The rest was baked into the scene.
-    GpuRenderResult render(const RenderOptions& options,
-                           const GpuProgressFn& progress = {});
+    RenderResult render(const RenderOptions& options, const ProgressFn& progress = {});
 
 private:
     VulkanCompute& vk_;

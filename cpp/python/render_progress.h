@@ -1,5 +1,5 @@
-// What the render bindings share: numpy arrays from vectors, the film statistics of a
-// CPU or GPU render as a dict, and the progress callback a render calls without the GIL
+// What the render bindings share: numpy arrays from vectors, a render's result as a
+// dict, and the progress callback a render calls without the GIL
 // (Python's progress function, Ctrl-C, and the exception a callback raised, kept to be
 // rethrown once the render returned).
 #pragma once
@@ -9,6 +9,8 @@
 
 #include <optional>
 #include <vector>
+
+#include "render/film.h"
 
 namespace sss {
 
@@ -21,11 +23,11 @@ pybind11::array_t<T> to_array(const std::vector<T>& v,
 }
 
 // Hidden like pybind11's own types, which it holds.
-// The fields RenderResult and GpuRenderResult share, as the dict
+// A RenderResult (render/film.h), CPU or GPU, as the dict
 // python/sssphere/rendering.py reads: images (H, W, ...), per-path counts with
 // record_paths (spp, H, W), time, totals.
-template <typename Result>
-pybind11::dict film_dict(const Result& r, int spp, bool record_paths, bool interrupted) {
+inline pybind11::dict film_dict(const RenderResult& r, int spp, bool record_paths,
+                                bool interrupted) {
     const pybind11::ssize_t H = r.height, W = r.width;
     pybind11::dict d;
     d["image"] = to_array(r.image, {H, W, 3});

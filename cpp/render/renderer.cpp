@@ -157,16 +157,11 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
     // that pass; whole passes are then added in order. So every pixel holds the same
     // samples (an interrupted render too), and the floating-point sums do not depend on
     // scheduling: the image is bit-identical for any thread count.
-    struct TileSums {
-        std::vector<double> sum, sum_sq;
-        std::vector<uint64_t> events, steps;
-    };
-    std::vector<double> sum(pixels * 3, 0.0), sum_sq(pixels * 3, 0.0);
-    std::vector<uint64_t> events(pixels, 0), steps(pixels, 0);
+    Film film(pixels);
     std::mutex film_mutex;
     std::condition_variable film_changed;
-    std::map<int, std::vector<TileSums>> pending;  // pass -> its finished tiles
-    std::map<int, int> tiles_finished;             // pass -> how many
+    std::map<int, std::vector<Film>> pending;  // pass -> its finished tiles
+    std::map<int, int> tiles_finished;         // pass -> how many
     int passes_merged = 0;
     auto tile_rect = [&](int tile, int& x0, int& y0, int& x1, int& y1) {
         x0 = (tile % tiles_x) * kTile;
@@ -181,19 +176,11 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
              tiles_finished[passes_merged] == num_tiles;
              it = pending.erase(it)) {
             for (int tile = 0; tile < num_tiles; ++tile) {
-                const TileSums& t = it->second[tile];
                 int x0, y0, x1, y1;
                 tile_rect(tile, x0, y0, x1, y1);
                 for (int y = y0, i = 0; y < y1; ++y)
-                    for (int x = x0; x < x1; ++x, ++i) {
-                        const size_t p = size_t(y) * W + x;
-                        for (int c = 0; c < 3; ++c) {
-                            sum[3 * p + c] += t.sum[3 * i + c];
-                            sum_sq[3 * p + c] += t.sum_sq[3 * i + c];
-                        }
-                        events[p] += t.events[i];
-                        steps[p] += t.steps[i];
-                    }
+                    for (int x = x0; x < x1; ++x, ++i)
+                        film.add_pixel(size_t(y) * W + x, it->second[tile], i);
             }
             tiles_finished.erase(passes_merged);
             ++passes_merged;
@@ -238,9 +225,7 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
             int x0, y0, x1, y1;
             tile_rect(tile, x0, y0, x1, y1);
             const int n = (x1 - x0) * (y1 - y0);
-            TileSums t{std::vector<double>(size_t(n) * 3),
-                       std::vector<double>(size_t(n) * 3), std::vector<uint64_t>(n),
-                       std::vector<uint64_t>(n)};
+            Film t(n);  // the tile's pixels in row order
             // Sample k of tile pixel i (in row order) is work item i * m + (k - s0).
             const int m = s1 - s0;
             auto camera_ray = [&](int item, PathState& ps) {
@@ -258,13 +243,7 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
                     path_events[at] = ps.scatter_events;
                     path_steps[at] = ps.sphere_steps;
                 }
-                for (int c = 0; c < 3; ++c) {
-                    double v = ps.radiance[c];
-                    t.sum[3 * i + c] += v;
-                    t.sum_sq[3 * i + c] += v * v;
-                }
-                t.events[i] += ps.scatter_events;
-                t.steps[i] += ps.sphere_steps;
+                t.add_sample(i, ps.radiance, ps.scatter_events, ps.sphere_steps);
             };
             bool complete = true;
             try {
@@ -293,8 +272,8 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
             }
             if (!complete) break;
             std::lock_guard<std::mutex> lock(film_mutex);
-            std::vector<TileSums>& row = pending[pass];
-            if (row.empty()) row.resize(num_tiles);
+            std::vector<Film>& row = pending[pass];
+            if (row.empty()) row.resize(num_tiles, Film(0));
             row[tile] = std::move(t);
             ++tiles_finished[pass];
             merge_finished_passes();
@@ -355,12 +334,7 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
     r.time_limit_reached = time_up;
     r.seconds = elapsed();
     r.step_seconds = step_seconds;
-    r.spp = pass_starts[passes_merged];
-    r.image.assign(pixels * 3, 0.f);
-    r.variance.assign(pixels * 3, 0.f);
-    r.events.assign(pixels, 0.f);
-    r.sphere_steps.assign(pixels, 0.f);
-    r.samples.assign(pixels, uint32_t(r.spp));
+    film.finish(pass_starts[passes_merged], r);
     if (opt.record_paths) {
         // Samples traced but not merged (cancelled) are not among the samples: clear
         // them.
@@ -370,22 +344,6 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
                   0u);
         r.path_events = std::move(path_events);
         r.path_steps = std::move(path_steps);
-    }
-    const double n = r.spp;
-    r.total_paths = uint64_t(r.spp) * pixels;
-    for (size_t p = 0; p < pixels && n > 0; ++p) {
-        r.total_events += events[p];
-        r.total_sphere_steps += steps[p];
-        r.events[p] = float(double(events[p]) / n);
-        r.sphere_steps[p] = float(double(steps[p]) / n);
-        for (int c = 0; c < 3; ++c) {
-            double mean = sum[3 * p + c] / n;
-            r.image[3 * p + c] = float(mean);
-            double var =
-                n > 1 ? std::max(0.0, (sum_sq[3 * p + c] - n * mean * mean) / (n - 1))
-                      : 0.0;
-            r.variance[3 * p + c] = float(var / n);
-        }
     }
     return r;
 }

@@ -1,0 +1,117 @@
+// The film: per-pixel sums of a render's samples, and the result a finished render
+// reports (RenderResult). One film for both renderers: the CPU one (render/renderer.cpp)
+// adds whole passes of tiles, the Vulkan one (gpu/gpu_renderer.cpp) whole dispatches.
+// Header-only, so the GPU layer (which links no render code) uses it too.
+#pragma once
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace sss {
+
+struct RenderResult {
+    int width = 0, height = 0;
+    std::vector<float> image;     // (height, width, 3) mean radiance
+    std::vector<float> variance;  // (height, width, 3) variance of that mean
+    std::vector<float>
+        events;  // (height, width) mean ordinary scattering events per path
+    std::vector<float> sphere_steps;  // (height, width) mean sphere steps per path ("st")
+    std::vector<uint32_t> samples;    // (height, width) samples taken
+    // With record_paths: (spp, height, width) ordinary events and sphere steps of each
+    // path, sample k of a pixel at [k][y][x]; 0 for the samples not taken (k >= samples).
+    std::vector<uint32_t> path_events, path_steps;
+    double seconds = 0.0;  // wall time of the render
+    // Time spent sampling sphere steps (decoders, frames; "st" on the CPU), summed over
+    // the threads: divided by total_sphere_steps, the cost of one step in the render.
+    double step_seconds = 0.0;
+    int spp = 0;  // samples every pixel has: the options' spp unless stopped early
+    bool cancelled = false;           // stopped by the progress callback (Ctrl-C)
+    bool time_limit_reached = false;  // stopped by RenderOptions::time_limit
+    uint64_t total_events = 0;
+    uint64_t total_sphere_steps = 0;
+    uint64_t total_paths = 0;
+    // Backend::Vulkan: the GPU time of the dispatches (timestamps) and the device's name.
+    double gpu_seconds = 0.0;
+    std::string device;
+};
+
+// Called from the calling thread with the fraction done (the CPU renderer about ten
+// times a second, the Vulkan one between dispatches); return false to stop early.
+using ProgressFn = std::function<bool(double)>;
+
+// Sums over the samples of each of `pixels` pixels: radiance and its square (for the
+// variance of the mean), ordinary scattering events and sphere steps. A tile of the CPU
+// renderer is a Film too, added to the image's film pixel by pixel.
+class Film {
+public:
+    explicit Film(size_t pixels)
+        : sum_(pixels * 3, 0.0),
+          sum_sq_(pixels * 3, 0.0),
+          events_(pixels, 0),
+          steps_(pixels, 0) {}
+
+    size_t pixels() const { return events_.size(); }
+
+    // One sample of pixel p (radiance[0 .. 2]: a Vec3 or a pointer to floats).
+    template <class Rgb>
+    void add_sample(size_t p, const Rgb& radiance, uint64_t events, uint64_t steps) {
+        for (int c = 0; c < 3; ++c) {
+            const double v = radiance[c];
+            sum_[3 * p + c] += v;
+            sum_sq_[3 * p + c] += v * v;
+        }
+        events_[p] += events;
+        steps_[p] += steps;
+    }
+
+    // The sums of pixel q of `other` added to pixel p.
+    void add_pixel(size_t p, const Film& other, size_t q) {
+        for (int c = 0; c < 3; ++c) {
+            sum_[3 * p + c] += other.sum_[3 * q + c];
+            sum_sq_[3 * p + c] += other.sum_sq_[3 * q + c];
+        }
+        events_[p] += other.events_[q];
+        steps_[p] += other.steps_[q];
+    }
+
+    // Fills r's images, samples, spp and totals from spp samples in every pixel: the
+    // mean, the variance of the mean (the sample variance / spp), events and steps per
+    // path. spp = 0 (stopped before any) gives zeros.
+    void finish(int spp, RenderResult& r) const {
+        const size_t pixels = this->pixels();
+        r.image.assign(pixels * 3, 0.f);
+        r.variance.assign(pixels * 3, 0.f);
+        r.events.assign(pixels, 0.f);
+        r.sphere_steps.assign(pixels, 0.f);
+        r.samples.assign(pixels, uint32_t(spp));
+        r.spp = spp;
+        r.total_paths = uint64_t(spp) * pixels;
+        r.total_events = r.total_sphere_steps = 0;
+        const double n = spp;
+        for (size_t p = 0; p < pixels && spp > 0; ++p) {
+            r.total_events += events_[p];
+            r.total_sphere_steps += steps_[p];
+            r.events[p] = float(double(events_[p]) / n);
+            r.sphere_steps[p] = float(double(steps_[p]) / n);
+            for (int c = 0; c < 3; ++c) {
+                const double mean = sum_[3 * p + c] / n;
+                r.image[3 * p + c] = float(mean);
+                const double var =
+                    n > 1
+                        ? std::max(0.0, (sum_sq_[3 * p + c] - n * mean * mean) / (n - 1))
+                        : 0.0;
+                r.variance[3 * p + c] = float(var / n);
+            }
+        }
+    }
+
+private:
+    std::vector<double> sum_, sum_sq_;
+    std::vector<uint64_t> events_, steps_;
+};
+
+}  // namespace sss
