@@ -14,15 +14,14 @@
 #include <CGAL/Surface_mesh.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
-#include <thread>
 
 #include "core/check.h"
 #include "core/files.h"
+#include "core/parallel.h"
 #include "geometry/distance_grid.h"
 #include "geometry/mesh.h"
 #include "geometry/polygon_readers.h"
@@ -226,7 +225,6 @@ DistanceGrid DistanceGrid::build(const TriangleMesh& mesh, int resolution, int t
     CGAL::Side_of_triangle_mesh<SurfaceMesh, K> side(sm);
     side(Point(0, 0, 0));  // builds its internal tree before the threads share it
 
-    if (threads <= 0) threads = int(std::max(1u, std::thread::hardware_concurrency()));
     // Every corner of a cell the surface passes through is within a cell diagonal of it.
     // So a node outside the mesh and farther than that from the surface is a corner only
     // of cells wholly outside, where no point of a medium is: any lower bound will do for
@@ -235,9 +233,9 @@ DistanceGrid DistanceGrid::build(const TriangleMesh& mesh, int resolution, int t
     // the mesh would be most of the build's time.
     const double diagonal = std::sqrt(3.0) * double(grid.cell_);
     const float far_bound = round_down(diagonal);
-    std::atomic<int> next_slab{0};
-    auto work = [&]() {
-        for (int k; (k = next_slab.fetch_add(1)) < grid.n_[2];) {
+    // One slab of nodes (one k) per chunk
+    parallel_chunks(threads, grid.n_[2], 1, [&](int64_t k0, int64_t k1) {
+        for (int k = int(k0); k < int(k1); ++k) {
             // The closest point of the previous node is the hint for the next: one cell
             // away, it bounds the search tightly from the start (the result is exact
             // either way; 2x faster than the tree's own nearest-point hint).
@@ -264,11 +262,7 @@ DistanceGrid DistanceGrid::build(const TriangleMesh& mesh, int resolution, int t
                 }
             }
         }
-    };
-    std::vector<std::thread> pool;
-    for (int t = 1; t < threads; ++t) pool.emplace_back(work);
-    work();
-    for (auto& t : pool) t.join();
+    });
     return grid;
 }
 

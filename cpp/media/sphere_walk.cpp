@@ -1,11 +1,10 @@
 #include "media/sphere_walk.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <thread>
 
 #include "core/check.h"
+#include "core/parallel.h"
 #include "shared/hg.h"
 
 namespace sss {
@@ -115,30 +114,19 @@ SphereWalkBatch sphere_walks(const std::vector<float>& sigma, const std::vector<
         return v.size() == 1 ? v[0] : v[i];
     };
 
-    // Walk costs differ by orders of magnitude: threads take small chunks from a counter.
-    constexpr int64_t kChunk = 256;
-    std::atomic<int64_t> next{0};
-    auto worker = [&] {
-        for (int64_t begin; (begin = next.fetch_add(kChunk)) < n;) {
-            for (int64_t i = begin; i < std::min(n, begin + kChunk); ++i) {
-                Rng rng = sphere_walk_rng(seed, first_index + uint64_t(i));
-                SphereWalk w = sphere_walk(at(sigma, i), at(g, i), at(albedo, i), rng);
-                out.N[i] = w.N;
-                out.cos_theta[i] = w.cos_theta;
-                out.alpha[i] = w.alpha;
-                out.beta[i] = w.beta;
-                for (int k = 0; k < 3; ++k)
-                    out.X[3 * i + k] = w.X[k], out.W[3 * i + k] = w.W[k];
-            }
+    // Walk costs differ by orders of magnitude: small chunks, handed out one at a time.
+    parallel_chunks(threads, n, 256, [&](int64_t begin, int64_t end) {
+        for (int64_t i = begin; i < end; ++i) {
+            Rng rng = sphere_walk_rng(seed, first_index + uint64_t(i));
+            SphereWalk w = sphere_walk(at(sigma, i), at(g, i), at(albedo, i), rng);
+            out.N[i] = w.N;
+            out.cos_theta[i] = w.cos_theta;
+            out.alpha[i] = w.alpha;
+            out.beta[i] = w.beta;
+            for (int k = 0; k < 3; ++k)
+                out.X[3 * i + k] = w.X[k], out.W[3 * i + k] = w.W[k];
         }
-    };
-    if (threads <= 0) threads = int(std::max(1u, std::thread::hardware_concurrency()));
-    threads =
-        int(std::min<int64_t>(threads, std::max<int64_t>(1, (n + kChunk - 1) / kChunk)));
-    std::vector<std::thread> pool;
-    for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
-    worker();
-    for (auto& t : pool) t.join();
+    });
     return out;
 }
 

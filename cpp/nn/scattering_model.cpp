@@ -4,13 +4,11 @@
 #include <cctype>
 #include <cfloat>
 #include <cmath>
-#include <exception>
 #include <filesystem>
-#include <mutex>
-#include <thread>
 #include <vector>
 
 #include "core/check.h"
+#include "core/parallel.h"
 #include "shared/hg.h"
 #include "shared/sphere_step.h"
 
@@ -453,32 +451,9 @@ void ScatteringModel::sample_batch(const float* sigma, const float* g, const flo
                            out + i);
         }
     };
-    size_t T =
-        threads > 0 ? size_t(threads) : std::max(1u, std::thread::hardware_concurrency());
-    T = std::max<size_t>(
-        1, std::min(T, (n + 255) / 256));  // at least 256 samples per thread
-    if (T == 1) {
-        run(0, n);
-        return;
-    }
-    std::vector<std::thread> pool;
-    std::exception_ptr error;
-    std::mutex error_mutex;
-    size_t chunk = (n + T - 1) / T;
-    for (size_t t = 0; t < T; ++t) {
-        size_t begin = t * chunk, end = std::min(n, begin + chunk);
-        if (begin >= end) break;
-        pool.emplace_back([&, begin, end] {
-            try {
-                run(begin, end);
-            } catch (...) {
-                std::lock_guard<std::mutex> lock(error_mutex);
-                if (!error) error = std::current_exception();
-            }
-        });
-    }
-    for (auto& th : pool) th.join();
-    if (error) std::rethrow_exception(error);
+    // Chunks of 256 samples (whole groups), whatever the thread count
+    parallel_chunks(threads, int64_t(n), 256,
+                    [&](int64_t begin, int64_t end) { run(size_t(begin), size_t(end)); });
 }
 
 }  // namespace sss

@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "core/check.h"
+#include "core/parallel.h"
 #include "core/rng.h"
 #include "render/camera.h"
 #include "render/pt.h"
@@ -282,9 +283,13 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
         step_seconds += my_step_seconds;
     };
 
-    int threads = opt.threads > 0
-                      ? opt.threads
-                      : int(std::max(1u, std::thread::hardware_concurrency()));
+    // Threads of its own, not oneTBB's pool (core/parallel.h): the workers block while
+    // they are kPassesAhead passes ahead of the film, and the calling thread must stay
+    // free to report progress and answer Ctrl-C (Python checks signals on it) about ten
+    // times a second, which no work item is short enough to allow; TBB's pool counts the
+    // calling thread as one of its workers, so its own workers alone would leave a core
+    // idle.
+    const int threads = worker_threads(opt.threads);
     std::vector<std::thread> pool;
     std::atomic<int> running{threads};
     std::mutex done_mutex;
