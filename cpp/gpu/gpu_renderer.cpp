@@ -24,14 +24,7 @@ static const uint32_t kTraceRays[] =
 #include "shaders/trace_rays.spv.h"
     ;
 
-struct RenderPush {
-    uint32_t seed_lo, seed_hi, sample0;
-    int32_t max_bounces;
-    uint32_t num_paths;
-};
-
-constexpr uint32_t kGroup = 64;             // render.glsl's workgroup size
-constexpr uint32_t kWritten = 0x80000000u;  // render.glsl: set in a written path's steps
+constexpr uint32_t kGroup = 64;  // render.glsl's workgroup size
 // The wall time a dispatch aims at when the batch is not fixed
 // (RenderOptions::gpu_batch).
 constexpr double kDispatchSeconds = 0.25;
@@ -90,9 +83,9 @@ GpuRenderer::GpuRenderer(VulkanCompute& vk, const GpuSceneData& scene)
     std::vector<int32_t> constants = gpu_model_constants(scene.model);
     constants.push_back(scene.header.lighting[1] != 0 ? 1 : 0);
     constexpr uint32_t kModelUniform = 1u << 4;  // binding 4 is a uniform block
-    pt_ = vk.create_pipeline(kRenderPt, sizeof(kRenderPt) / 4, 7, sizeof(RenderPush),
+    pt_ = vk.create_pipeline(kRenderPt, sizeof(kRenderPt) / 4, 7, sizeof(GpuRenderPush),
                              constants, kModelUniform);
-    st_ = vk.create_pipeline(kRenderSt, sizeof(kRenderSt) / 4, 7, sizeof(RenderPush),
+    st_ = vk.create_pipeline(kRenderSt, sizeof(kRenderSt) / 4, 7, sizeof(GpuRenderPush),
                              constants, kModelUniform);
 }
 
@@ -173,8 +166,8 @@ RenderResult GpuRenderer::render(const RenderOptions& opt, const ProgressFn& pro
                                double(b)));
         }
         const size_t paths = size_t(b) * pixels;
-        RenderPush push{uint32_t(opt.seed), uint32_t(opt.seed >> 32), uint32_t(done),
-                        int32_t(opt.max_bounces), uint32_t(paths)};
+        GpuRenderPush push{uint32_t(opt.seed), uint32_t(opt.seed >> 32), uint32_t(done),
+                           int32_t(opt.max_bounces), uint32_t(paths)};
         // One lane per path unless asked otherwise, and no more than one dispatch holds.
         const size_t lanes = std::min({opt.gpu_lanes > 0 ? size_t(opt.gpu_lanes) : paths,
                                        paths, size_t(vk_.max_workgroups_x()) * kGroup});
@@ -188,8 +181,8 @@ RenderResult GpuRenderer::render(const RenderOptions& opt, const ProgressFn& pro
         vk_.download(counts, cnt.data(), size_t(b) * pixels * 8);
         size_t unfinished = 0;
         for (size_t i = 0; i < paths; ++i) {
-            unfinished += (cnt[2 * i + 1] & kWritten) == 0;
-            cnt[2 * i + 1] &= ~kWritten;
+            unfinished += (cnt[2 * i + 1] & kGpuWritten) == 0;
+            cnt[2 * i + 1] &= ~kGpuWritten;
         }
         if (unfinished > 0)
             fail(unfinished, " of ", paths, " paths did not end on the Vulkan device '",

@@ -9,49 +9,17 @@
 #include <vector>
 
 #include "geometry/flat_bvh.h"
+#include "gpu/shaders/layout.h"
 
 namespace sss {
 
-constexpr int kGpuMaxShapes = 16;
-constexpr int kGpuMaxEmitters = 16;
-constexpr int kGpuMaxLights = 16;
-
-// std430 mirrors of scene.glsl's structs (field comments there).
-struct GpuShape {
-    float sigma_t[4];   // xyz, w: g
-    float albedo[4];    // xyz, w: 1 dielectric, 0 index-matched
-    float boundary[4];  // x: ior
-};
-struct GpuGrid {
-    float origin[4];  // xyz, w: cell size
-    float scale[4];   // x: 1 / cell, y: guard
-    int32_t n[4];     // nodes per axis, w: offset in grid_values
-};
-// A light for NEE (scene.glsl's GpuLight).
-enum class GpuLightType : int { Point = 0, Directional = 1, Area = 2, Environment = 3 };
-struct GpuLight {
-    float a[4];         // xyz: point position, directional travel direction, area
-                        // corner; w: GpuLightType
-    float edge1[4];     // area: edge1
-    float edge2[4];     // area: edge2; w: the quad's area
-    float radiance[4];  // point: intensity; directional: irradiance; else radiance
-};
-struct GpuSceneHeader {
-    float cam_origin[4];   // w: tan(fov / 2)
-    float cam_forward[4];  // w: aspect
-    float cam_right[4];
-    float cam_up[4];
-    float environment[4];  // rgb, w: 1 if present
-    uint32_t counts[4];    // shapes, emitter meshes, width, height
-    float params[4];       // unused, sphere threshold, sigma_max, grey media (1/0)
-    GpuShape shapes[kGpuMaxShapes];
-    GpuGrid grids[kGpuMaxShapes];
-    float emitters[kGpuMaxEmitters][4];  // rgb radiance, w: its index in lights
-    // x: lights; y: 1 when the shaders sample lights (NEE); z: the point and directional
-    // ones, first in lights[]
-    uint32_t lighting[4];
-    GpuLight lights[kGpuMaxLights];
-    float event_phi[4];  // x, y: EventGen's range of phi (an event's albedo is clamped)
+// The buffer layouts (GpuSceneHeader, GpuShape, GpuGrid, GpuLight, kGpuMax*) are
+// written once for C++ and GLSL in shaders/layout.h.
+enum class GpuLightType : int {
+    Point = kGpuPointLight,
+    Directional = kGpuDirectionalLight,
+    Area = kGpuAreaLight,
+    Environment = kGpuEnvironmentLight
 };
 
 // Packed decoders (model.glsl): decoder d (0 LengthGen, 1 PathGen, 2 EventGen) has a

@@ -28,19 +28,11 @@ layout(local_size_x = 64) in;
 const int kModelVec4 = 1024;  // kGpuModelFloats / 4
 layout(std140, binding = 4) uniform Model { vec4 model_v[kModelVec4]; };
 // Per path i: radiance (rgb), and the ordinary scattering events and sphere steps, the
-// latter with bit 31 set: the host zeroes the buffer before a dispatch and so finds paths
-// that never ended (Mesa's lavapipe ends all loops of an invocation after 65535 iterations
-// in all, silently; a GPU does not).
+// latter with bit kGpuWritten set (gpu/shaders/layout.h says why).
 layout(std430, binding = 5) writeonly buffer OutRadiance { vec4 out_radiance[]; };
 layout(std430, binding = 6) writeonly buffer OutCounts { uvec2 out_counts[]; };
-const uint kWritten = 0x80000000u;
 
-layout(push_constant) uniform Push {
-    uint seed_lo, seed_hi;
-    uint sample0;     // sample index of path 0
-    int max_bounces;  // scattering events per path; < 0: no limit ("pt" only)
-    uint num_paths;   // paths of this dispatch
-};
+layout(push_constant) uniform Push { SSS_GPU_RENDER_PUSH_FIELDS };
 
 #include "gpu/shaders/model.glsl"
 
@@ -96,7 +88,7 @@ vec3 direct_light(vec3 p, float r, vec3 d, int shape, int channel, bool delta_on
     int type = int(l.a.w);
     float g = s.sigma_t.w;
     vec3 sum = vec3(0.0);
-    if (type == kPointLight) {
+    if (type == kGpuPointLight) {
         vec3 to = l.a.xyz - p;
         float dist = length(to);
         if (dist > 0.0) {
@@ -104,10 +96,10 @@ vec3 direct_light(vec3 p, float r, vec3 d, int shape, int channel, bool delta_on
             sum = l.radiance.rgb * transmittance(p, w, dist, shape) *
                   (hg_eval(dot(d, w), g) / (dist * dist));
         }
-    } else if (type == kDirectionalLight) {
+    } else if (type == kGpuDirectionalLight) {
         vec3 w = -l.a.xyz;
         sum = l.radiance.rgb * transmittance(p, w, kInf, shape) * hg_eval(dot(d, w), g);
-    } else if (type == kAreaLight) {
+    } else if (type == kGpuAreaLight) {
         float u1 = rng_uniform(rng), u2 = rng_uniform(rng);
         vec3 q = l.a.xyz + l.edge1.xyz * u1 + l.edge2.xyz * u2;
         vec3 n = normalize(cross(l.edge1.xyz, l.edge2.xyz));
@@ -375,7 +367,7 @@ Path start_path(uint i) {
 // it has none left.
 bool next_path(inout Path p, inout uint id, uint lanes) {
     out_radiance[id] = vec4(p.L, 0.0);
-    out_counts[id] = uvec2(p.events, p.steps | kWritten);
+    out_counts[id] = uvec2(p.events, p.steps | kGpuWritten);
     id += lanes;
     if (id >= num_paths) return false;
     p = start_path(id);

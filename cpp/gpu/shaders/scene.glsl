@@ -1,50 +1,15 @@
-// The scene on the GPU (cpp/gpu/gpu_scene.h lays it out): camera, shapes, emitters, the
+// The scene on the GPU (gpu/shaders/layout.h lays it out, gpu/gpu_scene.h fills it): camera, shapes, emitters, the
 // flattened BVH (cpp/geometry/flat_bvh.h) and the distance grids. Closest-hit traversal
 // and the grid's conservative bound, as RayTracer::intersect and DistanceGrid::query.
 
-const int kMaxShapes = 16;
-const int kMaxEmitters = 16;
-const int kMaxLights = 16;
+#include "gpu/shaders/layout.h"
+
 const uint kLeafBit = 0x80000000u;
 const uint kNoChild = 0xffffffffu;
 const int kStackSize = 48;  // kBvhMaxDepth
 
-struct GpuShape {
-    vec4 sigma_t;  // xyz: sigma_t per channel; w: g
-    vec4 albedo;   // xyz: albedo; w: 1 for a dielectric boundary, 0 index-matched
-    vec4 boundary; // x: ior
-};
-
-struct GpuGrid {
-    vec4 origin;  // xyz: node (0, 0, 0); w: cell size
-    vec4 scale;   // x: 1 / cell; y: guard
-    ivec4 n;      // nodes per axis; w: offset of node (0, 0, 0) in grid_values
-};
-
-// A light for NEE; a.w: 0 point (a.xyz position, radiance = intensity), 1 directional
-// (a.xyz travel direction, radiance = irradiance), 2 area (a.xyz corner, edges, edge2.w its
-// area), 3 environment.
-struct GpuLight {
-    vec4 a, edge1, edge2, radiance;
-};
-const int kPointLight = 0, kDirectionalLight = 1, kAreaLight = 2, kEnvironmentLight = 3;
-
-layout(std430, binding = 0) readonly buffer SceneHeader {
-    vec4 cam_origin;   // w: tan(fov / 2)
-    vec4 cam_forward;  // w: aspect
-    vec4 cam_right;
-    vec4 cam_up;
-    vec4 environment;  // rgb radiance; w: 1 when the scene has one
-    uvec4 counts;      // shapes, emitter meshes (area lights), width, height
-    vec4 params;       // unused, sphere threshold, sigma_max, 1 for grey media
-    GpuShape shapes[kMaxShapes];
-    GpuGrid grids[kMaxShapes];
-    vec4 emitters[kMaxEmitters];  // mesh counts.x + i: radiance; w: its index in lights
-    uvec4 lighting;  // x: lights; y: 1 when the shaders sample lights (NEE); z: the point
-                     // and directional ones, first in lights[]
-    GpuLight lights[kMaxLights];
-    vec4 event_phi;  // x, y: EventGen's range of phi (an event's albedo is clamped)
-};
+// GpuShape, GpuGrid, GpuLight and the header's fields: gpu/shaders/layout.h
+layout(std430, binding = 0) readonly buffer SceneHeader { SSS_GPU_SCENE_HEADER_FIELDS };
 layout(std430, binding = 1) readonly buffer BvhNodes { vec4 nodes[]; };
 layout(std430, binding = 2) readonly buffer BvhTriangles { vec4 triangles[]; };
 layout(std430, binding = 3) readonly buffer GridValues { float grid_values[]; };

@@ -1,0 +1,122 @@
+// The buffer layouts the host and the shaders share, written once: included by C++
+// (gpu/gpu_scene.h, gpu/gpu_renderer.cpp) and by GLSL (shaders/scene.glsl, render.glsl).
+// Every member is a 16-byte vec4 / uvec4 / ivec4 (C++: float[4], uint32_t[4],
+// int32_t[4]) or an array of them, so the std430 layout of the shaders is C++'s layout
+// with no padding; the static_asserts at the end check that on the C++ side, and the
+// shaders compile the very same declarations.
+#ifndef SSS_GPU_LAYOUT_H
+#define SSS_GPU_LAYOUT_H
+
+#ifdef __cplusplus
+#include <cstddef>
+#include <cstdint>
+
+namespace sss {
+namespace gpu_layout {
+typedef float vec4[4];
+typedef uint32_t uvec4[4];
+typedef int32_t ivec4[4];
+}  // namespace gpu_layout
+using gpu_layout::ivec4;
+using gpu_layout::uvec4;
+using gpu_layout::vec4;
+#define SSS_LAYOUT_CONST inline constexpr
+#else
+#define SSS_LAYOUT_CONST const
+#ifndef uint32_t
+#define uint32_t uint
+#endif
+#ifndef int32_t
+#define int32_t int
+#endif
+#endif
+
+SSS_LAYOUT_CONST int kGpuMaxShapes = 16;
+SSS_LAYOUT_CONST int kGpuMaxEmitters = 16;
+SSS_LAYOUT_CONST int kGpuMaxLights = 16;
+
+// GpuLight.a.w
+SSS_LAYOUT_CONST int kGpuPointLight = 0;
+SSS_LAYOUT_CONST int kGpuDirectionalLight = 1;
+SSS_LAYOUT_CONST int kGpuAreaLight = 2;
+SSS_LAYOUT_CONST int kGpuEnvironmentLight = 3;
+
+// render.glsl's outputs: per path the radiance (vec4, rgb) and the counts (uvec2:
+// ordinary scattering events, sphere steps | kGpuWritten). The host zeroes the counts
+// before a dispatch and so finds paths that never ended (Mesa's lavapipe ends all loops
+// of an invocation after 65535 iterations in all, silently; a GPU does not).
+SSS_LAYOUT_CONST uint32_t kGpuWritten = 0x80000000u;
+
+struct GpuShape {
+    vec4 sigma_t;   // xyz: sigma_t per channel; w: g
+    vec4 albedo;    // xyz: albedo; w: 1 for a dielectric boundary, 0 index-matched
+    vec4 boundary;  // x: ior
+};
+
+struct GpuGrid {
+    vec4 origin;  // xyz: node (0, 0, 0); w: cell size
+    vec4 scale;   // x: 1 / cell; y: guard
+    ivec4 n;      // nodes per axis; w: offset of node (0, 0, 0) in grid_values
+};
+
+// A light for NEE; a.w: its type (kGpuPointLight ...). Point: a.xyz position, radiance
+// the intensity; directional: a.xyz travel direction, radiance the irradiance; area:
+// a.xyz a corner, edge1.xyz and edge2.xyz its edges, edge2.w its area; environment.
+struct GpuLight {
+    vec4 a, edge1, edge2, radiance;
+};
+
+// The scene header (binding 0): C++ struct GpuSceneHeader, GLSL buffer block SceneHeader.
+// lighting: x the number of lights, y 1 when the shaders sample lights (NEE), z the
+// number of point and directional ones (first in lights[]). params.w: 1 for grey media.
+// clang-format off
+#define SSS_GPU_SCENE_HEADER_FIELDS                                                      \
+    vec4 cam_origin;                /* w: tan(fov / 2) */                               \
+    vec4 cam_forward;               /* w: aspect */                                     \
+    vec4 cam_right;                                                                     \
+    vec4 cam_up;                                                                        \
+    vec4 environment;               /* rgb radiance; w: 1 if the scene has one */       \
+    uvec4 counts;                   /* shapes, emitter meshes, width, height */         \
+    vec4 params;                    /* unused, sphere threshold, sigma_max, grey */     \
+    GpuShape shapes[kGpuMaxShapes];                                                     \
+    GpuGrid grids[kGpuMaxShapes];                                                       \
+    vec4 emitters[kGpuMaxEmitters]; /* mesh counts.x + i: rgb; w: index in lights */    \
+    uvec4 lighting;                 /* lights, NEE, point + directional (first) */      \
+    GpuLight lights[kGpuMaxLights];                                                     \
+    vec4 event_phi;                 /* x, y: EventGen's range of phi */
+// clang-format on
+
+// render.glsl's push constants
+#define SSS_GPU_RENDER_PUSH_FIELDS                                              \
+    uint32_t seed_lo, seed_hi;                                                  \
+    uint32_t sample0;    /* sample index of path 0 */                           \
+    int32_t max_bounces; /* scattering events per path; < 0: no limit ("pt") */ \
+    uint32_t num_paths;  /* paths of this dispatch */
+
+#ifdef __cplusplus
+struct GpuSceneHeader {
+    SSS_GPU_SCENE_HEADER_FIELDS
+};
+struct GpuRenderPush {
+    SSS_GPU_RENDER_PUSH_FIELDS
+};
+
+// std430 puts vec4s and structs of them 16 bytes apart, with no padding: so must C++.
+static_assert(sizeof(vec4) == 16 && sizeof(uvec4) == 16 && sizeof(ivec4) == 16);
+static_assert(sizeof(GpuShape) == 3 * 16 && sizeof(GpuGrid) == 3 * 16 &&
+              sizeof(GpuLight) == 4 * 16);
+static_assert(offsetof(GpuSceneHeader, shapes) == 7 * 16);
+static_assert(offsetof(GpuSceneHeader, grids) == (7 + 3 * kGpuMaxShapes) * 16);
+static_assert(offsetof(GpuSceneHeader, emitters) == (7 + 6 * kGpuMaxShapes) * 16);
+static_assert(offsetof(GpuSceneHeader, lighting) ==
+              (7 + 6 * kGpuMaxShapes + kGpuMaxEmitters) * 16);
+static_assert(offsetof(GpuSceneHeader, lights) ==
+              (8 + 6 * kGpuMaxShapes + kGpuMaxEmitters) * 16);
+static_assert(sizeof(GpuSceneHeader) ==
+              (9 + 6 * kGpuMaxShapes + kGpuMaxEmitters + 4 * kGpuMaxLights) * 16);
+static_assert(sizeof(GpuRenderPush) == 5 * 4);  // scalars: 4 bytes each in both
+}  // namespace sss
+#endif
+
+#undef SSS_LAYOUT_CONST
+#endif  // SSS_GPU_LAYOUT_H
