@@ -192,8 +192,7 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
         h.params[2] = st.sigma_max();
         h.event_phi[0] = st.event_phi(0.f);
         h.event_phi[1] = st.event_phi(1.f);
-        if (!std::isinf(sphere_threshold))
-            out.model = pack_gpu_model(ScatteringModel::load(models));
+        if (st.model()) out.model = pack_gpu_model(*st.model());  // loaded once
     }
     return out;
 }

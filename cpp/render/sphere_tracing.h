@@ -73,6 +73,9 @@ public:
     bool wants_event(int shape) const;
     // The albedo EventGen is asked about for scene albedo phi (clamped into its range).
     float event_phi(float phi) const;
+    // The learned models it samples steps from (loaded once, by the constructor); null
+    // for exact walks or an infinite threshold.
+    const ScatteringModel* model() const { return model_.get(); }
 
     // One step for request r: its sampler's random numbers from rng, then one for the
     // turn psi about w_in.
