@@ -12,6 +12,24 @@
 #include <algorithm>
 #include <cstdint>
 
+// ThreadSanitizer cannot see oneTBB's synchronisation (libtbb is not instrumented): it
+// would report every hand-over of a chunk as a race. Under TSan the same chunks run on
+// plain threads, so that what TSan checks is our code (docs/fuzzing.md).
+#if defined(__SANITIZE_THREAD__)
+#define SSS_PARALLEL_PLAIN_THREADS 1
+#elif defined(__has_feature)
+#if __has_feature(thread_sanitizer)
+#define SSS_PARALLEL_PLAIN_THREADS 1
+#endif
+#endif
+#ifdef SSS_PARALLEL_PLAIN_THREADS
+#include <atomic>
+#include <exception>
+#include <mutex>
+#include <thread>
+#include <vector>
+#endif
+
 namespace sss {
 
 // Threads for a loop asked to run on `threads` (<= 0: every core this process may use).
@@ -36,6 +54,25 @@ void parallel_chunks(int threads, int64_t n, int64_t grain, Body&& body) {
         for (int64_t c = 0; c < chunks; ++c) run(c);
         return;
     }
+#ifdef SSS_PARALLEL_PLAIN_THREADS
+    std::atomic<int64_t> next{0};
+    std::exception_ptr error;
+    std::mutex error_mutex;
+    auto work = [&] {
+        try {
+            for (int64_t c; (c = next.fetch_add(1)) < chunks;) run(c);
+        } catch (...) {
+            std::lock_guard<std::mutex> lock(error_mutex);
+            if (!error) error = std::current_exception();
+            next = chunks;
+        }
+    };
+    std::vector<std::thread> pool;
+    for (int64_t t = 1; t < T; ++t) pool.emplace_back(work);
+    work();
+    for (std::thread& t : pool) t.join();
+    if (error) std::rethrow_exception(error);
+#else
     tbb::task_arena arena{static_cast<int>(T)};
     arena.execute([&] {
         tbb::parallel_for(
@@ -45,6 +82,7 @@ void parallel_chunks(int threads, int64_t n, int64_t grain, Body&& body) {
             },
             tbb::simple_partitioner());
     });
+#endif
 }
 
 }  // namespace sss
