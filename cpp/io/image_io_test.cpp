@@ -125,3 +125,35 @@ TEST(ImageIo, RefusesContentThatIsNotTheExtensionsFormat) {
     EXPECT_NE(read_error(tif.path()).find("unsupported image format '.tif'"),
               std::string::npos);
 }
+
+// A PNG cut anywhere (in its header chunks), or whose chunk claims more bytes than the
+// file holds, or whose IHDR claims more pixels than allowed, is an sss::Error naming the
+// file.
+TEST(ImageIo, RefusesTruncatedAndLyingPngChunks) {
+    TempFile file("d.png", "");
+    write_image(file.path(), std::vector<float>(20 * 10 * 3, 0.5f), 20, 10);
+    std::ifstream in(file.path(), std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), {});
+    // (libpng decodes a file cut after its pixel data, before IEND: no error is fine)
+    for (size_t cut = 0; cut < bytes.size(); ++cut) {
+        TempFile cut_file("cut.png", bytes.substr(0, cut));
+        const std::string error = read_error(cut_file.path());
+        ASSERT_TRUE(error.empty() ? cut > 8 + 25
+                                  : error.find("cut.png") != std::string::npos)
+            << "cut at " << cut << ": " << error;
+    }
+    // IHDR (at byte 8: length, "IHDR", width, height) claims 2^20 x 2^20 pixels
+    std::string huge = bytes;
+    huge.replace(16, 8, std::string("\0\x10\0\0\0\x10\0\0", 8));
+    TempFile huge_file("huge.png", huge);
+    EXPECT_NE(read_error(huge_file.path()).find("pixels is not allowed"),
+              std::string::npos)
+        << read_error(huge_file.path());
+    // The chunk after IHDR claims 2^30 bytes
+    std::string big = bytes;
+    big.replace(8 + 12 + 13, 4, std::string("\x40\0\0\0", 4));
+    TempFile big_file("big.png", big);
+    EXPECT_NE(read_error(big_file.path()).find("more than the file holds"),
+              std::string::npos)
+        << read_error(big_file.path());
+}
