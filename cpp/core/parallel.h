@@ -1,6 +1,6 @@
 // Parallel loops on oneTBB's thread pool, the one pool of the program (Embree builds its
-// BVHs on it too): threads are made once per process, not per loop. The CPU renderer
-// keeps threads of its own (render/renderer.cpp says why).
+// BVHs on it too): threads are made once per process, not per loop. The render loop
+// keeps threads of its own (render/scheduler.cpp says why).
 #pragma once
 
 #include <oneapi/tbb/blocked_range.h>

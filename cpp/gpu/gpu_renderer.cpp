@@ -1,10 +1,11 @@
 #include "gpu/gpu_renderer.h"
 
 #include <algorithm>
-#include <chrono>
+#include <atomic>
 #include <cmath>
 
 #include "core/check.h"
+#include "render/scheduler.h"
 
 namespace sss {
 
@@ -26,7 +27,7 @@ static const uint32_t kTraceRays[] =
 
 constexpr uint32_t kGroup = 64;  // render.glsl's workgroup size
 // The wall time a dispatch aims at when the batch is not fixed
-// (RenderOptions::gpu_batch).
+// (RenderOptions::gpu_batch): progress and Ctrl-C are answered between dispatches.
 constexpr double kDispatchSeconds = 0.25;
 
 template <class T>
@@ -90,7 +91,6 @@ GpuRenderer::GpuRenderer(VulkanCompute& vk, const GpuSceneData& scene)
 }
 
 RenderResult GpuRenderer::render(const RenderOptions& opt, const ProgressFn& progress) {
-    const auto start = std::chrono::steady_clock::now();
     if (opt.integrator != "pt" && opt.integrator != "st")
         fail("integrator '", opt.integrator, "' is not allowed (allowed: 'pt', 'st')");
     if (opt.spp < 1) fail("spp must be >= 1, got ", opt.spp);
@@ -99,14 +99,11 @@ RenderResult GpuRenderer::render(const RenderOptions& opt, const ProgressFn& pro
         fail("max_bounces must be -1 for integrator 'st' (a sphere step is many events)");
     const bool st = opt.integrator == "st";
     const size_t W = size_t(width_), H = size_t(height_), pixels = W * H;
-    if (opt.record_paths && uint64_t(opt.spp) * pixels > (uint64_t(1) << 27))
+    if (opt.record_paths && uint64_t(opt.spp) * pixels > kMaxRecordedPaths)
         fail("record_paths keeps at most 2^27 paths; ", opt.spp, " spp x ", pixels,
              " pixels are more");
-    // A GPU is full at about 2^20 paths per dispatch. Without a fixed batch the first
-    // dispatch renders one sample per pixel and later ones grow (at most 4x each) towards
-    // kDispatchSeconds by the time measured so far: progress and Ctrl-C are answered
-    // between dispatches, and a slow device (lavapipe, or a GPU on a dense medium) would
-    // otherwise hold them for as long as 2^20 paths take (20 s on lavapipe).
+    // A GPU is full at about 2^20 paths per dispatch: the most samples per pixel one
+    // dispatch takes, unless the options fix it.
     int batch = opt.gpu_batch > 0 ? opt.gpu_batch
                                   : int(std::max<size_t>(1, (size_t(1) << 20) / pixels));
     batch = std::min(batch, opt.spp);
@@ -124,98 +121,87 @@ RenderResult GpuRenderer::render(const RenderOptions& opt, const ProgressFn& pro
         radiance_ = vk_.create_buffer(out_paths_ * 16);
         counts_ = vk_.create_buffer(out_paths_ * 8);
     }
-    const VulkanCompute::BufferId radiance = radiance_, counts = counts_;
     std::vector<float> rad(size_t(batch) * pixels * 4);
     std::vector<uint32_t> cnt(size_t(batch) * pixels * 2);
+    PathRecord paths(opt.record_paths ? size_t(opt.spp) * pixels : 0);
+    double gpu_seconds = 0.0;
 
-    RenderResult r;
-    r.width = width_;
-    r.height = height_;
-    r.device = vk_.device_name();
-    Film film(pixels);
-    if (opt.record_paths) {
-        r.path_events.assign(size_t(opt.spp) * pixels, 0);
-        r.path_steps.assign(size_t(opt.spp) * pixels, 0);
-    }
-    int done = 0;
-    int next = opt.gpu_batch > 0 ? batch : 1;  // samples per pixel of the next dispatch
-    double dispatch_seconds = 0.0;             // wall time of the dispatches so far
-    auto elapsed = [&] {
-        return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-            .count();
-    };
-    const bool timed = opt.time_limit > 0.0;
-    while (done < opt.spp) {
-        // A time limit stops the render once a dispatch is in (every pixel then has the
-        // same samples) and sizes the last dispatches to end near it.
-        if (timed && done > 0 && elapsed() >= opt.time_limit) {
-            r.time_limit_reached = true;
-            break;
-        }
-        double f = double(done) / opt.spp;
-        if (timed) f = std::min(1.0, std::max(f, elapsed() / opt.time_limit));
-        if (progress && !progress(f)) {
-            r.cancelled = true;
-            break;
-        }
-        const auto dispatch_start = std::chrono::steady_clock::now();
-        int b = std::min(next, opt.spp - done);
-        if (timed && done > 0 && opt.gpu_batch <= 0) {
-            const double left = opt.time_limit - elapsed();
-            b = int(std::clamp(left * done / std::max(dispatch_seconds, 1e-9), 1.0,
-                               double(b)));
-        }
-        const size_t paths = size_t(b) * pixels;
-        GpuRenderPush push{uint32_t(opt.seed), uint32_t(opt.seed >> 32), uint32_t(done),
-                           int32_t(opt.max_bounces), uint32_t(paths)};
+    // One pass is one dispatch of samples [s0, s1) of every pixel.
+    auto dispatch = [&](const TileWork& w, Film& film, const std::atomic<bool>&) {
+        const size_t paths_now = size_t(w.s1 - w.s0) * pixels;
+        GpuRenderPush push{uint32_t(opt.seed), uint32_t(opt.seed >> 32), uint32_t(w.s0),
+                           int32_t(opt.max_bounces), uint32_t(paths_now)};
         // One lane per path unless asked otherwise, and no more than one dispatch holds.
-        const size_t lanes = std::min({opt.gpu_lanes > 0 ? size_t(opt.gpu_lanes) : paths,
-                                       paths, size_t(vk_.max_workgroups_x()) * kGroup});
-        vk_.fill_zero(counts);
+        const size_t lanes =
+            std::min({opt.gpu_lanes > 0 ? size_t(opt.gpu_lanes) : paths_now, paths_now,
+                      size_t(vk_.max_workgroups_x()) * kGroup});
+        vk_.fill_zero(counts_);
         // Where no step can happen "st" is "pt", path for path: the lighter kernel runs.
-        r.gpu_seconds +=
+        gpu_seconds +=
             vk_.run(st && st_steps_ ? st_ : pt_,
-                    {header_, nodes_, triangles_, grid_, model_, radiance, counts}, &push,
-                    sizeof(push), uint32_t((lanes + kGroup - 1) / kGroup));
-        vk_.download(radiance, rad.data(), size_t(b) * pixels * 16);
-        vk_.download(counts, cnt.data(), size_t(b) * pixels * 8);
+                    {header_, nodes_, triangles_, grid_, model_, radiance_, counts_},
+                    &push, sizeof(push), uint32_t((lanes + kGroup - 1) / kGroup));
+        vk_.download(radiance_, rad.data(), paths_now * 16);
+        vk_.download(counts_, cnt.data(), paths_now * 8);
         size_t unfinished = 0;
-        for (size_t i = 0; i < paths; ++i) {
+        for (size_t i = 0; i < paths_now; ++i) {
             unfinished += (cnt[2 * i + 1] & kGpuWritten) == 0;
             cnt[2 * i + 1] &= ~kGpuWritten;
         }
         if (unfinished > 0)
-            fail(unfinished, " of ", paths, " paths did not end on the Vulkan device '",
-                 vk_.device_name(), "'",
+            fail(unfinished, " of ", paths_now,
+                 " paths did not end on the Vulkan device '", vk_.device_name(), "'",
                  vk_.is_software()
                      ? ". Mesa's lavapipe stops all loops of a shader invocation after "
                        "65535 iterations, which paths in this medium need: render on the "
                        "CPU (backend 'cpu') or on a GPU"
                      : "");
-        for (int k = 0; k < b; ++k) {
+        for (int k = 0; k < w.s1 - w.s0; ++k)
             for (size_t p = 0; p < pixels; ++p) {
                 const size_t at = size_t(k) * pixels + p;
                 film.add_sample(p, &rad[4 * at], cnt[2 * at], cnt[2 * at + 1]);
-                if (opt.record_paths) {
-                    r.path_events[size_t(done + k) * pixels + p] = cnt[2 * at];
-                    r.path_steps[size_t(done + k) * pixels + p] = cnt[2 * at + 1];
-                }
+                if (paths.on())
+                    paths.set(size_t(w.s0 + k) * pixels + p, cnt[2 * at],
+                              cnt[2 * at + 1]);
             }
-        }
-        done += b;
-        dispatch_seconds += std::chrono::duration<double>(
-                                std::chrono::steady_clock::now() - dispatch_start)
-                                .count();
-        if (opt.gpu_batch <= 0) {
-            const double fit = kDispatchSeconds * done / std::max(dispatch_seconds, 1e-9);
-            next = int(std::clamp(fit, 1.0, double(std::min(batch, 4 * b))));
-        }
-    }
-    if (progress && !r.cancelled) progress(1.0);
+        return true;
+    };
 
-    film.finish(done, r);
-    r.seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    // The whole image is one tile, rendered on the calling thread (Vulkan's queue is not
+    // shared between threads); progress, Ctrl-C and the time limit are answered between
+    // dispatches. Without a fixed batch the first dispatch renders one sample per pixel
+    // and later ones grow, at most 4x each, towards kDispatchSeconds at the speed
+    // measured so far: a slow device (lavapipe, or a GPU on a dense medium) would
+    // otherwise hold them for as long as 2^20 paths take (20 s on lavapipe).
+    ScheduleOptions schedule_options;
+    schedule_options.width = width_;
+    schedule_options.height = height_;
+    schedule_options.spp = opt.spp;
+    schedule_options.tile = std::max(width_, height_);
+    schedule_options.threads = 0;
+    schedule_options.time_limit = opt.time_limit;
+    PassPolicy& passes = schedule_options.passes;
+    passes.max_size = batch;
+    if (opt.gpu_batch > 0) {
+        passes.first = batch;
+        passes.growth = 1;
+    } else {
+        passes.first = 1;
+        passes.growth = 4;
+        passes.target_seconds = kDispatchSeconds;
+    }
+    Scheduled done = schedule(schedule_options, dispatch, progress);
+
+    RenderResult r;
+    r.width = width_;
+    r.height = height_;
+    r.device = vk_.device_name();
+    r.cancelled = done.cancelled;
+    r.time_limit_reached = done.time_limit_reached;
+    r.seconds = done.seconds;
+    r.gpu_seconds = gpu_seconds;
+    done.film.finish(done.spp, r);
+    paths.finish(size_t(done.spp) * pixels, r);
     return r;
 }
 

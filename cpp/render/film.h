@@ -1,7 +1,7 @@
 // The film: per-pixel sums of a render's samples, and the result a finished render
-// reports (RenderResult). One film for both renderers: the CPU one (render/renderer.cpp)
-// adds whole passes of tiles, the Vulkan one (gpu/gpu_renderer.cpp) whole dispatches.
-// Header-only, so the GPU layer (which links no render code) uses it too.
+// reports (RenderResult). One film for both renderers, filled by their shared scheduler
+// (render/scheduler.h): the CPU renderer (render/renderer.cpp) renders tiles, the Vulkan
+// one (gpu/gpu_renderer.cpp) whole images per dispatch.
 #pragma once
 
 #include <algorithm>
@@ -112,6 +112,30 @@ public:
 private:
     std::vector<double> sum_, sum_sq_;
     std::vector<uint64_t> events_, steps_;
+};
+
+// With RenderOptions::record_paths: the ordinary events and sphere steps of every path,
+// sample k of pixel p at k * pixels + p (RenderResult::path_events, path_steps).
+class PathRecord {
+public:
+    explicit PathRecord(size_t paths) : events_(paths, 0), steps_(paths, 0) {}
+    bool on() const { return !events_.empty(); }
+    void set(size_t at, uint32_t events, uint32_t steps) {
+        events_[at] = events;
+        steps_[at] = steps;
+    }
+    // Moves the records into r; those from `kept` on (samples traced but not in the film,
+    // as of a stopped render) become 0.
+    void finish(size_t kept, RenderResult& r) {
+        if (!on()) return;
+        std::fill(events_.begin() + std::min(kept, events_.size()), events_.end(), 0u);
+        std::fill(steps_.begin() + std::min(kept, steps_.size()), steps_.end(), 0u);
+        r.path_events = std::move(events_);
+        r.path_steps = std::move(steps_);
+    }
+
+private:
+    std::vector<uint32_t> events_, steps_;
 };
 
 }  // namespace sss

@@ -1,9 +1,10 @@
-// Film and multithreaded rendering. The image is rendered in passes (1, 2, 4, ... samples
-// per pixel, then spp/16 each) over 16x16 tiles; each (pixel, sample) has its own random
-// stream, and whole passes are added to the film in order, so the result is
-// bit-identical for any thread count. Stopping early (the progress callback returning
-// false, or RenderOptions::time_limit) keeps every pass all pixels have finished, so
-// every pixel has the same samples (RenderResult::spp).
+// The CPU renderer: "pt" or "st" on worker threads, in passes (1, 2, 4, ... samples per
+// pixel, then spp/16 each) over 16x16 tiles, by the shared render loop
+// (render/scheduler.h). Each (pixel, sample) has its own random stream and whole passes
+// are added to the film in order, so the result is bit-identical for any thread count.
+// Stopping early (the progress callback returning false, or RenderOptions::time_limit)
+// keeps every pass all pixels have finished, so every pixel has the same samples
+// (RenderResult::spp).
 #pragma once
 
 #include <cstdint>
