@@ -5,9 +5,11 @@ A refactoring must not cost speed. This runs two builds of the C++ command line,
 commit before a change and the change itself, on the scenes of bench/st_vs_pt.py's bunny
 sweep (scenes/bunny.json, sigma_t = 500 x {0.25, 0.5, 1, 2} per unit) with both integrators,
 and compares the render time each prints (the time of the samples, without loading the scene,
-building the distance grid or loading the models). The runs alternate A B B A ... so that a
-drift of the machine's speed falls on both builds alike; the ratio of the medians is reported
-per scene and integrator, and their geometric mean per integrator. Both builds must render the
+building the distance grid or loading the models), the process's wall time and its CPU time
+(user + system, which other load on a shared machine disturbs less than wall time). The runs
+alternate A B B A ... so that a drift of the machine's speed falls on both builds alike; the
+ratio of the medians is reported per scene and integrator, and their geometric mean per
+integrator. Both builds must render the
 same image from the same seed: the largest per-pixel difference is reported beside the times
 (0 where the change kept the arithmetic).
 
@@ -24,6 +26,7 @@ import argparse
 import datetime
 import json
 import math
+import os
 import platform
 import re
 import statistics
@@ -57,20 +60,25 @@ def sweep_scenes(directory: Path, size: int) -> dict[str, Path]:
     return scenes
 
 
-def render(binary: str, scene: Path, output: Path, integrator: str, args) -> tuple[float, float]:
-    """Renders once; returns the render time the command line prints and the process's wall
-    time (which adds reading the scene, the distance grid and the models)."""
+def render(binary: str, scene: Path, output: Path, integrator: str, args) -> tuple[float, float, float]:
+    """Renders once; returns the render time the command line prints, the process's wall
+    time (which adds reading the scene, the distance grid and the models) and its CPU time
+    (user + system: less sensitive than wall time to other load on the machine)."""
     cmd = [binary, str(scene), "-o", str(output), "--integrator", integrator,
            "--spp", str(args.spp), "--threads", str(args.threads), "--seed", "1", "--quiet"]
     start = time.perf_counter()
-    done = subprocess.run(cmd, capture_output=True, text=True)
+    with subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True) as proc:
+        output_text = proc.stdout.read()
+        _, status, usage = os.wait4(proc.pid, 0)
+        proc.returncode = os.waitstatus_to_exitcode(status)
     wall = time.perf_counter() - start
-    if done.returncode != 0:
-        raise SystemExit(f"ab: {' '.join(cmd)} failed ({done.returncode}):\n{done.stderr}")
-    found = TIME_RE.search(done.stdout + done.stderr)
+    cpu = usage.ru_utime + usage.ru_stime
+    if proc.returncode != 0:
+        raise SystemExit(f"ab: {' '.join(cmd)} failed ({proc.returncode}):\n{output_text}")
+    found = TIME_RE.search(output_text)
     if not found:
-        raise SystemExit(f"ab: no render time in the output of {' '.join(cmd)}:\n{done.stdout}")
-    return float(found.group(1)), wall
+        raise SystemExit(f"ab: no render time in the output of {' '.join(cmd)}:\n{output_text}")
+    return float(found.group(1)), wall, cpu
 
 
 def geomean(values: list[float]) -> float:
@@ -97,30 +105,35 @@ def main() -> None:
             for integrator in ("pt", "st"):
                 times = {"a": [], "b": []}
                 walls = {"a": [], "b": []}
+                cpus = {"a": [], "b": []}
                 for r in range(args.repeats):
                     order = ("a", "b") if r % 2 == 0 else ("b", "a")
                     for which in order:
                         binary = getattr(args, which)
                         out = tmp / f"{which}.exr"
-                        seconds, wall = render(binary, scene, out, integrator, args)
+                        seconds, wall, cpu = render(binary, scene, out, integrator, args)
                         times[which].append(seconds)
                         walls[which].append(wall)
+                        cpus[which].append(cpu)
                 diff = float(np.max(np.abs(read_image(tmp / "a.exr") - read_image(tmp / "b.exr"))))
                 a, b = statistics.median(times["a"]), statistics.median(times["b"])
                 wall_ratio = statistics.median(walls["b"]) / statistics.median(walls["a"])
+                cpu_ratio = statistics.median(cpus["b"]) / statistics.median(cpus["a"])
                 rows.append({"scene": name, "integrator": integrator, "a_s": times["a"],
                              "b_s": times["b"], "ratio": b / a, "a_wall_s": walls["a"],
                              "b_wall_s": walls["b"], "wall_ratio": wall_ratio,
+                             "a_cpu_s": cpus["a"], "b_cpu_s": cpus["b"], "cpu_ratio": cpu_ratio,
                              "max_pixel_diff": diff})
                 print(f"{name:16s} {integrator}  render a {a:7.2f} s  b {b:7.2f} s  b/a {b / a:6.3f}"
-                      f"   wall b/a {wall_ratio:6.3f}   max |a-b| {diff:.3g}", flush=True)
+                      f"   wall b/a {wall_ratio:6.3f}   CPU b/a {cpu_ratio:6.3f}   max |a-b| {diff:.3g}", flush=True)
     summary = {}
     for integrator in ("pt", "st"):
         mine = [row for row in rows if row["integrator"] == integrator]
         summary[integrator] = {key: geomean([row[key] for row in mine])
-                               for key in ("ratio", "wall_ratio")}
+                               for key in ("ratio", "wall_ratio", "cpu_ratio")}
         print(f"{integrator}: b/a geometric mean over {len(mine)} scenes: render"
-              f" {summary[integrator]['ratio']:.3f}, wall {summary[integrator]['wall_ratio']:.3f}")
+              f" {summary[integrator]['ratio']:.3f}, wall {summary[integrator]['wall_ratio']:.3f},"
+              f" CPU {summary[integrator]['cpu_ratio']:.3f}")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps({
         "date": datetime.datetime.now().isoformat(timespec="seconds"),

@@ -186,19 +186,28 @@ private:
         std::condition_variable done_cv;
         int running = opt_.threads;
         std::vector<std::thread> pool;
+        // The first exception of a worker or of the progress callback stops the render;
+        // schedule() rethrows it once every worker has ended.
+        auto keep_error = [&] {
+            {
+                std::lock_guard<std::mutex> lock(done_mutex);
+                if (!error_) error_ = std::current_exception();
+            }
+            stop();
+        };
+        auto work = [&] {
+            TileWork work;
+            while (!cancel_) {
+                const int64_t task = next_task_++;
+                if (!claim(task, work) || !render(task, work)) return;
+            }
+        };
         for (int t = 0; t < opt_.threads; ++t)
             pool.emplace_back([&] {
                 try {
-                    TileWork work;
-                    for (int64_t task; !cancel_ && claim(task = next_task_++, work) &&
-                                       render(task, work);) {
-                    }
+                    work();
                 } catch (...) {
-                    {
-                        std::lock_guard<std::mutex> lock(done_mutex);
-                        if (!error_) error_ = std::current_exception();
-                    }
-                    stop();
+                    keep_error();
                 }
                 std::lock_guard<std::mutex> lock(done_mutex);
                 --running;
@@ -216,8 +225,13 @@ private:
                     std::lock_guard<std::mutex> film_lock(film_mutex_);
                     s.time_limit_reached = out_of_time();
                 }
-                if (!s.time_limit_reached && progress && !progress(fraction()))
+                try {
+                    if (!s.time_limit_reached && progress && !progress(fraction()))
+                        s.cancelled = true;
+                } catch (...) {
+                    keep_error();
                     s.cancelled = true;
+                }
                 if (s.cancelled || s.time_limit_reached) stop();
             }
             lock.lock();

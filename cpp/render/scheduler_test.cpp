@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <stdexcept>
 #include <thread>
 #include <vector>
 
@@ -90,8 +91,9 @@ TEST(Scheduler, FilmIsBitIdenticalForAnyThreadCount) {
 TEST(Scheduler, CancelKeepsWholePasses) {
     for (int threads : {0, 2}) {
         // A slow tile function, stopped at the 12th progress call: on the calling thread
-        // (threads = 0) that call comes before the 12th tile, the third of pass 1 (9 tiles
-        // a pass), so pass 0 alone is kept; with workers it comes after about 1.1 s.
+        // (threads = 0) that call comes before the 12th tile, the third of pass 1 (9
+        // tiles a pass), so pass 0 alone is kept; with workers it comes after about 1.1
+        // s.
         std::atomic<int> calls{0};
         auto slow = [](const TileWork& w, Film& film, const std::atomic<bool>& cancel) {
             Values values{12};
@@ -102,7 +104,9 @@ TEST(Scheduler, CancelKeepsWholePasses) {
         o.passes.max_size = 4;  // about 1000 passes of 9 tiles: seconds
         const Scheduled s = schedule(o, slow, [&](double) { return ++calls < 12; });
         EXPECT_TRUE(s.cancelled);
-        if (threads == 0) EXPECT_EQ(s.spp, 1);
+        if (threads == 0) {
+            EXPECT_EQ(s.spp, 1);
+        }
         EXPECT_GE(s.spp, 1);
         EXPECT_LT(s.spp, 1 << 12);
         expect_samples_0_to(s, 12, 12, s.spp);
@@ -140,6 +144,22 @@ TEST(Scheduler, AnExceptionOfATileStopsTheRenderAndIsRethrown) {
         // 18 passes (1, 2, 4, ..., 4, 1) of 16 tiles: 288 tiles if it went on.
         EXPECT_THROW(schedule(options(16, 16, 64, threads), failing, {}), Error);
         EXPECT_LT(tiles, 100) << "the render went on after the error";
+    }
+}
+
+TEST(Scheduler, AnExceptionOfTheProgressCallbackIsRethrownOnceTheWorkersEnded) {
+    for (int threads : {0, 2}) {
+        auto slow = [](const TileWork& w, Film& film, const std::atomic<bool>& cancel) {
+            Values values{8};
+            std::this_thread::sleep_for(std::chrono::milliseconds(5));
+            return values(w, film, cancel);
+        };
+        ScheduleOptions o = options(8, 8, 1 << 12, threads);
+        o.passes.max_size = 1;
+        EXPECT_THROW(
+            schedule(o, slow,
+                     [](double) -> bool { throw std::runtime_error("callback"); }),
+            std::runtime_error);
     }
 }
 
