@@ -7,9 +7,11 @@
 #   bash scripts/sanitize.sh thread           build/tsan: ThreadSanitizer, the threaded
 #                                             render and walk tests (ctest)
 # --ci: a bounded pytest run for CI (see below); ctest runs in full either way.
-# Extra arguments after these go to pytest (address only), e.g. -k scene.
+# Extra arguments after these go to pytest (address only), e.g. -k scene, or test files to
+# run instead of the whole suite.
 # Needs the dev environment (bash scripts/install.sh --dev): its python, pytest and cmake.
-# Environment: JOBS (parallel build and test jobs, default nproc).
+# Environment: JOBS (parallel build and test jobs, default nproc); SKIP_CTEST=1 (address:
+# pytest only, e.g. to run one slow test file under ASan).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 repo=$PWD
@@ -77,11 +79,13 @@ dir=build/asan
 # its error string when libpng longjmps out of a corrupt PNG (docs/fuzzing.md), and the
 # stack LeakSanitizer records ends in libstdc++. Those tests still run under ASan and
 # UBSan.
-export ASAN_OPTIONS=abort_on_error=0:detect_stack_use_after_return=0:strict_string_checks=1
-gpu_tests='Vulkan|Gpu|ImageIo'
-"$ctest" --test-dir "$dir" --output-on-failure -j "$jobs" -E "$gpu_tests"
-ASAN_OPTIONS=$ASAN_OPTIONS:detect_leaks=0 \
-  "$ctest" --test-dir "$dir" --output-on-failure -j "$jobs" -R "$gpu_tests"
+if [ "${SKIP_CTEST:-0}" != 1 ]; then
+  export ASAN_OPTIONS=abort_on_error=0:detect_stack_use_after_return=0:strict_string_checks=1
+  gpu_tests='Vulkan|Gpu|ImageIo'
+  "$ctest" --test-dir "$dir" --output-on-failure -j "$jobs" -E "$gpu_tests"
+  ASAN_OPTIONS=$ASAN_OPTIONS:detect_leaks=0 \
+    "$ctest" --test-dir "$dir" --output-on-failure -j "$jobs" -R "$gpu_tests"
+fi
 
 # pytest against the sanitized extension modules. The editable install's import hook
 # (.venv/.../_editable_skbc_sssphere.py) would load build/dev's modules, so pyroot/ holds
@@ -123,7 +127,10 @@ if [ "$ci" = 1 ]; then
   # tests, 12.6 minutes).
   pytest_args+=(tests/test_bad_input.py tests/test_render_api.py tests/test_load.py)
 else
-  pytest_args+=(tests)
+  # The whole suite, unless the arguments name test files or directories themselves.
+  named=0
+  for a in "$@"; do [ -e "$a" ] && named=1; done
+  [ "$named" = 1 ] || pytest_args+=(tests)
 fi
 pytest_args+=("$@")
 # Check that the sanitized modules are the ones imported, then the tests

@@ -91,12 +91,8 @@ GpuRenderer::GpuRenderer(VulkanCompute& vk, const GpuSceneData& scene)
 }
 
 RenderResult GpuRenderer::render(const RenderOptions& opt, const ProgressFn& progress) {
-    if (opt.integrator != "pt" && opt.integrator != "st")
-        fail("integrator '", opt.integrator, "' is not allowed (allowed: 'pt', 'st')");
-    if (opt.spp < 1) fail("spp must be >= 1, got ", opt.spp);
+    check_render_options(opt, "");
     if (opt.gpu_lanes < 0) fail("lanes must be >= 0 (0: automatic), got ", opt.gpu_lanes);
-    if (opt.integrator == "st" && opt.max_bounces >= 0)
-        fail("max_bounces must be -1 for integrator 'st' (a sphere step is many events)");
     const bool st = opt.integrator == "st";
     const size_t W = size_t(width_), H = size_t(height_), pixels = W * H;
     if (opt.record_paths && uint64_t(opt.spp) * pixels > kMaxRecordedPaths)

@@ -6,7 +6,6 @@
 #include <limits>
 
 #include "core/check.h"
-#include "render/scene.h"
 
 namespace sss {
 
@@ -31,6 +30,16 @@ std::string checked_choice(const std::string& name, const std::string& v) {
     for (const std::string& c : s.choices)
         if (v == c) return v;
     fail(name, " '", v, "' is not allowed (allowed: ", quoted_list(s.choices), ")");
+}
+
+void check_time_limit(double seconds) {
+    if (!(seconds >= 0.0) || std::isinf(seconds))
+        fail("time_limit must be a number >= 0 (seconds; 0: no limit), got ", seconds);
+}
+
+void check_sphere_threshold(double tau) {
+    if (!(tau >= 0.0))
+        fail("sphere_threshold must be a number >= 0 (inf: no sphere steps), got ", tau);
 }
 
 }  // namespace
@@ -225,13 +234,11 @@ RenderOptions resolve_render_options(const RenderSettings& scene,
     RenderOptions r;
     // Defaults < scene < overrides, then every value checked.
     r.integrator = checked_choice("integrator", o.integrator.value_or(scene.integrator));
-    const double time_limit = o.time_limit.value_or(scene.time_limit);
-    if (!(time_limit >= 0.0) || std::isinf(time_limit))
-        fail("time_limit must be a number >= 0 (seconds; 0: no limit), got ", time_limit);
-    r.time_limit = time_limit;
+    r.time_limit = o.time_limit.value_or(scene.time_limit);
+    check_time_limit(r.time_limit);
     // With a time limit and no spp given, the time alone ends the render.
     const int64_t default_spp =
-        time_limit > 0 ? render_option_spec("spp").hi : kDefaultSpp;
+        r.time_limit > 0 ? render_option_spec("spp").hi : kDefaultSpp;
     r.spp = int(checked_integer("spp", o.spp.value_or(scene.spp.value_or(default_spp))));
     r.seed = uint64_t(checked_integer("seed", o.seed.value_or(int64_t(scene.seed))));
     r.threads = int(checked_integer("threads", o.threads.value_or(0)));
@@ -239,8 +246,7 @@ RenderOptions resolve_render_options(const RenderSettings& scene,
         int(checked_integer("max_bounces", o.max_bounces.value_or(scene.max_bounces)));
     r.nee = o.nee.value_or(true);
     const double tau = o.sphere_threshold.value_or(scene.sphere_threshold);
-    if (!(tau >= 0.0))
-        fail("sphere_threshold must be a number >= 0 (inf: no sphere steps), got ", tau);
+    check_sphere_threshold(tau);
     r.sphere_threshold = float(tau);
     r.models = o.models                ? *o.models
                : !scene.models.empty() ? scene.models
@@ -256,13 +262,25 @@ RenderOptions resolve_render_options(const RenderSettings& scene,
                     ? Backend::Vulkan
                     : Backend::Cpu;
     r.record_paths = o.record_paths.value_or(false);
+    check_render_options(r, source);
+    return r;
+}
+
+void check_render_options(const RenderOptions& r, const std::string& source) {
+    // Values (those resolve_render_options parsed are checked again: cheap)
+    checked_choice("integrator", r.integrator);
+    check_time_limit(r.time_limit);
+    checked_integer("spp", r.spp);
+    checked_integer("threads", r.threads);
+    checked_integer("max_bounces", r.max_bounces);
+    check_sphere_threshold(r.sphere_threshold);
 
     // Combinations
+    const std::string where = source.empty() ? "" : source + ": ";
     if (r.integrator == "st" && r.max_bounces != -1)
-        fail(source, ": max_bounces ", r.max_bounces,
+        fail(where, "max_bounces ", r.max_bounces,
              " is not supported by integrator 'st' (allowed: -1): a sphere step stands "
-             "for "
-             "many scattering events at once");
+             "for many scattering events at once");
     if (r.backend == Backend::Vulkan) {
         if (r.threads != 0)
             fail("threads=", r.threads,
@@ -274,10 +292,8 @@ RenderOptions resolve_render_options(const RenderSettings& scene,
         if (r.sphere_sampler != SphereSampler::Model)
             fail(
                 "sphere_sampler 'walk' is CPU-only (backend 'vulkan' samples steps with "
-                "the "
-                "models)");
+                "the models)");
     }
-    return r;
 }
 
 const char* to_string(StepNee v) { return v == StepNee::Event ? "event" : "hits"; }

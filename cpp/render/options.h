@@ -105,7 +105,23 @@ void set_override(RenderOverrides& o, const std::string& name, const OptionValue
 void set_override_from_text(RenderOverrides& o, const std::string& name,
                             const std::string& text);
 
-struct RenderSettings;  // render/scene.h: the scene file's "render" block
+// The scene file's "render" block (docs/scene-format.md), as read: what it sets of a
+// render's options.
+struct RenderSettings {
+    std::string integrator = "pt";
+    std::optional<int>
+        spp;  // unset: RenderOptions' default (unlimited with a time limit)
+    uint64_t seed = 0;
+    int max_bounces = -1;     // scattering events per path; -1 = no limit
+    double time_limit = 0.0;  // seconds of rendering; 0: no limit
+    // Distance-grid cells along a shape's largest side; 0 = per shape, by its medium
+    // (Scene::auto_grid_resolution).
+    int grid_resolution = 0;
+    float sphere_threshold =
+        kDefaultSphereThreshold;  // "st": optical radius of the smallest step
+    std::string
+        models;  // "st": model directory (resolved against the scene file's); "" = unset
+};
 
 // The options of one render: defaults < scene < overrides, every value checked, with
 // errors that name the option, the value and what is allowed. `source` names the scene in
@@ -115,6 +131,12 @@ RenderOptions resolve_render_options(const RenderSettings& scene,
                                      const std::string& source,
                                      const RenderOverrides& overrides,
                                      const std::string& default_models);
+
+// Checks every value of `options` and their combinations, with the messages of
+// resolve_render_options (which calls it): both renderers call it first, so options made
+// in C++ without resolving are held to the same rules. `source` names the scene in
+// messages about combinations. Throws sss::Error.
+void check_render_options(const RenderOptions& options, const std::string& source);
 
 const char* to_string(StepNee v);
 const char* to_string(SphereSampler v);

@@ -93,19 +93,9 @@ bool trace_in_flight(const PathTracer& tracer, const SphereTracing& st, int coun
     }
 }
 
-// Checks the options a render reads that a scene file cannot have checked.
+// Checks the options and that the paths fit record_paths.
 void check_options(const Scene& scene, const RenderOptions& opt) {
-    if (opt.spp <= 0) fail("spp must be >= 1, got ", opt.spp);
-    if (opt.threads < 0) fail("threads must be >= 0 (0 = all cores), got ", opt.threads);
-    if (!(opt.time_limit >= 0.0))
-        fail("time_limit must be a number > 0 (seconds; 0: none), got ", opt.time_limit);
-    if (opt.integrator != "pt" && opt.integrator != "st")
-        fail(scene.desc().source, ": integrator '", opt.integrator,
-             "' is not available (allowed: \"pt\", \"st\")");
-    if (opt.integrator == "st" && opt.max_bounces != -1)
-        fail("max_bounces ", opt.max_bounces,
-             " is not supported by integrator 'st' (allowed: -1): a sphere "
-             "step stands for many scattering events at once");
+    check_render_options(opt, scene.desc().source);
     const Camera& cam = scene.desc().camera;
     const uint64_t num_paths =
         uint64_t(cam.width) * uint64_t(cam.height) * uint64_t(opt.spp);

@@ -55,22 +55,6 @@ struct Light {
     bool is_delta() const { return type == Type::Point || type == Type::Directional; }
 };
 
-struct RenderSettings {
-    std::string integrator = "pt";
-    std::optional<int>
-        spp;  // unset: RenderOptions' default (unlimited with a time limit)
-    uint64_t seed = 0;
-    int max_bounces = -1;     // scattering events per path; -1 = no limit
-    double time_limit = 0.0;  // seconds of rendering; 0: no limit
-    // Distance-grid cells along a shape's largest side; 0 = per shape, by its medium
-    // (Scene::auto_grid_resolution).
-    int grid_resolution = 0;
-    float sphere_threshold =
-        kDefaultSphereThreshold;  // "st": optical radius of the smallest step
-    std::string
-        models;  // "st": model directory (resolved against the scene file's); "" = unset
-};
-
 // Positions in a SceneDesc (meshes, camera, lights) are in the *render frame*: the scene
 // file's coordinates less `origin` (the centre of the shapes' bounds, kept in double), so
 // that float precision follows the shapes' size, not where they sit (docs/robustness.md).

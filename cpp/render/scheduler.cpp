@@ -146,7 +146,10 @@ private:
     bool render(int64_t task, const TileWork& work) {
         const int pass = int(task / num_tiles_), tile = int(task % num_tiles_);
         Film film(size_t(work.pixels()));
-        if (!render_tile_(work, film, cancel_)) return false;
+        if (!render_tile_(work, film, cancel_)) {
+            stop();  // a tile only stops for a cancel; no worker may wait for it
+            return false;
+        }
         done_samples_ += int64_t(work.pixels()) * (work.s1 - work.s0);
         std::lock_guard<std::mutex> lock(film_mutex_);
         if (cancel_) return false;  // nothing is added after a stop

@@ -34,10 +34,8 @@ SphereTracing::SphereTracing(const Scene& scene, float threshold, SphereSampler 
       nee_(nee),
       step_nee_(step_nee) {
     if (!(threshold >= 0.f))
-        fail(
-            "sphere_threshold must be >= 0 (inf: no sphere steps, the same image as "
-            "'pt'), got ",
-            threshold);
+        fail("sphere_threshold must be a number >= 0 (inf: no sphere steps), got ",
+             threshold);
     for (int i = 0; i < scene_.num_shapes(); ++i)
         if (max_component(scene_.desc().shapes[i].medium.sigma_t) *
                 scene_.grid(i).max_query() >=

@@ -340,9 +340,9 @@ TEST(SphereTracer, RefusesWhatTheModelsCannotDo) {
     EXPECT_HAS(err(desc, st_options(models.path() + "/nowhere", 2.f)),
                "nowhere: not a directory");
     EXPECT_HAS(err(desc, st_options(models.path(), -1.f)),
-               "sphere_threshold must be >= 0");
+               "sphere_threshold must be a number >= 0");
     EXPECT_HAS(err(desc, st_options(models.path(), std::nanf(""))),
-               "sphere_threshold must be >= 0");
+               "sphere_threshold must be a number >= 0");
     EXPECT_HAS(err(desc, st_options(models.path(), 0.25f)),
                "below the smallest optical radius");
 
