@@ -31,13 +31,14 @@ static const uint32_t kTestSharedMath[] =
 #include "shaders/test_shared_math.spv.h"
     ;
 
-constexpr int kIn = 12, kOut = 16;  // as test_shared_math.comp
+constexpr int kIn = 15, kOut = 24;  // as test_shared_math.comp
 constexpr double kEps = 0x1p-24;    // float's unit roundoff
 constexpr double kLogAbs = 0x1p-21;
 constexpr double kTrigAbs = 0x1p-11;
 
 struct Case {
     float c, g, u1, u2, cos_i, eta, sigma, x, phi, n, alpha, beta;
+    float px, py, pz;  // a decoder output to project: 1e-30 to 1e38 long, or about 1
 };
 
 // Cases over the functions' domains, with the edges that need care: g near 0 (HG's
@@ -65,6 +66,10 @@ std::vector<Case> make_cases(int count) {
         float r = std::sqrt(unit(gen)), a = 2.f * kPi * unit(gen);
         k.alpha = r * std::cos(a);
         k.beta = r * std::sin(a);
+        const double mag = i % 5 == 0 ? 1.0 + (unit(gen) - 0.5) * 1e-6
+                                      : std::pow(10.0, -30.0 + 68.0 * unit(gen));
+        const Vec3 d = sample_uniform_sphere(unit(gen), unit(gen));
+        k.px = float(d.x * mag), k.py = float(d.y * mag), k.pz = float(d.z * mag);
         cases.push_back(k);
     }
     return cases;
@@ -121,7 +126,15 @@ TEST(SharedMathOnGpu, MatchesTheCpuWithinTheDevicesPrecision) {
                                "exit.x",
                                "exit.y",
                                "exit.z",
-                               "expm1 * copysign"};
+                               "expm1 * copysign",
+                               "disc.a",
+                               "disc.b",
+                               "ball.x",
+                               "ball.y",
+                               "ball.z",
+                               "unit.x",
+                               "unit.y",
+                               "unit.z"};
     double worst[kOut] = {};  // largest |gpu - cpu| / tolerance per output
     for (uint32_t i = 0; i < n; ++i) {
         const Case& k = cases[i];
@@ -203,6 +216,14 @@ TEST(SharedMathOnGpu, MatchesTheCpuWithinTheDevicesPrecision) {
         want[15] = std::expm1(double(k.x) * 1e-3) * (std::signbit(k.c) ? -1.0 : 1.0);
         tol[15] = std::abs(k.x * 1e-3f) < 1e-2f ? 16.0 * kEps * std::abs(want[15])
                                                 : kLogAbs + exp_rel(k.x * 1e-3);
+
+        // The projections: float arithmetic on the device where the CPU has double, and
+        // at most one nudge more or less (2^-24 each).
+        float pa = k.px, pb = k.py;
+        project_into_disc(pa, pb);
+        const Vec3 p(k.px, k.py, k.pz), ball = project_into_ball(p), unit = unit_or_z(p);
+        const double want_p[8] = {pa, pb, ball.x, ball.y, ball.z, unit.x, unit.y, unit.z};
+        for (int j = 0; j < 8; ++j) want[16 + j] = want_p[j], tol[16 + j] = 16.0 * kEps;
 
         for (int j = 0; j < kOut; ++j) {
             const double err = std::abs(double(gpu[j]) - want[j]);

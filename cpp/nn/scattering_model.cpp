@@ -345,16 +345,7 @@ void ScatteringModel::group_with(int K, const float* sigma, const float* g,
         SphereStep& s = out[act[j]];
         s.cos_theta = std::clamp(finite(ab[0][j]), -1.f, 1.f);
         float a = finite(ab[1][j]), b = finite(ab[2][j]);
-        double r2 = double(a) * a + double(b) * b;  // no overflow in double
-        if (r2 > 1.0) {
-            double f = 1.0 / std::sqrt(r2);
-            a = float(a * f);
-            b = float(b * f);
-            while (a * a + b * b > 1.f) {  // rounding
-                a *= 0.99999994f;
-                b *= 0.99999994f;
-            }
-        }
+        project_into_disc(a, b);  // shared/sphere_step.h
         s.alpha = a;
         s.beta = b;
     }
@@ -377,22 +368,8 @@ void ScatteringModel::group_with(int K, const float* sigma, const float* g,
         SphereStep& s = out[act[j]];
         float v[6];
         for (int i = 0; i < 6; ++i) v[i] = finite(xw[i][j]);
-        Vec3 X{v[0], v[1], v[2]}, W{v[3], v[4], v[5]};
-        double x2 = double(X.x) * X.x + double(X.y) * X.y + double(X.z) * X.z;
-        if (x2 > 1.0) {
-            double f = 1.0 / std::sqrt(x2);
-            X = {float(X.x * f), float(X.y * f), float(X.z * f)};
-            while (dot(X, X) > 1.f) X *= 0.99999994f;  // rounding
-        }
-        double w2 = double(W.x) * W.x + double(W.y) * W.y + double(W.z) * W.z;
-        if (w2 > 0.0) {
-            double f = 1.0 / std::sqrt(w2);
-            W = {float(W.x * f), float(W.y * f), float(W.z * f)};
-        } else {
-            W = {0.f, 0.f, 1.f};
-        }
-        s.X = X;
-        s.W = W;
+        s.X = project_into_ball(Vec3(v[0], v[1], v[2]));  // shared/sphere_step.h
+        s.W = unit_or_z(Vec3(v[3], v[4], v[5]));
         // The first event (the centre) is the representative one with its exact
         // probability; EventGen models only events k >= 2.
         if (double(rng[act[j]].uniform()) <

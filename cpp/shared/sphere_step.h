@@ -48,6 +48,45 @@ SSS_FN Frame sphere_step_frame(Vec3 w_in, float u) {
     return r;
 }
 
+// The decoders' outputs (finite) made valid: (alpha, beta) into the unit disc, X into the
+// unit ball, W to unit length. A point outside is scaled onto the circle or sphere and
+// then nudged inside against rounding. The lengths are taken of the components divided by
+// the largest of them, so that nothing overflows in float (the GPU's real).
+SSS_FN void project_into_disc(SSS_INOUT(float) a, SSS_INOUT(float) b) {
+    real m = max(abs(real(a)), abs(real(b)));
+    if (!(m > real(0))) return;
+    real x = real(a) / m, y = real(b) / m, s = x * x + y * y;  // s in [1, 2]
+    if (s * m * m <= real(1)) return;  // inside (in float m * m may round to 0 or inf)
+    real l = sqrt(s);
+    a = float(x / l);
+    b = float(y / l);
+    while (a * a + b * b > 1.f) {
+        a *= 0.99999994f;
+        b *= 0.99999994f;
+    }
+}
+
+SSS_FN Vec3 project_into_ball(Vec3 v) {
+    real m = max(abs(real(v.x)), max(abs(real(v.y)), abs(real(v.z))));
+    if (!(m > real(0))) return v;
+    real x = real(v.x) / m, y = real(v.y) / m, z = real(v.z) / m,
+         s = x * x + y * y + z * z;
+    if (s * m * m <= real(1)) return v;
+    real l = sqrt(s);
+    Vec3 r = Vec3(float(x / l), float(y / l), float(z / l));
+    while (dot(r, r) > 1.f) r *= 0.99999994f;
+    return r;
+}
+
+// v / |v|, or +z for v = 0.
+SSS_FN Vec3 unit_or_z(Vec3 v) {
+    real m = max(abs(real(v.x)), max(abs(real(v.y)), abs(real(v.z))));
+    if (!(m > real(0))) return Vec3(0.f, 0.f, 1.f);
+    real x = real(v.x) / m, y = real(v.y) / m, z = real(v.z) / m;
+    real l = sqrt(x * x + y * y + z * z);
+    return Vec3(float(x / l), float(y / l), float(z / l));
+}
+
 // phi^N: the probability that a walk of N events survives absorption (phi in [0, 1]).
 // log1p(phi - 1) rather than log(phi): phi - 1 is exact, and for albedos near 1 a float
 // log (the GPU's) would be about 1 % off at phi = 0.99995.

@@ -78,3 +78,54 @@ TEST(SphereStep, WeightsMatchTheirSums) {
     EXPECT_EQ(survival_power(0.5, int64_t(1) << 40), 0.0);
     EXPECT_NEAR(event_weight_sum(0.5, int64_t(1) << 40), 1.0, 1e-12);
 }
+
+// The decoders' outputs made valid, over magnitudes from 1e-30 to 1e38 (float's range:
+// the lengths must not overflow) and near the unit circle and sphere: inside stays as it
+// is, outside lands inside along the same direction, on the boundary within float
+// rounding.
+TEST(SphereStep, ProjectionsKeepTheDirectionAndNeverOverflow) {
+    Rng rng(11);
+    for (int i = 0; i < 20000; ++i) {
+        const double mag = i % 5 == 0 ? 1.0 + (rng.uniform() - 0.5) * 1e-6
+                                      : std::pow(10.0, -30.0 + 68.0 * rng.uniform());
+        const Vec3 dir = sample_uniform_sphere(rng.uniform(), rng.uniform());
+        const Vec3 v = dir * float(mag);
+        const double len3 =
+            std::sqrt(double(v.x) * v.x + double(v.y) * v.y + double(v.z) * v.z);
+        const double len2 = std::sqrt(double(v.x) * v.x + double(v.y) * v.y);
+
+        float a = v.x, b = v.y;
+        project_into_disc(a, b);
+        ASSERT_LE(a * a + b * b, 1.f) << v.x << " " << v.y;
+        if (len2 <= 1.0) {
+            EXPECT_EQ(a, v.x);
+            EXPECT_EQ(b, v.y);
+        } else {
+            EXPECT_NEAR(a, v.x / len2, 4e-7) << v.x << " " << v.y;
+            EXPECT_NEAR(b, v.y / len2, 4e-7) << v.x << " " << v.y;
+        }
+
+        const Vec3 x = project_into_ball(v);
+        ASSERT_LE(dot(x, x), 1.f) << v.x << " " << v.y << " " << v.z;
+        const Vec3 w = unit_or_z(v);
+        for (int c = 0; c < 3; ++c) {
+            if (len3 <= 1.0)
+                EXPECT_EQ(x[c], v[c]);
+            else
+                EXPECT_NEAR(x[c], v[c] / len3, 4e-7);
+            EXPECT_NEAR(w[c], v[c] / len3, 4e-7);
+        }
+    }
+    EXPECT_EQ(unit_or_z(Vec3(0.f)), Vec3(0.f, 0.f, 1.f));
+    float a = 0.f, b = 0.f;
+    project_into_disc(a, b);
+    EXPECT_EQ(a, 0.f);
+    EXPECT_EQ(b, 0.f);
+    const float big = 3e38f;  // |(big, big)| overflows float
+    a = big, b = -big;
+    project_into_disc(a, b);
+    EXPECT_NEAR(a, 0.70710678f, 1e-6f);
+    EXPECT_NEAR(b, -0.70710678f, 1e-6f);
+    const Vec3 w = unit_or_z(Vec3(big, big, big));
+    EXPECT_NEAR(w.x, 0.57735027f, 1e-6f);
+}

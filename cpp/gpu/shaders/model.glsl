@@ -168,17 +168,7 @@ SphereStepSample sample_sphere_step(float sigma, float g, float phi, bool with_e
     s.cos_theta = clamp(finite_value(code(output_code(kPathGen, 0), u[0], true)), -1.0, 1.0);
     float a = finite_value(code(output_code(kPathGen, 1), u[1], true));
     float b = finite_value(code(output_code(kPathGen, 2), u[2], true));
-    // |(a, b)| > 1: onto the circle (the scale computed without overflow).
-    float m = max(abs(a), abs(b));
-    if (m > 0.0 && (a / m) * (a / m) + (b / m) * (b / m) > 1.0 / (m * m)) {
-        float f = 1.0 / (m * length(vec2(a / m, b / m)));
-        a *= f;
-        b *= f;
-        while (a * a + b * b > 1.0) {
-            a *= 0.99999994;
-            b *= 0.99999994;
-        }
-    }
+    project_into_disc(a, b);  // shared/sphere_step.h
     s.alpha = a;
     s.beta = b;
     if (!with_event) return s;
@@ -195,16 +185,8 @@ SphereStepSample sample_sphere_step(float sigma, float g, float phi, bool with_e
     float v[6];
     [[unroll]] for (int o = 0; o < 6; ++o)
         v[o] = finite_value(code(output_code(kEventGen, o), u[o], true));
-    vec3 X = vec3(v[0], v[1], v[2]), W = vec3(v[3], v[4], v[5]);
-    // Outside the ball: onto the sphere (scaled first, so that nothing overflows).
-    float mx = max(abs(X.x), max(abs(X.y), abs(X.z)));
-    if (mx > 0.0 && dot(X / mx, X / mx) > 1.0 / (mx * mx)) {
-        X = (X / mx) / length(X / mx);
-        while (dot(X, X) > 1.0) X *= 0.99999994;
-    }
-    float mw = max(abs(W.x), max(abs(W.y), abs(W.z)));
-    s.X = X;
-    s.W = mw > 0.0 ? (W / mw) / length(W / mw) : vec3(0.0, 0.0, 1.0);
+    s.X = project_into_ball(vec3(v[0], v[1], v[2]));  // shared/sphere_step.h
+    s.W = unit_or_z(vec3(v[3], v[4], v[5]));
     // The first event (the centre) is the representative one with the exact probability
     // (1 - phi) / (1 - phi^N) (1/N for phi = 1); EventGen models only events k >= 2.
     if (rng_uniform(rng) < first_event_probability(phi, s.N)) {
