@@ -11,7 +11,9 @@
 # run instead of the whole suite.
 # Needs the dev environment (bash scripts/install.sh --dev): its python, pytest and cmake.
 # Environment: JOBS (parallel build and test jobs, default nproc); SKIP_CTEST=1 (address:
-# pytest only, e.g. to run one slow test file under ASan).
+# pytest only, e.g. to run one slow test file under ASan); SANITIZE_CGAL=0 (address:
+# cpp/geometry/cgal.cpp without sanitizers, ~14x faster distance grids, for
+# tests/test_robustness.py's 128^3 grids; CMake's SSSPHERE_SANITIZE_CGAL).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 repo=$PWD
@@ -66,8 +68,11 @@ if [ "$mode" = thread ]; then
 fi
 
 dir=build/asan
+sanitize_cgal=ON
+[ "${SANITIZE_CGAL:-1}" = 0 ] && sanitize_cgal=OFF
 "$cmake" -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-  -DSSSPHERE_SANITIZE=address -DSSSPHERE_TESTS=ON -DSSSPHERE_PYTHON=ON \
+  -DSSSPHERE_SANITIZE=address -DSSSPHERE_SANITIZE_CGAL="$sanitize_cgal" \
+  -DSSSPHERE_TESTS=ON -DSSSPHERE_PYTHON=ON \
   -DPython_EXECUTABLE="$py"
 "$cmake" --build "$dir" -j "$jobs"
 
