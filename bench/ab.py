@@ -13,9 +13,9 @@ integrator. Both builds must render the
 same image from the same seed: the largest per-pixel difference is reported beside the times
 (0 where the change kept the arithmetic).
 
-    git worktree add /tmp/before <commit> && cmake -S /tmp/before -B /tmp/before/build \\
-        -DCMAKE_BUILD_TYPE=Release && cmake --build /tmp/before/build --target sssphere-render
-    python -m bench.ab /tmp/before/build/cpp/sssphere-render build/dev/cpp/sssphere-render
+    git worktree add ../before <commit> && cmake -S ../before -B ../before/build \\
+        -DCMAKE_BUILD_TYPE=Release && cmake --build ../before/build --target sssphere-render
+    python -m bench.ab ../before/build/cpp/sssphere-render build/dev/cpp/sssphere-render
 
 Writes bench/results/ab.json. Run it on an otherwise idle machine: other load is noise.
 """
