@@ -34,6 +34,16 @@ struct Values {
     }
 };
 
+// Values, each tile taking `ms` milliseconds longer: renders that last long enough to
+// stop.
+TileFn slow_values(int ms) {
+    return [ms](const TileWork& w, Film& film, const std::atomic<bool>& cancel) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(ms));
+        Values values{w.width()};
+        return values(w, film, cancel);
+    };
+}
+
 ScheduleOptions options(int width, int height, int spp, int threads) {
     ScheduleOptions o;
     o.width = width;
@@ -95,11 +105,7 @@ TEST(Scheduler, CancelKeepsWholePasses) {
         // tiles a pass), so pass 0 alone is kept; with workers it comes after about 1.1
         // s.
         std::atomic<int> calls{0};
-        auto slow = [](const TileWork& w, Film& film, const std::atomic<bool>& cancel) {
-            Values values{12};
-            std::this_thread::sleep_for(std::chrono::milliseconds(2));
-            return values(w, film, cancel);
-        };
+        const TileFn slow = slow_values(2);
         ScheduleOptions o = options(12, 12, 1 << 12, threads);
         o.passes.max_size = 4;  // about 1000 passes of 9 tiles: seconds
         const Scheduled s = schedule(o, slow, [&](double) { return ++calls < 12; });
@@ -116,11 +122,7 @@ TEST(Scheduler, CancelKeepsWholePasses) {
 
 TEST(Scheduler, TimeLimitStopsAfterTheFirstPassWithWholePasses) {
     for (int threads : {0, 2}) {
-        auto slow = [](const TileWork& w, Film& film, const std::atomic<bool>& cancel) {
-            Values values{8};
-            std::this_thread::sleep_for(std::chrono::milliseconds(5));
-            return values(w, film, cancel);
-        };
+        const TileFn slow = slow_values(5);
         ScheduleOptions o = options(8, 8, 1 << 20, threads);
         o.time_limit = 0.2;
         o.passes.max_size = 1 << 16;
@@ -149,11 +151,7 @@ TEST(Scheduler, AnExceptionOfATileStopsTheRenderAndIsRethrown) {
 
 TEST(Scheduler, AnExceptionOfTheProgressCallbackIsRethrownOnceTheWorkersEnded) {
     for (int threads : {0, 2}) {
-        auto slow = [](const TileWork& w, Film& film, const std::atomic<bool>& cancel) {
-            Values values{8};
-            std::this_thread::sleep_for(std::chrono::milliseconds(5));
-            return values(w, film, cancel);
-        };
+        const TileFn slow = slow_values(5);
         ScheduleOptions o = options(8, 8, 1 << 12, threads);
         o.passes.max_size = 1;
         EXPECT_THROW(
