@@ -19,6 +19,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #define SSS_FN inline
 #define SSS_CONST inline constexpr
@@ -28,6 +29,8 @@
 namespace sss {
 
 using real = double;
+
+inline constexpr float kInf = std::numeric_limits<float>::infinity();
 
 using std::abs;
 using std::clamp;

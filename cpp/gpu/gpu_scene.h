@@ -15,12 +15,6 @@ namespace sss {
 
 // The buffer layouts (GpuSceneHeader, GpuShape, GpuGrid, GpuLight, kGpuMax*) are
 // written once for C++ and GLSL in shaders/layout.h.
-enum class GpuLightType : int {
-    Point = kGpuPointLight,
-    Directional = kGpuDirectionalLight,
-    Area = kGpuAreaLight,
-    Environment = kGpuEnvironmentLight
-};
 
 // Packed decoders (model.glsl): decoder d (0 LengthGen, 1 PathGen, 2 EventGen) has a
 // header of kGpuDecoderHeader floats at d * kGpuDecoderHeader: [0] layers, [1]
@@ -51,9 +45,9 @@ struct GpuSceneData {
 // shapes when `model` is empty (no steps are taken then).
 std::vector<int32_t> gpu_model_constants(const std::vector<float>& model);
 
-// Binary file: magic "SSSGPU02" (01: before NEE, refused), then the header and the four
-// arrays (each a uint64 count then its elements), little-endian as in memory. Errors name
-// the file.
+// Binary file: magic "SSSGPU03" (01: before NEE, 02: before render/lights/, refused),
+// then the header and the four arrays (each a uint64 count then its elements),
+// little-endian as in memory. Errors name the file.
 void save_gpu_scene(const GpuSceneData& scene, const std::string& path);
 GpuSceneData load_gpu_scene(const std::string& path);
 

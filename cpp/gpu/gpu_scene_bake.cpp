@@ -107,28 +107,12 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
     for (size_t i = 0; i < order.size(); ++i) {
         const Light& l = desc.lights[order[i]];
         GpuLight& gl = h.lights[i];
-        switch (l.type) {
-            case Light::Type::Point:
-                put3(gl.a, l.position, float(GpuLightType::Point));
-                put3(gl.radiance, l.intensity, 0.f);
-                break;
-            case Light::Type::Directional:
-                put3(gl.a, l.direction, float(GpuLightType::Directional));
-                put3(gl.radiance, l.irradiance, 0.f);
-                break;
-            case Light::Type::Area:
-                put3(gl.a, l.corner, float(GpuLightType::Area));
-                put3(gl.edge1, l.edge1, 0.f);
-                put3(gl.edge2, l.edge2, length(cross(l.edge1, l.edge2)));
-                put3(gl.radiance, l.radiance, 0.f);
-                put3(h.emitters[emitters++], l.radiance, float(i));
-                break;
-            case Light::Type::Environment:
-                put3(gl.a, Vec3(0.f), float(GpuLightType::Environment));
-                put3(gl.radiance, l.radiance, 0.f);
-                put3(h.environment, l.radiance, 1.f);
-                break;
-        }
+        put3(gl.a, l.a, float(l.type));
+        put3(gl.b, l.b, l.scalar);
+        put3(gl.c, l.c, 0.f);
+        put3(gl.value, l.value, 0.f);
+        if (l.kind().quad) put3(h.emitters[emitters++], l.value, float(i));
+        if (l.kind().environment) put3(h.environment, Vec3(float(i), 0.f, 0.f), 1.f);
         num_delta += l.is_delta() ? 1u : 0u;
     }
 
@@ -138,11 +122,11 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
     for (int i = 0; i < scene.num_shapes(); ++i) {
         const Shape& s = desc.shapes[i];
         meshes.push_back(&s.mesh);
-        const bool dielectric = s.boundary.type == BoundaryType::Dielectric;
-        index_matched = index_matched || !dielectric;
+        index_matched = index_matched || s.boundary.passes_shadow_rays();
         put3(h.shapes[i].sigma_t, s.medium.sigma_t, s.medium.g);
-        put3(h.shapes[i].albedo, s.medium.albedo, dielectric ? 1.f : 0.f);
-        h.shapes[i].boundary[0] = s.boundary.ior;
+        put3(h.shapes[i].albedo, s.medium.albedo, 0.f);
+        put3(h.shapes[i].boundary,
+             Vec3(float(s.boundary.type), s.boundary.x, s.boundary.y), 0.f);
         const DistanceGrid& g = scene.grid(i);
         GpuGrid& gg = h.grids[i];
         put3(gg.origin, g.origin(), g.cell_size());
@@ -167,14 +151,8 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
     h.lighting[2] = num_delta;
     // The area lights' quads, after the shapes in Scene's order (its ray tracer's).
     std::vector<TriangleMesh> quads;
-    for (const Light& l : desc.lights) {
-        if (l.type != Light::Type::Area) continue;
-        TriangleMesh q;
-        q.positions = {l.corner, l.corner + l.edge1, l.corner + l.edge1 + l.edge2,
-                       l.corner + l.edge2};
-        q.triangles = {{0, 1, 2}, {0, 2, 3}};
-        quads.push_back(std::move(q));
-    }
+    for (const Light& l : desc.lights)
+        if (l.kind().quad) quads.push_back(l.quad_mesh());
     for (const TriangleMesh& q : quads) meshes.push_back(&q);
     FlatBvh bvh = build_flat_bvh(meshes);
     out.nodes = std::move(bvh.nodes);

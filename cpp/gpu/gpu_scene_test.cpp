@@ -23,8 +23,8 @@ TEST(GpuScene, FileRoundTrip) {
     s.header.counts[0] = 1;
     s.header.lighting[0] = 2;
     s.header.lighting[1] = 1;
-    s.header.lights[1].a[3] = float(GpuLightType::Environment);
-    s.header.lights[1].radiance[2] = 0.25f;
+    s.header.lights[1].a[3] = 3.f;
+    s.header.lights[1].value[2] = 0.25f;
     s.nodes.resize(3);
     s.nodes[2].child[1] = 7;
     s.triangles.resize(2);
@@ -45,17 +45,20 @@ TEST(GpuScene, FileRoundTrip) {
     std::remove(path.c_str());
 }
 
-// A file baked before the GPU sampled lights (magic SSSGPU01) has another header layout:
+// Files baked by earlier versions (magic SSSGPU01, SSSGPU02) have other header layouts:
 // refused with the way out; any other file is not a baked scene.
 TEST(GpuScene, OldAndForeignFilesAreRefused) {
     const std::string old_file = temp_path("old.bin"), other = temp_path("other.bin");
-    std::ofstream(old_file, std::ios::binary) << "SSSGPU01 and whatever followed";
     std::ofstream(other, std::ios::binary) << "{\"camera\": {}}";
-    const std::string old_msg = error_of([&] { load_gpu_scene(old_file); });
-    EXPECT_HAS(old_msg, old_file);
-    EXPECT_HAS(old_msg, "bake the scene again");
+    for (const char* magic : {"SSSGPU01", "SSSGPU02"}) {
+        std::ofstream(old_file, std::ios::binary) << magic << " and whatever followed";
+        const std::string old_msg = error_of([&] { load_gpu_scene(old_file); });
+        EXPECT_HAS(old_msg, old_file);
+        EXPECT_HAS(old_msg, magic);
+        EXPECT_HAS(old_msg, "bake the scene again");
+    }
     EXPECT_HAS(error_of([&] { load_gpu_scene(other); }),
-               "not a baked GPU scene (no SSSGPU02 header)");
+               "not a baked GPU scene (no SSSGPU03 header)");
     EXPECT_HAS(error_of([&] { load_gpu_scene(temp_path("missing.bin")); }),
                "baked scene file does not exist");
     std::remove(old_file.c_str());

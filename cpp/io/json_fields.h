@@ -131,7 +131,7 @@ inline json parse_json(const std::string& text, const std::string& source,
 
 // Unknown keys are errors (parameter names are a contract: docs/architecture.md).
 inline void check_keys(const json& obj, const Field& f,
-                       std::initializer_list<const char*> allowed) {
+                       const std::vector<const char*>& allowed) {
     if (!obj.is_object())
         f.error("expected an object, got ", type_name(obj), " ", show(obj));
     std::set<std::string> ok(allowed.begin(), allowed.end());
@@ -144,6 +144,10 @@ inline void check_keys(const json& obj, const Field& f,
                                  ")");
         }
     }
+}
+inline void check_keys(const json& obj, const Field& f,
+                       std::initializer_list<const char*> allowed) {
+    check_keys(obj, f, std::vector<const char*>(allowed));
 }
 
 inline const json& require(const json& obj, const char* key, const Field& f) {

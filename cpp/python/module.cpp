@@ -149,4 +149,25 @@ PYBIND11_MODULE(_core, m) {
         },
         py::arg("path"),
         "Loads, checks and orients a closed mesh: (vertices, triangles).");
+
+    m.def(
+        "light_to_mitsuba",
+        [](const std::string& light_json) {
+            // Checked as in a scene file first, so that the translation sees valid input.
+            const Light l = parse_light(light_json, "<light>");
+            return l.kind().mitsuba(nlohmann::json::parse(light_json)).dump();
+        },
+        py::arg("light_json"),
+        "A scene file's light (JSON text) as a Mitsuba 3 load_dict entry (JSON text; "
+        "colours {\"$rgb\": [r, g, b]}, transforms {\"$matrix\": rows}).");
+
+    m.def(
+        "boundary_to_mitsuba",
+        [](const std::string& boundary_json) {
+            const Boundary b = parse_boundary(boundary_json, "<boundary>");
+            return b.kind().mitsuba(nlohmann::json::parse(boundary_json)).dump();
+        },
+        py::arg("boundary_json"),
+        "A scene file's boundary (JSON text) as the BSDF of a Mitsuba 3 shape (JSON "
+        "text).");
 }

@@ -137,7 +137,9 @@ TEST(RenderOptions, TheTableNamesEveryOptionOnce) {
         EXPECT_NE(std::string(s.help), "") << s.name;
         EXPECT_NE(std::string(s.allowed), "") << s.name;
         EXPECT_EQ(s.kind == OptionSpec::Kind::Choice, !s.choices.empty()) << s.name;
-        if (s.kind == OptionSpec::Kind::Integer) EXPECT_LT(s.lo, s.hi) << s.name;
+        if (s.kind == OptionSpec::Kind::Integer) {
+            EXPECT_LT(s.lo, s.hi) << s.name;
+        }
     }
 }
 

@@ -16,8 +16,6 @@ namespace sss {
 
 namespace {
 
-constexpr float kInf = std::numeric_limits<float>::infinity();
-
 float extinction(const Medium& m, int channel) {
     return channel < 0 ? m.sigma_t.x : m.sigma_t[channel];
 }
@@ -42,12 +40,6 @@ PathTracer::PathTracer(const Scene& scene, int max_bounces, bool nee,
         if (lights[i].is_delta()) delta_lights_.push_back(int(i));
 }
 
-float PathTracer::area_light_pdf(int light, const Vec3& p, const Vec3& w, float t,
-                                 const Vec3& n) const {
-    const Light& l = scene_.desc().lights[light];
-    return sss::area_light_pdf(length(cross(l.edge1, l.edge2)), w, t, n);
-}
-
 Vec3 PathTracer::transmittance(const Vec3& p, const Vec3& w, float dist, int shape,
                                EmitterHit* emitter) const {
     const auto& shapes = scene_.desc().shapes;
@@ -66,11 +58,15 @@ Vec3 PathTracer::transmittance(const Vec3& p, const Vec3& w, float dist, int sha
             emitter->normal = h.normal;
             return tr;
         }
-        if (shapes[h.mesh].boundary.type == BoundaryType::Dielectric) return Vec3(0.f);
+        if (!shapes[h.mesh].boundary.passes_shadow_rays()) return Vec3(0.f);
         shape = dot(w, h.normal) < 0.f ? int(h.mesh) : -1;
         t_prev = h.t;
     }
     if (shape >= 0) tr *= beer(shapes[shape].medium.sigma_t, dist - t_prev);
+    if (emitter && !(dist < kInf)) {  // out of the scene: the environment, if any
+        emitter->light = scene_.environment();
+        emitter->t = kInf;
+    }
     return tr;
 }
 
@@ -79,7 +75,7 @@ Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
     const Shape& s = scene_.desc().shapes[shape];
     // A straight shadow ray never leaves a smooth dielectric boundary (docs/notation.md,
     // "Next-event estimation").
-    if (s.boundary.type == BoundaryType::Dielectric) return Vec3(0.f);
+    if (!s.boundary.passes_shadow_rays()) return Vec3(0.f);
     // Every shadow ray first travels at least r through this medium.
     float sigma_min =
         channel < 0 ? min_component(s.medium.sigma_t) : s.medium.sigma_t[channel];
@@ -102,70 +98,30 @@ Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
     if (delta_only) i = size_t(delta_lights_[i]);
     const Light& l = lights[i];
     const float g = s.medium.g;
+    const float u1 = rng.uniform(), u2 = rng.uniform();
+    const LightSample ls = light_sample(l, p, u1, u2);  // render/lights/registry.h
     Vec3 sum(0.f);
-    {
-        switch (l.type) {
-            case Light::Type::Point: {
-                Vec3 to = l.position - p;
-                float dist = length(to);
-                if (!(dist > 0.f)) break;
-                Vec3 w = to / dist;
-                Vec3 tr = transmittance(p, w, dist, shape);
-                sum += l.intensity * tr * (hg_eval(dot(d, w), g) / (dist * dist));
-                break;
-            }
-            case Light::Type::Directional: {
-                Vec3 w = -l.direction;
-                Vec3 tr = transmittance(p, w, kInf, shape);
-                sum += l.irradiance * tr * hg_eval(dot(d, w), g);
-                break;
-            }
-            case Light::Type::Area: {
-                Vec3 q = l.corner + l.edge1 * rng.uniform() + l.edge2 * rng.uniform();
-                Vec3 n = normalize(cross(l.edge1, l.edge2));
-                Vec3 to = q - p;
-                float dist = length(to);
-                if (!(dist > 0.f)) break;
-                Vec3 w = to / dist;
-                if (dot(w, n) >= 0.f) break;  // behind the one-sided emitter
-                float pdf = area_light_pdf(int(i), p, w, dist, n);
-                float phase = hg_eval(dot(d, w), g);
-                Vec3 tr = transmittance(p, w, dist * (1.f - 1e-4f), shape);
-                // With mis, the partner is the path's own phase-sampled flight (which
-                // sees the light selection too); without, the phase-sampled shadow ray
-                // below.
-                float mis_w = power_heuristic(mis ? pdf / n_lights : pdf, phase);
-                sum += l.radiance * tr * (phase * mis_w / pdf);
-                if (!mis) {
-                    // The second strategy: a phase-sampled shadow ray that meets this
-                    // light's front (phase / pdf = 1).
-                    Vec3 wp = hg_sample(d, g, rng.uniform(), rng.uniform());
-                    EmitterHit e;
-                    Vec3 trp = transmittance(p, wp, kInf, shape, &e);
-                    if (e.light == int(i) && dot(wp, e.normal) < 0.f) {
-                        float pdf_l = area_light_pdf(int(i), p, wp, e.t, e.normal);
-                        sum += l.radiance * trp *
-                               power_heuristic(hg_eval(dot(d, wp), g), pdf_l);
-                    }
-                }
-                break;
-            }
-            case Light::Type::Environment: {
-                if (!mis) {
-                    // No MIS partner: sample the phase function, the ideal density for a
-                    // constant environment (phase / pdf = 1).
-                    Vec3 w = hg_sample(d, g, rng.uniform(), rng.uniform());
-                    sum += l.radiance * transmittance(p, w, kInf, shape);
-                    break;
-                }
-                Vec3 w = sample_uniform_sphere(rng.uniform(), rng.uniform());
-                float pdf = uniform_sphere_pdf();
-                float phase = hg_eval(dot(d, w), g);
-                Vec3 tr = transmittance(p, w, kInf, shape);
-                float mis_w = mis ? power_heuristic(pdf / n_lights, phase) : 1.f;
-                sum += l.radiance * tr * (phase * mis_w / pdf);
-                break;
-            }
+    if (!is_black(ls.L)) {
+        const float phase = hg_eval(dot(d, ls.w), g);
+        const Vec3 tr = transmittance(p, ls.w, ls.dist, shape);
+        if (ls.pdf == 0.f) {
+            sum += ls.L * tr * phase;  // a delta light
+        } else {
+            // With mis, the partner is the path's own phase-sampled flight (which sees
+            // the light selection too); without, the phase-sampled shadow ray below.
+            const float mis_w = power_heuristic(mis ? ls.pdf / n_lights : ls.pdf, phase);
+            sum += ls.L * tr * (phase * mis_w / ls.pdf);
+        }
+    }
+    if (!mis && !l.is_delta()) {
+        // The second strategy: a phase-sampled shadow ray that meets this light
+        // (phase / pdf = 1).
+        const Vec3 wp = hg_sample(d, g, rng.uniform(), rng.uniform());
+        EmitterHit e;
+        const Vec3 trp = transmittance(p, wp, kInf, shape, &e);
+        if (e.light == int(i)) {
+            const LightEval le = light_eval(l, p, wp, e.t, e.normal);
+            sum += le.L * trp * power_heuristic(hg_eval(dot(d, wp), g), le.pdf);
         }
     }
     return sum * (shadow_weight * n_lights);
@@ -313,31 +269,28 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             // Vacuum: fly to the next surface.
             Hit hit;
             if (!scene_.tracer().intersect(o, d, 0.f, kInf, &hit)) {
-                if (const Light* env = scene_.environment()) {
-                    float w = specular || !nee_
-                                  ? 1.f
-                                  : power_heuristic(phase_pdf, uniform_sphere_pdf() *
-                                                                   light_select_pdf);
-                    L += beta * env->radiance * w;
+                if (const int env = scene_.environment(); env >= 0) {
+                    const LightEval e =
+                        light_eval(desc.lights[env], scatter_pos, d, kInf, Vec3(0.f));
+                    const float w =
+                        specular || !nee_
+                            ? 1.f
+                            : power_heuristic(phase_pdf, e.pdf * light_select_pdf);
+                    L += beta * e.L * w;
                 }
                 break;
             }
             const Vec3& p = hit.p;
-            int light = scene_.area_light_of_mesh(hit.mesh);
-            if (light >= 0) {
-                if (dot(d, hit.normal) < 0.f) {
-                    // The light-sampling pdf is that of NEE at the last scattering event,
-                    // so distances count from there, across any index-matched boundaries.
-                    float w =
-                        specular || !nee_
-                            ? 1.f
-                            : power_heuristic(phase_pdf,
-                                              light_select_pdf *
-                                                  area_light_pdf(light, scatter_pos, d,
-                                                                 length(p - scatter_pos),
-                                                                 hit.normal));
-                    L += beta * desc.lights[light].radiance * w;
-                }
+            if (const int light = scene_.area_light_of_mesh(hit.mesh); light >= 0) {
+                // The light-sampling pdf is that of NEE at the last scattering event, so
+                // distances count from there, across any index-matched boundaries.
+                const LightEval e = light_eval(desc.lights[light], scatter_pos, d,
+                                               length(p - scatter_pos), hit.normal);
+                const float w =
+                    specular || !nee_
+                        ? 1.f
+                        : power_heuristic(phase_pdf, e.pdf * light_select_pdf);
+                L += beta * e.L * w;
                 break;  // emitters absorb
             }
             const Shape& s = desc.shapes[hit.mesh];
@@ -347,17 +300,13 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
                 o = leave(hit, d);
                 continue;
             }
-            if (s.boundary.type == BoundaryType::Dielectric) {
-                float cos_i = -dot(d, hit.normal), cos_t;
-                float F = fresnel_dielectric(cos_i, s.boundary.ior, cos_t);
-                specular = true;
-                if (rng.uniform() < F) {
-                    d = d + hit.normal * (2.f * cos_i);
-                    o = leave(hit, d);
-                    continue;
-                }
-                float eta = 1.f / s.boundary.ior;
-                d = normalize(d * eta + hit.normal * (eta * cos_i - cos_t));
+            const BoundaryEvent b =
+                boundary_cross(s.boundary, d, hit.normal, rng.state());
+            d = b.d;
+            specular = specular || b.specular;
+            if (!b.crossed) {
+                o = leave(hit, d);
+                continue;
             }
             shape = int(hit.mesh);
             o = leave(hit, d);
@@ -433,19 +382,13 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             o = leave(hit, d);
             continue;
         }
-        if (s.boundary.type == BoundaryType::Dielectric) {
-            float cos_i = dot(d, hit.normal), cos_t;
-            float F = fresnel_dielectric(cos_i, 1.f / s.boundary.ior, cos_t);
-            specular = true;
-            if (rng.uniform() < F) {
-                d = d - hit.normal * (2.f * cos_i);
-                o = leave(hit, d);
-                r_at_o = 0.f;
-                continue;
-            }
-            float eta = s.boundary.ior;
-            // Facing normal on the incident side is -n.
-            d = normalize(d * eta - hit.normal * (eta * cos_i - cos_t));
+        const BoundaryEvent b = boundary_cross(s.boundary, d, hit.normal, rng.state());
+        d = b.d;
+        specular = specular || b.specular;
+        if (!b.crossed) {
+            o = leave(hit, d);
+            r_at_o = 0.f;
+            continue;
         }
         shape = -1;
         o = leave(hit, d);

@@ -84,11 +84,10 @@ private:
     // along d before scattering, from one light chosen uniformly
     // (weighted by the number of lights). mis = false: for a vertex whose phase-sampled
     // continuation cannot be weighted (a sphere step's events k >= 2), each light's whole
-    // direct light from shadow rays alone: point and directional lights as always, the
-    // constant environment by a phase-sampled direction, an area light by a light sample
-    // and a phase-sampled ray, combined by MIS. delta_only: the light is chosen among
-    // the point and directional lights only (weighted by their number): a sphere step's
-    // events with StepNee::Hits, whose other lights come from hits.
+    // direct light from shadow rays alone: a delta light's sample, any other light's
+    // sample and a phase-sampled ray, combined by MIS. delta_only: the light is chosen
+    // among the point and directional lights only (weighted by their number): a sphere
+    // step's events with StepNee::Hits, whose other lights come from hits.
     Vec3 direct_light(const Vec3& p, float r, const Vec3& d, int shape, int channel,
                       Rng& rng, bool mis = true, bool delta_only = false) const;
     // Transmittance from p (inside shape `shape`, or -1 for vacuum) along unit w over
@@ -96,7 +95,8 @@ private:
     // dielectric boundary or an emitter is in the way, or past kMaxShadowCrossings
     // boundaries. With `emitter`, an emitter's quad ends the ray instead of blocking it:
     // the result is the transmittance up to it, and *emitter says which light, how far
-    // along w, and its normal (light -1: none met).
+    // along w, and its normal (light -1: none met). A ray to infinity that leaves the
+    // scene meets the environment, if there is one (t = kInf).
     struct EmitterHit {
         int light = -1;
         float t = 0.f;
@@ -104,9 +104,6 @@ private:
     };
     Vec3 transmittance(const Vec3& p, const Vec3& w, float dist, int shape,
                        EmitterHit* emitter = nullptr) const;
-    // Light-sampling pdf (solid angle) of direction w from a medium point, for MIS.
-    float area_light_pdf(int light, const Vec3& p, const Vec3& w, float t,
-                         const Vec3& n) const;
 
     const Scene& scene_;
     int max_bounces_;

@@ -20,62 +20,6 @@ using json = nlohmann::json;
 
 using namespace json_fields;
 
-double number_in(const json& j, const Field& f, double lo, double hi,
-                 const char* allowed) {
-    double v = number(j, f);
-    if (!(v >= lo && v <= hi))
-        f.error("value ", show(j), " is not allowed (allowed: ", allowed, ")");
-    return v;
-}
-
-Vec3 vec3(const json& j, const Field& f) {
-    if (!j.is_array() || j.size() != 3)
-        f.error("expected an array of 3 numbers, got ", show(j));
-    Vec3 v;
-    for (int i = 0; i < 3; ++i) v[i] = float(number(j[i], f.at(size_t(i))));
-    if (!is_finite(v)) f.error("value ", show(j), " does not fit in single precision");
-    return v;
-}
-
-// A position, kept in double until the scene is moved into its render frame.
-Vec3d point3(const json& j, const Field& f) {
-    if (!j.is_array() || j.size() != 3)
-        f.error("expected an array of 3 numbers, got ", show(j));
-    Vec3d v;
-    for (int i = 0; i < 3; ++i) v[i] = number(j[i], f.at(size_t(i)));
-    if (!is_finite(v.to_float()))
-        f.error("value ", show(j), " does not fit in single precision");
-    return v;
-}
-
-// RGB with each component in [lo, hi]; a single number means grey.
-Vec3 rgb_in(const json& j, const Field& f, double lo, double hi, const char* allowed) {
-    Vec3 v = j.is_number() ? Vec3(float(number(j, f))) : vec3(j, f);
-    for (int i = 0; i < 3; ++i)
-        if (!(v[i] >= lo && v[i] <= hi))
-            f.error("value ", show(j), " is not allowed (allowed: ", allowed, ")");
-    return v;
-}
-
-Vec3 nonzero_vec3(const json& j, const Field& f) {
-    Vec3 v = vec3(j, f);
-    if (!(length(v) > 0.f))
-        f.error("value ", show(j), " is not allowed (allowed: a non-zero vector)");
-    return v;
-}
-
-std::string string_in(const json& j, const Field& f,
-                      std::initializer_list<const char*> allowed) {
-    if (!j.is_string()) f.error("expected a string, got ", type_name(j), " ", show(j));
-    std::string s = j.get<std::string>();
-    std::string list;
-    for (const char* a : allowed) {
-        if (s == a) return s;
-        list += std::string(list.empty() ? "" : ", ") + "\"" + a + "\"";
-    }
-    f.error("value ", show(j), " is not allowed (allowed: ", list, ")");
-}
-
 // `frame`: where the render frame's origin lies (SceneDesc::origin); positions are
 // stored relative to it.
 Camera parse_camera(const json& j, const Field& f, Vec3d frame) {
@@ -119,18 +63,30 @@ Medium parse_medium(const json& j, const Field& f) {
     return m;
 }
 
-Boundary parse_boundary(const json& j, const Field& f) {
-    check_keys(j, f, {"type", "ior"});
-    Boundary b;
-    std::string type =
-        string_in(require(j, "type", f), f.at("type"), {"index_matched", "dielectric"});
-    b.type = type == "dielectric" ? BoundaryType::Dielectric : BoundaryType::IndexMatched;
-    if (j.contains("ior")) {
-        if (b.type != BoundaryType::Dielectric)
-            f.at("ior").error("only a dielectric boundary has an ior");
-        b.ior = float(
-            number_in(j["ior"], f.at("ior"), 1e-3, 10.0, "a number in [0.001, 10]"));
+// The entry of a type registry (light_types(), boundary_kinds()) that j's "type" names,
+// with the keys j may have: its own and "type".
+template <class Kind>
+const Kind& kind_named(const std::vector<Kind>& kinds, const json& j, const Field& f) {
+    if (!j.is_object()) f.error("expected an object, got ", show(j));
+    const json& type = require(j, "type", f);
+    if (!type.is_string())
+        f.at("type").error("expected a string, got ", type_name(type), " ", show(type));
+    std::string names;
+    for (const Kind& k : kinds) {
+        if (type.get<std::string>() == k.name) return k;
+        names += std::string(names.empty() ? "" : ", ") + "\"" + k.name + "\"";
     }
+    f.at("type").error("value ", show(type), " is not allowed (allowed: ", names, ")");
+}
+
+Boundary parse_boundary(const json& j, const Field& f) {
+    const BoundaryKind* kind = &kind_named(boundary_kinds(), j, f);
+    std::vector<const char*> keys{"type"};
+    keys.insert(keys.end(), kind->keys.begin(), kind->keys.end());
+    check_keys(j, f, keys);
+    Boundary b;
+    static_cast<BoundaryData&>(b) = kind->parse(j, f);
+    b.type = kind->id;
     return b;
 }
 
@@ -222,43 +178,14 @@ ParsedShape parse_shape(const json& j, const Field& f, const std::string& base_d
 }
 
 Light parse_light(const json& j, const Field& f, Vec3d frame) {
-    if (!j.is_object()) f.error("expected an object, got ", show(j));
-    std::string type = string_in(require(j, "type", f), f.at("type"),
-                                 {"point", "directional", "area", "environment"});
+    const LightType* kind = &kind_named(light_types(), j, f);
+    std::vector<const char*> keys{"type"};
+    keys.insert(keys.end(), kind->keys.begin(), kind->keys.end());
+    keys.insert(keys.end(), kind->optional.begin(), kind->optional.end());
+    check_keys(j, f, keys);
     Light l;
-    const char* nonneg = "each channel >= 0";
-    if (type == "point") {
-        check_keys(j, f, {"type", "position", "intensity"});
-        l.type = Light::Type::Point;
-        l.position =
-            (point3(require(j, "position", f), f.at("position")) - frame).to_float();
-        l.intensity =
-            rgb_in(require(j, "intensity", f), f.at("intensity"), 0.0, 1e30, nonneg);
-    } else if (type == "directional") {
-        check_keys(j, f, {"type", "direction", "irradiance"});
-        l.type = Light::Type::Directional;
-        l.direction =
-            normalize(nonzero_vec3(require(j, "direction", f), f.at("direction")));
-        l.irradiance =
-            rgb_in(require(j, "irradiance", f), f.at("irradiance"), 0.0, 1e30, nonneg);
-    } else if (type == "area") {
-        check_keys(j, f, {"type", "corner", "edge1", "edge2", "radiance"});
-        l.type = Light::Type::Area;
-        l.corner = (point3(require(j, "corner", f), f.at("corner")) - frame).to_float();
-        l.edge1 = vec3(require(j, "edge1", f), f.at("edge1"));
-        l.edge2 = vec3(require(j, "edge2", f), f.at("edge2"));
-        if (!(length(cross(l.edge1, l.edge2)) > 0.f))
-            f.error(
-                "edge1 and edge2 span no area (allowed: two non-parallel, non-zero "
-                "edges)");
-        l.radiance =
-            rgb_in(require(j, "radiance", f), f.at("radiance"), 0.0, 1e30, nonneg);
-    } else {
-        check_keys(j, f, {"type", "radiance"});
-        l.type = Light::Type::Environment;
-        l.radiance =
-            rgb_in(require(j, "radiance", f), f.at("radiance"), 0.0, 1e30, nonneg);
-    }
+    static_cast<LightData&>(l) = kind->parse(j, f, frame);
+    l.type = kind->id;
     return l;
 }
 
@@ -333,8 +260,8 @@ void warn_past_limits(SceneDesc& d, double extent) {
     for (size_t i = 0; i < d.lights.size(); ++i) {
         const Light& l = d.lights[i];
         const std::string what = "lights[" + std::to_string(i) + "]";
-        if (l.type == Light::Type::Point) check_distance(l.position, what + ".position");
-        if (l.type == Light::Type::Area) check_distance(l.corner, what + ".corner");
+        if (const char* key = l.kind().position_key)
+            check_distance(l.a, what + "." + key);
     }
 }
 
@@ -382,7 +309,7 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
         int environments = 0;
         for (size_t i = 0; i < lights.size(); ++i) {
             d.lights.push_back(parse_light(lights[i], f.at("lights").at(i), d.origin));
-            if (d.lights.back().type == Light::Type::Environment && ++environments > 1)
+            if (d.lights.back().kind().environment && ++environments > 1)
                 f.at("lights").at(i).error("a scene has at most one environment light");
         }
     }
@@ -390,6 +317,14 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
         d.render = parse_render(root["render"], f.at("render"), base_dir);
     warn_past_limits(d, std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z}));
     return d;
+}
+
+Light parse_light(const std::string& json_text, const std::string& source, Vec3d frame) {
+    return parse_light(parse_json(json_text, source), Field{source, ""}, frame);
+}
+
+Boundary parse_boundary(const std::string& json_text, const std::string& source) {
+    return parse_boundary(parse_json(json_text, source), Field{source, ""});
 }
 
 SceneDesc load_scene_file(const std::string& path) {
@@ -412,13 +347,9 @@ Scene::Scene(SceneDesc desc, int threads)
     }
     for (size_t i = 0; i < desc_.lights.size(); ++i) {
         const Light& l = desc_.lights[i];
-        if (l.type == Light::Type::Environment) environment_ = &desc_.lights[i];
-        if (l.type != Light::Type::Area) continue;
-        TriangleMesh quad;
-        quad.positions = {l.corner, l.corner + l.edge1, l.corner + l.edge1 + l.edge2,
-                          l.corner + l.edge2};
-        quad.triangles = {{0, 1, 2}, {0, 2, 3}};
-        tracer_->add_mesh(quad);
+        if (l.kind().environment) environment_ = int(i);
+        if (!l.kind().quad) continue;
+        tracer_->add_mesh(l.quad_mesh());
         area_lights_.push_back(int(i));
     }
     tracer_->commit();
@@ -441,6 +372,13 @@ int Scene::auto_grid_resolution(const Shape& shape) {
     const float side = max_component(shape.mesh.bounds().extent());
     const float mean_free_paths = max_component(shape.medium.sigma_t) * side / 64.f;
     return mean_free_paths > kGridCellMeanFreePaths ? 128 : 64;
+}
+
+TriangleMesh Light::quad_mesh() const {
+    TriangleMesh quad;
+    quad.positions = {a, a + b, a + b + c, a + c};
+    quad.triangles = {{0, 1, 2}, {0, 2, 3}};
+    return quad;
 }
 
 int Scene::area_light_of_mesh(unsigned mesh) const {

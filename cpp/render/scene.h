@@ -13,6 +13,8 @@
 #include "geometry/distance_grid.h"
 #include "geometry/mesh.h"
 #include "geometry/ray_tracer.h"
+#include "render/boundaries/registry.h"
+#include "render/lights/registry.h"
 #include "render/options.h"
 
 namespace sss {
@@ -24,11 +26,12 @@ struct Medium {
     float g = 0.f;
 };
 
-enum class BoundaryType { IndexMatched, Dielectric };
-
-struct Boundary {
-    BoundaryType type = BoundaryType::IndexMatched;
-    float ior = 1.5f;  // inside / outside, dielectric only
+// A boundary of any type of render/boundaries/registry.h (BoundaryData says what it
+// holds); index-matched unless the scene says otherwise.
+struct Boundary : BoundaryData {
+    Boundary() : BoundaryData{} {}
+    const BoundaryKind& kind() const { return boundary_kind(type); }
+    bool passes_shadow_rays() const { return boundary_passes_shadow_rays(*this); }
 };
 
 struct Shape {
@@ -44,15 +47,13 @@ struct Camera {
     int width = 256, height = 256;
 };
 
-struct Light {
-    enum class Type { Point, Directional, Area, Environment };
-    Type type = Type::Point;
-    Vec3 position, intensity;    // point: W/sr per channel
-    Vec3 direction, irradiance;  // directional: unit travel direction, irradiance
-    Vec3 corner, edge1, edge2;   // area: quad corner + s*edge1 + t*edge2, emits along
-    Vec3 radiance;  //   normalize(edge1 x edge2); environment: constant radiance
-    // Point and directional lights: no path can hit them, only light sampling sees them.
-    bool is_delta() const { return type == Type::Point || type == Type::Directional; }
+// A light of any type of render/lights/registry.h (LightData says what it holds).
+struct Light : LightData {
+    const LightType& kind() const { return light_type(type); }
+    // No path can hit it, only light sampling sees it (point and directional lights).
+    bool is_delta() const { return kind().delta; }
+    // The two triangles of a LightType::quad light, for the ray tracers.
+    TriangleMesh quad_mesh() const;
 };
 
 // Positions in a SceneDesc (meshes, camera, lights) are in the *render frame*: the scene
@@ -75,6 +76,13 @@ struct SceneDesc {
 SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
                       const std::string& source);
 SceneDesc load_scene_file(const std::string& path);
+// One light from its JSON object, as in a scene file whose render frame has its origin
+// at `frame`.
+Light parse_light(const std::string& json_text, const std::string& source = "<light>",
+                  Vec3d frame = Vec3d());
+// One boundary from its JSON object, as in a scene file.
+Boundary parse_boundary(const std::string& json_text,
+                        const std::string& source = "<boundary>");
 
 // The built scene. Immutable after construction and safe to share between threads.
 class Scene {
@@ -85,9 +93,11 @@ public:
     const RayTracer& tracer() const { return *tracer_; }
     const DistanceGrid& grid(int shape) const { return grids_[shape]; }
     int num_shapes() const { return int(desc_.shapes.size()); }
-    // Embree mesh index of area light i's quad is num_shapes() + i_th area light.
+    // The light whose quad is Embree mesh `mesh` (LightType::quad; the quads follow the
+    // shapes, in the order of the lights), or -1.
     int area_light_of_mesh(unsigned mesh) const;
-    const Light* environment() const { return environment_; }
+    // The index of the light every escaping ray meets (LightType::environment), or -1.
+    int environment() const { return environment_; }
     // True when every medium has the same sigma_t in all channels (paths then carry RGB).
     bool grey_media() const { return grey_; }
     // Between the scene file's coordinates and the render frame (SceneDesc::origin).
@@ -108,7 +118,7 @@ private:
     std::unique_ptr<RayTracer> tracer_;
     std::vector<DistanceGrid> grids_;
     std::vector<int> area_lights_;  // light index per extra Embree mesh
-    const Light* environment_ = nullptr;
+    int environment_ = -1;
     bool grey_ = true;
 };
 

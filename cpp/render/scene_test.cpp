@@ -38,7 +38,7 @@ TEST(SceneParse, GoodSceneAndDefaults) {
     EXPECT_EQ(d.camera.width, 8);
     EXPECT_EQ(d.shapes.size(), 1u);
     EXPECT_EQ(d.shapes[0].medium.albedo, Vec3(0.9f));
-    EXPECT_EQ(d.shapes[0].boundary.type, BoundaryType::IndexMatched);
+    EXPECT_STREQ(d.shapes[0].boundary.kind().name, "index_matched");
     EXPECT_EQ(d.render.spp, 4);
     EXPECT_EQ(d.render.max_bounces, -1);
     EXPECT_EQ(d.render.integrator, "pt");

@@ -103,8 +103,7 @@ SphereTracing::SphereTracing(const Scene& scene, float threshold, SphereSampler 
 SphereTracing::~SphereTracing() = default;
 
 bool SphereTracing::wants_event(int shape) const {
-    if (!nee_ || scene_.desc().shapes[shape].boundary.type == BoundaryType::Dielectric)
-        return false;
+    if (!nee_ || !scene_.desc().shapes[shape].boundary.passes_shadow_rays()) return false;
     const auto& lights = scene_.desc().lights;
     if (step_nee_ == StepNee::Event) return !lights.empty();
     return std::any_of(lights.begin(), lights.end(),

@@ -168,13 +168,9 @@ TEST(SphereTracer, ExactWalksUnderAllKindsOfLightMatchPt) {
     // the sphere (4 sigma), with both renders' variances, per channel.
     SceneDesc d =
         sphere_scene(Vec3(6.f), Vec3(0.95f), 0.7f, BoundaryType::IndexMatched, true);
-    Light area;
-    area.type = Light::Type::Area;
-    area.corner = {-1.f, 1.8f, 1.f};
-    area.edge1 = {0.f, 0.f, -2.f};
-    area.edge2 = {2.f, 0.f, 0.f};  // edge1 x edge2 points down, at the sphere
-    area.radiance = Vec3(5.f);
-    d.lights.push_back(area);
+    // edge1 x edge2 points down, at the sphere
+    d.lights.push_back(parse_light(R"({"type": "area", "corner": [-1, 1.8, 1],
+        "edge1": [0, 0, -2], "edge2": [2, 0, 0], "radiance": 5})"));
     d.camera.width = d.camera.height = 32;
     Scene scene(d, 2);
     RenderOptions pt;
@@ -368,10 +364,10 @@ TEST(SphereTracer, RefusesWhatTheModelsCannotDo) {
     RenderOptions no_nee = st_options(models.path(), 2.f);
     no_nee.nee = false;  // EventGen is not used: any albedo
     EXPECT_EQ(err(phi, no_nee), "");
-    phi.shapes[0].boundary.type =
-        BoundaryType::Dielectric;  // no NEE from inside: EventGen unused
+    // No NEE from inside a dielectric: EventGen unused.
+    phi.shapes[0].boundary = test::boundary(BoundaryType::Dielectric);
     EXPECT_EQ(err(phi, event), "");
-    phi.shapes[0].boundary.type = BoundaryType::IndexMatched;
+    phi.shapes[0].boundary = test::boundary(BoundaryType::IndexMatched);
     phi.shapes[0].medium.albedo = Vec3(0.9005f);  // within kPhiClampTolerance: clamped
     EXPECT_EQ(err(phi, event), "");
 

@@ -4,7 +4,18 @@
 #include "geometry/mesh.h"
 #include "render/scene.h"
 
-namespace sss::test {
+namespace sss {
+
+// The tests' shorthand for the two boundary types they use.
+enum class BoundaryType { IndexMatched, Dielectric };
+
+namespace test {
+
+inline Boundary boundary(BoundaryType type) {
+    return parse_boundary(type == BoundaryType::Dielectric
+                              ? R"({"type": "dielectric"})"
+                              : R"({"type": "index_matched"})");
+}
 
 // A unit sphere of the given medium and boundary in a constant environment of radiance 1,
 // seen by a 16x16 camera (the white furnace when albedo = 1); optionally a point light.
@@ -20,21 +31,15 @@ inline SceneDesc sphere_in_environment(Vec3 sigma_t, Vec3 albedo, float g,
     s.name = "sphere";
     s.mesh = make_icosphere({0, 0, 0}, 1.f, 3);
     s.medium = {sigma_t, albedo, g};
-    s.boundary.type = boundary;
+    s.boundary = test::boundary(boundary);
     d.shapes.push_back(s);
-    Light env;
-    env.type = Light::Type::Environment;
-    env.radiance = Vec3(1.f);
-    d.lights.push_back(env);
-    if (point_light) {
-        Light p;
-        p.type = Light::Type::Point;
-        p.position = {2.f, 2.f, 2.f};
-        p.intensity = Vec3(5.f);
-        d.lights.push_back(p);
-    }
+    d.lights.push_back(parse_light(R"({"type": "environment", "radiance": 1})"));
+    if (point_light)
+        d.lights.push_back(parse_light(
+            R"({"type": "point", "position": [2, 2, 2], "intensity": [5, 5, 5]})"));
     d.render.grid_resolution = 16;
     return d;
 }
 
-}  // namespace sss::test
+}  // namespace test
+}  // namespace sss

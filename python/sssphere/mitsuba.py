@@ -18,7 +18,8 @@ The translation keeps everything that matters for an unbiased comparison identic
 * camera: ``perspective`` with ``look_at(origin, target, up)``, ``fov_axis = 'y'`` (our fov is
   vertical), ``hdrfilm`` with a ``box`` filter (each sample lands in one pixel, uniform jitter);
   Mitsuba's images are not mirrored against ours (checked in the tests with an asymmetric scene);
-* lights: ``point`` (intensity), ``directional`` (irradiance, direction = direction of travel),
+* lights: each light type translates itself (``mitsuba`` in cpp/render/lights/<type>.h):
+  ``point`` (intensity), ``directional`` (irradiance, direction = direction of travel),
   ``constant`` environment (radiance), and an area light as a ``rectangle`` whose ``to_world``
   maps [-1, 1]^2 onto corner + [0, 1] edge1 + [0, 1] edge2 with local +z onto
   normalize(cross(edge1, edge2)) -- Mitsuba's area emitter emits towards its normal, one-sided,
@@ -38,10 +39,13 @@ difference). Our renderer's image is the same at all these scales. Compare at sc
 
 from __future__ import annotations
 
+import json
 import os
 from typing import Sequence
 
 import numpy as np
+
+from . import _core
 
 VARIANT = "scalar_rgb"
 RR_DEPTH = 100000
@@ -83,18 +87,18 @@ def _rgb(mi, rgb: Sequence[float]) -> dict:
     return {"type": "rgb", "value": mi.ScalarColor3f(*map(float, rgb))}
 
 
-def _area_light_to_world(mi, corner, edge1, edge2):
-    c = np.asarray(corner, dtype=np.float64)
-    e1 = np.asarray(edge1, dtype=np.float64)
-    e2 = np.asarray(edge2, dtype=np.float64)
-    n = np.cross(e1, e2)
-    n /= np.linalg.norm(n)
-    m = np.eye(4)
-    m[:3, 0] = 0.5 * e1
-    m[:3, 1] = 0.5 * e2
-    m[:3, 2] = n
-    m[:3, 3] = c + 0.5 * (e1 + e2)
-    return mi.ScalarTransform4f(m.tolist())
+def _from_markers(mi, value):
+    """Mitsuba's types in a plain dict from the C++ light types' translations: {"$rgb": ...}
+    becomes an unbounded sRGB colour and {"$matrix": rows} a transform."""
+    if isinstance(value, dict):
+        if set(value) == {"$rgb"}:
+            return _unbounded(mi, value["$rgb"])
+        if set(value) == {"$matrix"}:
+            return mi.ScalarTransform4f(value["$matrix"])
+        return {k: _from_markers(mi, v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_from_markers(mi, v) for v in value]
+    return value
 
 
 def mitsuba_scene_dict(
@@ -139,11 +143,9 @@ def mitsuba_scene_dict(
         ply = os.path.join(os.fspath(mesh_dir), f"shape{i}.ply")
         write_ply(ply, verts, tris)
         med = shape["medium"]
+        # Each boundary type writes its own BSDF (render/boundaries/<type>.h).
         boundary = shape.get("boundary", {"type": "index_matched"})
-        if boundary["type"] == "dielectric":
-            bsdf = {"type": "dielectric", "int_ior": float(boundary.get("ior", 1.5)), "ext_ior": 1.0}
-        else:
-            bsdf = {"type": "null"}
+        bsdf = _from_markers(mi, json.loads(_core.boundary_to_mitsuba(json.dumps(boundary))))
         out[f"shape{i}"] = {
             "type": "ply",
             "filename": ply,
@@ -157,30 +159,8 @@ def mitsuba_scene_dict(
             },
         }
     for j, light in enumerate(scene_dict.get("lights", [])):
-        kind = light["type"]
-        if kind == "point":
-            out[f"light{j}"] = {
-                "type": "point",
-                "position": [float(x) for x in light["position"]],
-                "intensity": _unbounded(mi, light["intensity"]),
-            }
-        elif kind == "directional":
-            out[f"light{j}"] = {
-                "type": "directional",
-                "direction": [float(x) for x in light["direction"]],
-                "irradiance": _unbounded(mi, light["irradiance"]),
-            }
-        elif kind == "environment":
-            out[f"light{j}"] = {"type": "constant", "radiance": _unbounded(mi, light["radiance"])}
-        elif kind == "area":
-            out[f"light{j}"] = {
-                "type": "rectangle",
-                "to_world": _area_light_to_world(mi, light["corner"], light["edge1"], light["edge2"]),
-                "bsdf": {"type": "diffuse", "reflectance": _rgb(mi, [0, 0, 0])},
-                "emitter": {"type": "area", "radiance": _unbounded(mi, light["radiance"])},
-            }
-        else:
-            raise ValueError(f"light type {kind!r} has no Mitsuba translation")
+        # Each light type writes its own translation (render/lights/<type>.h).
+        out[f"light{j}"] = _from_markers(mi, json.loads(_core.light_to_mitsuba(json.dumps(light))))
     return out
 
 

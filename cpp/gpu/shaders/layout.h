@@ -35,12 +35,6 @@ SSS_LAYOUT_CONST int kGpuMaxShapes = 16;
 SSS_LAYOUT_CONST int kGpuMaxEmitters = 16;
 SSS_LAYOUT_CONST int kGpuMaxLights = 16;
 
-// GpuLight.a.w
-SSS_LAYOUT_CONST int kGpuPointLight = 0;
-SSS_LAYOUT_CONST int kGpuDirectionalLight = 1;
-SSS_LAYOUT_CONST int kGpuAreaLight = 2;
-SSS_LAYOUT_CONST int kGpuEnvironmentLight = 3;
-
 // render.glsl's outputs: per path the radiance (vec4, rgb) and the counts (uvec2:
 // ordinary scattering events, sphere steps | kGpuWritten). The host zeroes the counts
 // before a dispatch and so finds paths that never ended (Mesa's lavapipe ends all loops
@@ -49,8 +43,8 @@ SSS_LAYOUT_CONST uint32_t kGpuWritten = 0x80000000u;
 
 struct GpuShape {
     vec4 sigma_t;   // xyz: sigma_t per channel; w: g
-    vec4 albedo;    // xyz: albedo; w: 1 for a dielectric boundary, 0 index-matched
-    vec4 boundary;  // x: ior
+    vec4 albedo;    // xyz: albedo
+    vec4 boundary;  // render/boundaries/boundary.h's BoundaryData: x its type, y, z x, y
 };
 
 struct GpuGrid {
@@ -59,11 +53,10 @@ struct GpuGrid {
     ivec4 n;      // nodes per axis; w: offset of node (0, 0, 0) in grid_values
 };
 
-// A light for NEE; a.w: its type (kGpuPointLight ...). Point: a.xyz position, radiance
-// the intensity; directional: a.xyz travel direction, radiance the irradiance; area:
-// a.xyz a corner, edge1.xyz and edge2.xyz its edges, edge2.w its area; environment.
+// A light (render/lights/light.h's LightData): a.xyz, b.xyz, c.xyz and value.rgb its
+// vectors and colour, a.w its type id (render/lights/registry.h), b.w its scalar.
 struct GpuLight {
-    vec4 a, edge1, edge2, radiance;
+    vec4 a, b, c, value;
 };
 
 // The scene header (binding 0): C++ struct GpuSceneHeader, GLSL buffer block SceneHeader.
@@ -75,7 +68,7 @@ struct GpuLight {
     vec4 cam_forward;               /* w: aspect */                                     \
     vec4 cam_right;                                                                     \
     vec4 cam_up;                                                                        \
-    vec4 environment;               /* rgb radiance; w: 1 if the scene has one */       \
+    vec4 environment;               /* x: its index in lights; w: 1 if there is one */  \
     uvec4 counts;                   /* shapes, emitter meshes, width, height */         \
     vec4 params;                    /* unused, sphere threshold, sigma_max, grey */     \
     GpuShape shapes[kGpuMaxShapes];                                                     \

@@ -14,5 +14,6 @@
 #include "shared/sampling.h"
 #include "shared/softplus.h"
 #include "shared/sphere_step.h"
+#include "render/boundaries/registry.h"
+#include "render/lights/registry.h"
 
-const float kInf = 1.0 / 0.0;

@@ -9,6 +9,8 @@
 #define uint32_t uint
 #define real float
 
+const float kInf = 1.0 / 0.0;
+
 // log(1 + x) and exp(x) - 1, accurate for small |x| too (GLSL has neither): the albedos
 // near 1 of dense media make log(phi) a difference of nearly equal numbers, which a
 // GPU's log (absolute error ~2^-21) would get wrong by 1 %. For x = phi - 1, x is exact.

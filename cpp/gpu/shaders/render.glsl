@@ -44,6 +44,27 @@ vec3 leave(Hit hit, vec3 w) { return offset_ray_origin(hit.p, hit.p_error, hit.n
 
 bool is_black(vec3 v) { return v.x == 0.0 && v.y == 0.0 && v.z == 0.0; }
 
+// A GpuShape's boundary unpacked (gpu/shaders/layout.h).
+BoundaryData boundary_data(GpuShape s) {
+    BoundaryData b;
+    b.type = int(s.boundary.x);
+    b.x = s.boundary.y;
+    b.y = s.boundary.z;
+    return b;
+}
+
+// A GpuLight unpacked (gpu/shaders/layout.h).
+LightData light_data(GpuLight g) {
+    LightData l;
+    l.type = int(g.a.w);
+    l.a = g.a.xyz;
+    l.b = g.b.xyz;
+    l.c = g.c.xyz;
+    l.value = g.value.rgb;
+    l.scalar = g.b.w;
+    return l;
+}
+
 // PathTracer::transmittance from p along w over dist, starting in `shape` (-1: vacuum):
 // Beer's law through the media it crosses at index-matched boundaries; 0 when a dielectric
 // boundary or an emitter is in the way, or after kMaxShadowCrossings boundaries.
@@ -55,7 +76,8 @@ vec3 transmittance(vec3 p, vec3 w, float dist, int shape) {
         bool hit = intersect_between(p, w, t_prev, dist, h);
         if (shape >= 0) tr *= beer(shapes[shape].sigma_t.xyz, (hit ? h.t : dist) - t_prev);
         if (!hit || is_black(tr)) return tr;
-        if (h.mesh >= counts.x || shapes[h.mesh].albedo.w != 0.0) return vec3(0.0);
+        if (h.mesh >= counts.x || !boundary_passes_shadow_rays(boundary_data(shapes[h.mesh])))
+            return vec3(0.0);
         shape = dot(w, h.normal) < 0.0 ? int(h.mesh) : -1;
         t_prev = h.t;
     }
@@ -70,7 +92,7 @@ vec3 transmittance(vec3 p, vec3 w, float dist, int shape) {
 vec3 direct_light(vec3 p, float r, vec3 d, int shape, int channel, bool delta_only,
                   inout RngState rng) {
     GpuShape s = shapes[shape];
-    if (s.albedo.w != 0.0) return vec3(0.0);  // no shadow ray leaves a dielectric
+    if (!boundary_passes_shadow_rays(boundary_data(s))) return vec3(0.0);
     float sigma_min =
         channel < 0 ? min(s.sigma_t.x, min(s.sigma_t.y, s.sigma_t.z)) : s.sigma_t[channel];
     if (r < 0.0) r = grid_query(shape, p);
@@ -84,39 +106,16 @@ vec3 direct_light(vec3 p, float r, vec3 d, int shape, int channel, bool delta_on
     if (count == 0u) return vec3(0.0);
     float n_lights = float(count);
     uint i = min(count - 1u, uint(rng_uniform(rng) * n_lights));
-    GpuLight l = lights[i];
-    int type = int(l.a.w);
-    float g = s.sigma_t.w;
+    LightData l = light_data(lights[i]);
+    float u1 = rng_uniform(rng), u2 = rng_uniform(rng);
+    LightSample ls = light_sample(l, p, u1, u2);  // render/lights/registry.h
     vec3 sum = vec3(0.0);
-    if (type == kGpuPointLight) {
-        vec3 to = l.a.xyz - p;
-        float dist = length(to);
-        if (dist > 0.0) {
-            vec3 w = to / dist;
-            sum = l.radiance.rgb * transmittance(p, w, dist, shape) *
-                  (hg_eval(dot(d, w), g) / (dist * dist));
-        }
-    } else if (type == kGpuDirectionalLight) {
-        vec3 w = -l.a.xyz;
-        sum = l.radiance.rgb * transmittance(p, w, kInf, shape) * hg_eval(dot(d, w), g);
-    } else if (type == kGpuAreaLight) {
-        float u1 = rng_uniform(rng), u2 = rng_uniform(rng);
-        vec3 q = l.a.xyz + l.edge1.xyz * u1 + l.edge2.xyz * u2;
-        vec3 n = normalize(cross(l.edge1.xyz, l.edge2.xyz));
-        vec3 to = q - p;
-        float dist = length(to);
-        vec3 w = to / dist;
-        if (dist > 0.0 && dot(w, n) < 0.0) {  // in front of the one-sided emitter
-            float pdf = area_light_pdf(l.edge2.w, w, dist, n);
-            float phase = hg_eval(dot(d, w), g);
-            vec3 tr = transmittance(p, w, dist * (1.0 - 1e-4), shape);
-            sum = l.radiance.rgb * tr * (phase * power_heuristic(pdf / n_lights, phase) / pdf);
-        }
-    } else {  // environment: uniform directions, MIS with the phase function
-        vec3 w = sample_uniform_sphere(rng_uniform(rng), rng_uniform(rng));
-        float phase = hg_eval(dot(d, w), g);
-        sum = l.radiance.rgb * transmittance(p, w, kInf, shape) *
-              (phase * power_heuristic(kInvFourPi / n_lights, phase) / kInvFourPi);
+    if (!is_black(ls.L)) {
+        float phase = hg_eval(dot(d, ls.w), s.sigma_t.w);
+        vec3 tr = transmittance(p, ls.w, ls.dist, shape);
+        sum = ls.pdf == 0.0  // a delta light
+                  ? ls.L * tr * phase
+                  : ls.L * tr * (phase * power_heuristic(ls.pdf / n_lights, phase) / ls.pdf);
     }
     return sum * (shadow_weight * n_lights);
 }
@@ -151,28 +150,24 @@ void path_iterate(inout Path p) {
         // Vacuum: fly to the next surface.
         if (!intersect(p.o, p.d, kInf, hit)) {
             if (environment.w != 0.0) {
+                LightEval e = light_eval(light_data(lights[int(environment.x)]),
+                                         p.scatter_pos, p.d, kInf, vec3(0.0));
                 float w = NEE && !p.specular
-                              ? power_heuristic(p.phase_pdf, kInvFourPi / float(lighting.x))
+                              ? power_heuristic(p.phase_pdf, e.pdf / float(lighting.x))
                               : 1.0;
-                p.L += p.beta * environment.rgb * w;
+                p.L += p.beta * e.L * w;
             }
             p.done = true;
             return;
         }
         vec3 x = hit.p;
-        if (hit.mesh >= num_shapes) {  // an area light's quad: one-sided, absorbs
-            if (dot(p.d, hit.normal) < 0.0) {
-                vec4 e = emitters[hit.mesh - num_shapes];
-                float w = 1.0;
-                if (NEE && !p.specular) {
-                    // NEE's pdf at the last scattering event, across index-matched
-                    // boundaries.
-                    float pdf = area_light_pdf(lights[int(e.w)].edge2.w, p.d,
-                                               length(x - p.scatter_pos), hit.normal);
-                    w = power_heuristic(p.phase_pdf, pdf / float(lighting.x));
-                }
-                p.L += p.beta * e.rgb * w;
-            }
+        if (hit.mesh >= num_shapes) {  // an emitter's quad: absorbs
+            // NEE's pdf at the last scattering event, across index-matched boundaries.
+            LightEval e = light_eval(light_data(lights[int(emitters[hit.mesh - num_shapes].w)]),
+                                     p.scatter_pos, p.d, length(x - p.scatter_pos), hit.normal);
+            float w = NEE && !p.specular ? power_heuristic(p.phase_pdf, e.pdf / float(lighting.x))
+                                         : 1.0;
+            p.L += p.beta * e.L * w;
             p.done = true;
             return;
         }
@@ -181,17 +176,12 @@ void path_iterate(inout Path p) {
             p.o = leave(hit, p.d);
             return;
         }
-        if (s.albedo.w != 0.0) {  // dielectric
-            float cos_i = -dot(p.d, hit.normal), cos_t;
-            float F = fresnel_dielectric(cos_i, s.boundary.x, cos_t);
-            p.specular = true;
-            if (rng_uniform(p.rng) < F) {
-                p.d = p.d + hit.normal * (2.0 * cos_i);
-                p.o = leave(hit, p.d);
-                return;
-            }
-            float eta = 1.0 / s.boundary.x;
-            p.d = normalize(p.d * eta + hit.normal * (eta * cos_i - cos_t));
+        BoundaryEvent b = boundary_cross(boundary_data(s), p.d, hit.normal, p.rng);
+        p.d = b.d;
+        p.specular = p.specular || b.specular;
+        if (!b.crossed) {
+            p.o = leave(hit, p.d);
+            return;
         }
         p.shape = int(hit.mesh);
         p.o = leave(hit, p.d);
@@ -258,18 +248,13 @@ void path_iterate(inout Path p) {
         p.o = leave(hit, p.d);
         return;
     }
-    if (s.albedo.w != 0.0) {
-        float cos_i = dot(p.d, hit.normal), cos_t;
-        float F = fresnel_dielectric(cos_i, 1.0 / s.boundary.x, cos_t);
-        p.specular = true;
-        if (rng_uniform(p.rng) < F) {
-            p.d = p.d - hit.normal * (2.0 * cos_i);
-            p.o = leave(hit, p.d);
-            p.r_at_o = 0.0;
-            return;
-        }
-        float eta = s.boundary.x;
-        p.d = normalize(p.d * eta - hit.normal * (eta * cos_i - cos_t));
+    BoundaryEvent b = boundary_cross(boundary_data(s), p.d, hit.normal, p.rng);
+    p.d = b.d;
+    p.specular = p.specular || b.specular;
+    if (!b.crossed) {
+        p.o = leave(hit, p.d);
+        p.r_at_o = 0.0;
+        return;
     }
     p.shape = -1;
     p.o = leave(hit, p.d);
@@ -288,7 +273,7 @@ void path_step(inout Path p) {
     p.pending = false;
     float sigma = min(sigma_t * p.r_step, params.z);
     float radius = min(p.r_step, sigma / sigma_t);
-    bool with_event = NEE && lighting.z > 0u && s.albedo.w == 0.0;
+    bool with_event = NEE && lighting.z > 0u && boundary_passes_shadow_rays(boundary_data(s));
     // The event is drawn for one albedo: the carried channel's, or, for RGB throughput
     // with a chromatic albedo, a channel picked uniformly whose light connection then
     // counts 3 times in that channel only.

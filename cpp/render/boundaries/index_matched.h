@@ -1,0 +1,40 @@
+// Index-matched boundary: the medium's index of refraction is the outside's, so a photon
+// crosses it unchanged and shadow rays pass through it. Default of every shape.
+#ifndef SSS_RENDER_BOUNDARIES_INDEX_MATCHED_H
+#define SSS_RENDER_BOUNDARIES_INDEX_MATCHED_H
+
+#include "render/boundaries/boundary.h"
+
+#ifdef __cplusplus
+namespace sss {
+#endif
+
+// d: the photon's direction; n: the boundary's outward unit normal at the hit.
+SSS_FN BoundaryEvent index_matched_boundary_cross(BoundaryData b, Vec3 d, Vec3 n,
+                                                  SSS_INOUT(RngState) rng) {
+    BoundaryEvent e;
+    e.d = d;
+    e.crossed = true;
+    e.specular = false;
+    return e;
+}
+
+// Whether a straight shadow ray may pass through it.
+SSS_FN bool index_matched_boundary_passes_shadow_rays(BoundaryData b) { return true; }
+
+#ifdef __cplusplus
+inline BoundaryKind index_matched_boundary_kind() {
+    BoundaryKind k;
+    k.name = "index_matched";
+    k.parse = [](const json_fields::json&, const json_fields::Field&) {
+        return BoundaryData{};
+    };
+    k.mitsuba = [](const json_fields::json&) {
+        return json_fields::json{{"type", "null"}};
+    };
+    return k;
+}
+}  // namespace sss
+#endif
+
+#endif  // SSS_RENDER_BOUNDARIES_INDEX_MATCHED_H

@@ -1,0 +1,87 @@
+// Area light: the one-sided quad a + s b + t c (s, t in [0, 1]) emitting radiance `value`
+// along normalize(b x c); scalar = its area. Light sampling picks a point uniformly on
+// it; paths hit it (a quad in the ray tracer) and it absorbs them.
+#ifndef SSS_RENDER_LIGHTS_AREA_H
+#define SSS_RENDER_LIGHTS_AREA_H
+
+#include "render/lights/light.h"
+#include "shared/path.h"
+
+#ifdef __cplusplus
+namespace sss {
+#endif
+
+SSS_FN LightSample area_light_sample(LightData l, Vec3 p, float u1, float u2) {
+    LightSample s = no_light_sample();
+    Vec3 q = l.a + l.b * u1 + l.c * u2;
+    Vec3 n = normalize(cross(l.b, l.c));
+    Vec3 to = q - p;
+    float dist = length(to);
+    if (!(dist > 0.f)) return s;
+    Vec3 w = to / dist;
+    if (dot(w, n) >= 0.f) return s;  // behind the one-sided emitter
+    s.w = w;
+    s.dist = dist * (1.f - 1e-4f);  // short of the quad, which would block the ray
+    s.L = l.value;
+    s.pdf = area_light_pdf(l.scalar, w, dist, n);
+    return s;
+}
+
+SSS_FN LightEval area_light_eval(LightData l, Vec3 p, Vec3 w, float t, Vec3 n) {
+    LightEval e = no_light_eval();
+    if (dot(w, n) >= 0.f) return e;  // its back
+    e.L = l.value;
+    e.pdf = area_light_pdf(l.scalar, w, t, n);
+    return e;
+}
+
+#ifdef __cplusplus
+inline LightType area_light_type() {
+    using namespace json_fields;
+    LightType t;
+    t.name = "area";
+    t.quad = true;
+    t.position_key = "corner";
+    t.keys = {"corner", "edge1", "edge2", "radiance"};
+    t.parse = [](const json& j, const Field& f, Vec3d frame) {
+        LightData l{};
+        l.a = (point3(require(j, "corner", f), f.at("corner")) - frame).to_float();
+        l.b = vec3(require(j, "edge1", f), f.at("edge1"));
+        l.c = vec3(require(j, "edge2", f), f.at("edge2"));
+        l.scalar = length(cross(l.b, l.c));
+        if (!(l.scalar > 0.f))
+            f.error(
+                "edge1 and edge2 span no area (allowed: two non-parallel, non-zero "
+                "edges)");
+        l.value = light_fields::radiometric(j, f, "radiance");
+        return l;
+    };
+    // A Mitsuba rectangle ([-1, 1]^2 in z = 0, facing +z) moved onto the quad.
+    t.mitsuba = [](const json& j) {
+        double c[3], e1[3], e2[3];
+        for (int i = 0; i < 3; ++i) {
+            c[i] = j["corner"][i].get<double>();
+            e1[i] = j["edge1"][i].get<double>();
+            e2[i] = j["edge2"][i].get<double>();
+        }
+        double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                       e1[0] * e2[1] - e1[1] * e2[0]};
+        const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        json m = json::array();
+        for (int r = 0; r < 3; ++r)
+            m.push_back(
+                {0.5 * e1[r], 0.5 * e2[r], n[r] / len, c[r] + 0.5 * (e1[r] + e2[r])});
+        m.push_back({0.0, 0.0, 0.0, 1.0});
+        return json{
+            {"type", "rectangle"},
+            {"to_world", {{"$matrix", m}}},
+            {"bsdf", {{"type", "diffuse"}, {"reflectance", {{"$rgb", {0, 0, 0}}}}}},
+            {"emitter",
+             {{"type", "area"}, {"radiance", light_fields::mitsuba_rgb(j["radiance"])}}}};
+    };
+    return t;
+}
+}  // namespace sss
+#endif
+
+#endif  // SSS_RENDER_LIGHTS_AREA_H
