@@ -35,8 +35,38 @@
 
 #include "core/check.h"
 #include "gpu/gpu_renderer.h"
+#include "render/boundaries/registry.h"
 
 using namespace sss;
+
+namespace {
+
+// The boundary type an override "boundary=<name>" names, or null.
+const BoundaryKind* boundary_named(const std::string& key, const std::string& name) {
+    if (key != "boundary") return nullptr;
+    for (const BoundaryKind& k : boundary_kinds())
+        if (name == k.name) return &k;
+    return nullptr;
+}
+
+std::string boundary_names() {
+    std::string names;
+    for (const BoundaryKind& k : boundary_kinds())
+        names += std::string(names.empty() ? "" : "|") + k.name;
+    return names;
+}
+
+// Gives shape s a boundary of type `kind` with its defaults.
+void set_boundary(GpuShape& s, const BoundaryKind& kind) {
+    const std::string source = "boundary override";
+    BoundaryData b =
+        kind.parse(json_fields::json::object(), json_fields::Field{source, ""});
+    s.boundary[0] = float(kind.id);
+    s.boundary[1] = b.x;
+    s.boundary[2] = b.y;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
     int spp = 16, repeat = 1, batch = 0, lanes = 0;
@@ -125,13 +155,12 @@ int main(int argc, char** argv) {
                     else if (key == "nee" && (val == "0" || val == "1"))
                         scene.header.lighting[1] =
                             val == "1" && scene.header.lighting[0] > 0 ? 1u : 0u;
-                    else if (key == "boundary" &&
-                             (val == "dielectric" || val == "index_matched"))
-                        s.albedo[3] = val == "dielectric" ? 1.f : 0.f;
+                    else if (const BoundaryKind* kind = boundary_named(key, val))
+                        set_boundary(s, *kind);
                     else
                         fail("override '", kv, "' is not allowed (allowed: sigma_t=X, ",
-                             "albedo=X, threshold=X, boundary=dielectric|index_matched, "
-                             "nee=0|1)");
+                             "albedo=X, threshold=X, boundary=", boundary_names(),
+                             " (with its defaults), nee=0|1)");
                 }
             }
             GpuRenderer renderer(vk, scene);

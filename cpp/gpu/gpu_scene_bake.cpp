@@ -123,7 +123,9 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
         const Shape& s = desc.shapes[i];
         meshes.push_back(&s.mesh);
         index_matched = index_matched || s.boundary.passes_shadow_rays();
-        put3(h.shapes[i].sigma_t, s.medium.sigma_t, s.medium.g);
+        put3(h.shapes[i].sigma_t, s.medium.sigma_t, 0.f);
+        put3(h.shapes[i].phase,
+             Vec3(float(s.medium.phase.type), s.medium.phase.x, s.medium.phase.y), 0.f);
         put3(h.shapes[i].albedo, s.medium.albedo, 0.f);
         put3(h.shapes[i].boundary,
              Vec3(float(s.boundary.type), s.boundary.x, s.boundary.y), 0.f);

@@ -170,4 +170,15 @@ PYBIND11_MODULE(_core, m) {
         py::arg("boundary_json"),
         "A scene file's boundary (JSON text) as the BSDF of a Mitsuba 3 shape (JSON "
         "text).");
+
+    m.def(
+        "phase_to_mitsuba",
+        [](const std::string& medium_json) {
+            const Phase p = parse_phase(medium_json, "<medium>");
+            const nlohmann::json j = nlohmann::json::parse(medium_json);
+            return p.kind().mitsuba(j.contains("phase") ? j["phase"] : j).dump();
+        },
+        py::arg("medium_json"),
+        "A scene file's medium (JSON text) to the phase entry of its Mitsuba 3 medium "
+        "(JSON text).");
 }

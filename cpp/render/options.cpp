@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "core/check.h"
+#include "render/integrators/list.h"
 
 namespace sss {
 
@@ -44,17 +45,33 @@ void check_sphere_threshold(double tau) {
 
 }  // namespace
 
+namespace {
+
+// The integrator row's text, from the list of integrators.
+struct IntegratorChoices {
+    std::vector<std::string> choices;
+    std::string help, allowed;
+    IntegratorChoices() {
+        const auto& names = integrator_names();
+        for (size_t i = 0; i < names.size(); ++i) {
+            const char* sep = i == 0 ? "" : (i + 1 == names.size() ? " or " : ", ");
+            choices.push_back(names[i].name);
+            help += sep + std::string(names[i].name) + " (" + names[i].help + ")";
+            allowed += sep + std::string(names[i].name);
+        }
+        help += "; default: the scene's, else pt";
+    }
+};
+
+}  // namespace
+
 const std::vector<OptionSpec>& render_option_specs() {
+    static const IntegratorChoices integrators;
     constexpr int64_t kMaxInt32 = std::numeric_limits<int32_t>::max();
     constexpr int64_t kMaxInt64 = std::numeric_limits<int64_t>::max();
     static const std::vector<OptionSpec> specs = {
-        {"integrator",
-         Kind::Choice,
-         {"pt", "st"},
-         "NAME",
-         "pt (path tracing) or st (sphere tracing); default: the scene's, else pt",
-         true,
-         "pt or st"},
+        {"integrator", Kind::Choice, integrators.choices, "NAME",
+         integrators.help.c_str(), true, integrators.allowed.c_str()},
         {"spp",
          Kind::Integer,
          {},

@@ -97,12 +97,12 @@ Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
     size_t i = std::min(count - 1, size_t(rng.uniform() * n_lights));
     if (delta_only) i = size_t(delta_lights_[i]);
     const Light& l = lights[i];
-    const float g = s.medium.g;
+    const Phase& phase_fn = s.medium.phase;
     const float u1 = rng.uniform(), u2 = rng.uniform();
     const LightSample ls = light_sample(l, p, u1, u2);  // render/lights/registry.h
     Vec3 sum(0.f);
     if (!is_black(ls.L)) {
-        const float phase = hg_eval(dot(d, ls.w), g);
+        const float phase = phase_eval(phase_fn, dot(d, ls.w));
         const Vec3 tr = transmittance(p, ls.w, ls.dist, shape);
         if (ls.pdf == 0.f) {
             sum += ls.L * tr * phase;  // a delta light
@@ -116,12 +116,12 @@ Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
     if (!mis && !l.is_delta()) {
         // The second strategy: a phase-sampled shadow ray that meets this light
         // (phase / pdf = 1).
-        const Vec3 wp = hg_sample(d, g, rng.uniform(), rng.uniform());
+        const Vec3 wp = phase_sample(phase_fn, d, rng.uniform(), rng.uniform());
         EmitterHit e;
         const Vec3 trp = transmittance(p, wp, kInf, shape, &e);
         if (e.light == int(i)) {
             const LightEval le = light_eval(l, p, wp, e.t, e.normal);
-            sum += le.L * trp * power_heuristic(hg_eval(dot(d, wp), g), le.pdf);
+            sum += le.L * trp * power_heuristic(phase_eval(phase_fn, dot(d, wp)), le.pdf);
         }
     }
     return sum * (shadow_weight * n_lights);
@@ -189,7 +189,8 @@ bool PathTracer::take_step(PathState& ps, const WorldSphereStep& step) const {
     ps.beta *= survival;
     bool alive = !is_black(ps.beta);
     if (alive) {
-        ps.phase_pdf = step.N == 1 ? hg_eval(dot(ps.d, step.exit_dir), s.medium.g) : 0.f;
+        ps.phase_pdf =
+            step.N == 1 ? phase_eval(s.medium.phase, dot(ps.d, step.exit_dir)) : 0.f;
         ps.scatter_pos = ps.o;
         ps.o = step.exit_pos;
         ps.d = step.exit_dir;
@@ -210,7 +211,7 @@ void PathTracer::request_step(PathState& ps, float r) const {
     req.w_in = ps.d;
     req.sigma = std::min(sigma_t * r, st_->sigma_max());
     req.radius = std::min(r, req.sigma / sigma_t);
-    req.g = m.g;
+    req.g = m.phase.x;  // Henyey-Greenstein's g (PhaseKind::sphere_steps)
     req.with_event = st_->wants_event(ps.shape);
     // The representative event is drawn for one albedo: the carried channel's, or, for
     // RGB throughput with a chromatic albedo, a channel picked uniformly whose light
@@ -360,8 +361,8 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             if (is_black(beta)) break;
             if (nee_ && !desc.lights.empty())
                 L += beta * direct_light(o, r, d, shape, channel, rng);
-            Vec3 d_new = hg_sample(d, s.medium.g, rng.uniform(), rng.uniform());
-            phase_pdf = hg_eval(dot(d, d_new), s.medium.g);
+            Vec3 d_new = phase_sample(s.medium.phase, d, rng.uniform(), rng.uniform());
+            phase_pdf = phase_eval(s.medium.phase, dot(d, d_new));
             scatter_pos = o;
             d = d_new;
             specular = false;

@@ -50,19 +50,6 @@ Camera parse_camera(const json& j, const Field& f, Vec3d frame) {
     return c;
 }
 
-Medium parse_medium(const json& j, const Field& f) {
-    check_keys(j, f, {"sigma_t", "albedo", "g"});
-    Medium m;
-    m.sigma_t = rgb_in(require(j, "sigma_t", f), f.at("sigma_t"), 0.0, 1e7,
-                       "per-channel extinction in [0, 1e7] per scene unit");
-    m.albedo = rgb_in(require(j, "albedo", f), f.at("albedo"), 0.0, 1.0,
-                      "each channel in [0, 1]");
-    m.g = j.contains("g") ? float(number(j["g"], f.at("g"))) : 0.f;
-    if (!(std::abs(m.g) < 1.f))
-        f.at("g").error("value ", show(j["g"]), " is not allowed (allowed: -1 < g < 1)");
-    return m;
-}
-
 // The entry of a type registry (light_types(), boundary_kinds()) that j's "type" names,
 // with the keys j may have: its own and "type".
 template <class Kind>
@@ -88,6 +75,40 @@ Boundary parse_boundary(const json& j, const Field& f) {
     static_cast<BoundaryData&>(b) = kind->parse(j, f);
     b.type = kind->id;
     return b;
+}
+
+// The medium j's phase function: its "phase" object, or Henyey-Greenstein with its "g"
+// (the shorthand the scene files use most).
+Phase parse_phase(const json& j, const Field& f) {
+    if (j.contains("g") && j.contains("phase"))
+        f.at("phase").error("give either g (Henyey-Greenstein) or phase, not both");
+    Phase p;
+    if (j.contains("phase")) {
+        const json& pj = j["phase"];
+        const Field pf = f.at("phase");
+        const PhaseKind& kind = kind_named(phase_kinds(), pj, pf);
+        std::vector<const char*> keys{"type"};
+        keys.insert(keys.end(), kind.keys.begin(), kind.keys.end());
+        check_keys(pj, pf, keys);
+        static_cast<PhaseData&>(p) = kind.parse(pj, pf);
+        p.type = kind.id;
+    } else {
+        const PhaseKind& hg = kind_named(phase_kinds(), json{{"type", "hg"}}, f);
+        static_cast<PhaseData&>(p) = hg.parse(j, f);
+        p.type = hg.id;
+    }
+    return p;
+}
+
+Medium parse_medium(const json& j, const Field& f) {
+    check_keys(j, f, {"sigma_t", "albedo", "g", "phase"});
+    Medium m;
+    m.sigma_t = rgb_in(require(j, "sigma_t", f), f.at("sigma_t"), 0.0, 1e7,
+                       "per-channel extinction in [0, 1e7] per scene unit");
+    m.albedo = rgb_in(require(j, "albedo", f), f.at("albedo"), 0.0, 1.0,
+                      "each channel in [0, 1]");
+    m.phase = parse_phase(j, f);
+    return m;
 }
 
 // A shape as parsed: its mesh, and the mesh's positions in the scene file's coordinates
@@ -321,6 +342,10 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
 
 Light parse_light(const std::string& json_text, const std::string& source, Vec3d frame) {
     return parse_light(parse_json(json_text, source), Field{source, ""}, frame);
+}
+
+Phase parse_phase(const std::string& medium_json, const std::string& source) {
+    return parse_phase(parse_json(medium_json, source), Field{source, ""});
 }
 
 Boundary parse_boundary(const std::string& json_text, const std::string& source) {

@@ -16,14 +16,22 @@
 #include "render/boundaries/registry.h"
 #include "render/lights/registry.h"
 #include "render/options.h"
+#include "render/phase/registry.h"
 
 namespace sss {
+
+// A phase function of any type of render/phase/registry.h (PhaseData says what it
+// holds); Henyey-Greenstein with g = 0 unless the scene says otherwise.
+struct Phase : PhaseData {
+    Phase() : PhaseData{} {}
+    const PhaseKind& kind() const { return phase_kind(type); }
+};
 
 // Homogeneous medium; sigma_t per scene unit, per RGB channel.
 struct Medium {
     Vec3 sigma_t;
     Vec3 albedo;
-    float g = 0.f;
+    Phase phase;
 };
 
 // A boundary of any type of render/boundaries/registry.h (BoundaryData says what it
@@ -80,6 +88,9 @@ SceneDesc load_scene_file(const std::string& path);
 // at `frame`.
 Light parse_light(const std::string& json_text, const std::string& source = "<light>",
                   Vec3d frame = Vec3d());
+// A medium's phase function from the medium's JSON object ("phase", or "g" for
+// Henyey-Greenstein), as in a scene file.
+Phase parse_phase(const std::string& medium_json, const std::string& source = "<medium>");
 // One boundary from its JSON object, as in a scene file.
 Boundary parse_boundary(const std::string& json_text,
                         const std::string& source = "<boundary>");

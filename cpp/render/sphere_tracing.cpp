@@ -41,6 +41,13 @@ SphereTracing::SphereTracing(const Scene& scene, float threshold, SphereSampler 
                 scene_.grid(i).max_query() >=
             threshold_)
             may_step_ = true;
+    if (!std::isinf(threshold))
+        for (const Shape& s : scene_.desc().shapes)
+            if (!s.medium.phase.kind().sphere_steps)
+                fail(scene_.desc().source, ": shape '", s.name,
+                     "': integrator 'st' takes steps trained for Henyey-Greenstein phase "
+                     "functions, not phase '",
+                     s.medium.phase.kind().name, "' (use integrator 'pt')");
     if (sampler_ == SphereSampler::Walk || std::isinf(threshold)) return;
     if (models.empty())
         fail(
@@ -90,7 +97,8 @@ SphereTracing::SphereTracing(const Scene& scene, float threshold, SphereSampler 
                      "trained for it)");
             for (float s : sigma_ends) {
                 try {
-                    model_->check_inputs(s, m.g, event ? event_phi(phi) : 0.5f, event);
+                    model_->check_inputs(s, m.phase.x, event ? event_phi(phi) : 0.5f,
+                                         event);
                 } catch (const Error& e) {
                     fail(context(), e.what(),
                          " (use integrator 'pt', or models trained for this medium)");

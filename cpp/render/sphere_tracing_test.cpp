@@ -343,7 +343,7 @@ TEST(SphereTracer, RefusesWhatTheModelsCannotDo) {
                "below the smallest optical radius");
 
     SceneDesc g = desc;
-    g.shapes[0].medium.g = 0.7f;
+    g.shapes[0].medium.phase.x = 0.7f;  // Henyey-Greenstein's g
     std::string m = err(g, st_options(models.path(), 2.f));
     EXPECT_HAS(m, "shapes[0] ('sphere')");
     EXPECT_HAS(m, "g = 0.7 is outside the training range [-0.5, 0.5]");

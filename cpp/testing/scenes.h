@@ -30,7 +30,9 @@ inline SceneDesc sphere_in_environment(Vec3 sigma_t, Vec3 albedo, float g,
     Shape s;
     s.name = "sphere";
     s.mesh = make_icosphere({0, 0, 0}, 1.f, 3);
-    s.medium = {sigma_t, albedo, g};
+    s.medium.sigma_t = sigma_t;
+    s.medium.albedo = albedo;
+    s.medium.phase.x = g;  // Henyey-Greenstein
     s.boundary = test::boundary(boundary);
     d.shapes.push_back(s);
     d.lights.push_back(parse_light(R"({"type": "environment", "radiance": 1})"));

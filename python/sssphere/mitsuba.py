@@ -155,7 +155,8 @@ def mitsuba_scene_dict(
                 "type": "homogeneous",
                 "sigma_t": _unbounded(mi, med["sigma_t"]),
                 "albedo": _rgb(mi, med["albedo"]),
-                "phase": {"type": "hg", "g": float(med.get("g", 0.0))},
+                # Each phase function type writes its own (render/phase/<type>.h).
+                "phase": json.loads(_core.phase_to_mitsuba(json.dumps(med))),
             },
         }
     for j, light in enumerate(scene_dict.get("lights", [])):

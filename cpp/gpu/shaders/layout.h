@@ -42,9 +42,10 @@ SSS_LAYOUT_CONST int kGpuMaxLights = 16;
 SSS_LAYOUT_CONST uint32_t kGpuWritten = 0x80000000u;
 
 struct GpuShape {
-    vec4 sigma_t;   // xyz: sigma_t per channel; w: g
+    vec4 sigma_t;   // xyz: sigma_t per channel
     vec4 albedo;    // xyz: albedo
     vec4 boundary;  // render/boundaries/boundary.h's BoundaryData: x its type, y, z x, y
+    vec4 phase;     // render/phase/phase.h's PhaseData: x its type, y, z x, y
 };
 
 struct GpuGrid {
@@ -96,17 +97,17 @@ struct GpuRenderPush {
 
 // std430 puts vec4s and structs of them 16 bytes apart, with no padding: so must C++.
 static_assert(sizeof(vec4) == 16 && sizeof(uvec4) == 16 && sizeof(ivec4) == 16);
-static_assert(sizeof(GpuShape) == 3 * 16 && sizeof(GpuGrid) == 3 * 16 &&
+static_assert(sizeof(GpuShape) == 4 * 16 && sizeof(GpuGrid) == 3 * 16 &&
               sizeof(GpuLight) == 4 * 16);
 static_assert(offsetof(GpuSceneHeader, shapes) == 7 * 16);
-static_assert(offsetof(GpuSceneHeader, grids) == (7 + 3 * kGpuMaxShapes) * 16);
-static_assert(offsetof(GpuSceneHeader, emitters) == (7 + 6 * kGpuMaxShapes) * 16);
+static_assert(offsetof(GpuSceneHeader, grids) == (7 + 4 * kGpuMaxShapes) * 16);
+static_assert(offsetof(GpuSceneHeader, emitters) == (7 + 7 * kGpuMaxShapes) * 16);
 static_assert(offsetof(GpuSceneHeader, lighting) ==
-              (7 + 6 * kGpuMaxShapes + kGpuMaxEmitters) * 16);
+              (7 + 7 * kGpuMaxShapes + kGpuMaxEmitters) * 16);
 static_assert(offsetof(GpuSceneHeader, lights) ==
-              (8 + 6 * kGpuMaxShapes + kGpuMaxEmitters) * 16);
+              (8 + 7 * kGpuMaxShapes + kGpuMaxEmitters) * 16);
 static_assert(sizeof(GpuSceneHeader) ==
-              (9 + 6 * kGpuMaxShapes + kGpuMaxEmitters + 4 * kGpuMaxLights) * 16);
+              (9 + 7 * kGpuMaxShapes + kGpuMaxEmitters + 4 * kGpuMaxLights) * 16);
 static_assert(sizeof(GpuRenderPush) == 5 * 4);  // scalars: 4 bytes each in both
 }  // namespace sss
 #endif

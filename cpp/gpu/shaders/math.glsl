@@ -16,4 +16,5 @@
 #include "shared/sphere_step.h"
 #include "render/boundaries/registry.h"
 #include "render/lights/registry.h"
+#include "render/phase/registry.h"
 

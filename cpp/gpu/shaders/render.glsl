@@ -53,6 +53,15 @@ BoundaryData boundary_data(GpuShape s) {
     return b;
 }
 
+// A GpuShape's phase function unpacked (gpu/shaders/layout.h).
+PhaseData phase_data(GpuShape s) {
+    PhaseData p;
+    p.type = int(s.phase.x);
+    p.x = s.phase.y;
+    p.y = s.phase.z;
+    return p;
+}
+
 // A GpuLight unpacked (gpu/shaders/layout.h).
 LightData light_data(GpuLight g) {
     LightData l;
@@ -111,7 +120,7 @@ vec3 direct_light(vec3 p, float r, vec3 d, int shape, int channel, bool delta_on
     LightSample ls = light_sample(l, p, u1, u2);  // render/lights/registry.h
     vec3 sum = vec3(0.0);
     if (!is_black(ls.L)) {
-        float phase = hg_eval(dot(d, ls.w), s.sigma_t.w);
+        float phase = phase_eval(phase_data(s), dot(d, ls.w));
         vec3 tr = transmittance(p, ls.w, ls.dist, shape);
         sum = ls.pdf == 0.0  // a delta light
                   ? ls.L * tr * phase
@@ -229,9 +238,9 @@ void path_iterate(inout Path p) {
             return;
         }
         if (NEE) p.L += p.beta * direct_light(p.o, r, p.d, p.shape, p.channel, false, p.rng);
-        vec3 d_new = hg_sample(p.d, s.sigma_t.w, rng_uniform(p.rng), rng_uniform(p.rng));
+        vec3 d_new = phase_sample(phase_data(s), p.d, rng_uniform(p.rng), rng_uniform(p.rng));
         if (NEE) {  // for the MIS weight of a light this direction may hit
-            p.phase_pdf = hg_eval(dot(p.d, d_new), s.sigma_t.w);
+            p.phase_pdf = phase_eval(phase_data(s), dot(p.d, d_new));
             p.scatter_pos = p.o;
             p.specular = false;
         }
@@ -287,7 +296,9 @@ void path_step(inout Path p) {
         nee_weight[c] = 3.0;
     }
     phi = clamp(phi, event_phi.x, event_phi.y);  // SphereTracing::event_phi
-    SphereStepSample st = sample_sphere_step(sigma, s.sigma_t.w, phi, with_event, p.rng);
+    // s.phase.y: Henyey-Greenstein's g (st takes only phase functions whose PhaseKind has
+    // sphere_steps).
+    SphereStepSample st = sample_sphere_step(sigma, s.phase.y, phi, with_event, p.rng);
     Frame f = sphere_step_frame(p.d, rng_uniform(p.rng));
     if (with_event) {
         nee_weight *= vec3(event_weight_sum(s.albedo.x, st.N),
