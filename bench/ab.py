@@ -42,8 +42,9 @@ SCALES = (0.25, 0.5, 1.0, 2.0)
 TIME_RE = re.compile(r"wrote .*: ([0-9.]+) s, ")
 
 
-def sweep_scenes(directory: Path, size: int) -> dict[str, Path]:
-    """Writes the bunny sweep's scene files into `directory`; returns them by name."""
+def sweep_scenes(directory: Path, size: int, boundary: str | None = None) -> dict[str, Path]:
+    """Writes the bunny sweep's scene files into `directory` (with `boundary`'s type instead of
+    the scene's dielectric, if given); returns them by name."""
     base = json.loads((REPO / "scenes" / "bunny.json").read_text())
     scenes = {}
     for scale in SCALES:
@@ -53,6 +54,8 @@ def sweep_scenes(directory: Path, size: int) -> dict[str, Path]:
         if not mesh.is_absolute():
             scene["shapes"][0]["mesh"] = str((REPO / "scenes" / mesh).resolve())
         scene["shapes"][0]["medium"]["sigma_t"] = [500 * scale] * 3
+        if boundary:
+            scene["shapes"][0]["boundary"] = {"type": boundary}
         name = f"bunny_sigma{500 * scale:g}"
         path = directory / f"{name}.json"
         path.write_text(json.dumps(scene))
@@ -93,6 +96,9 @@ def main() -> None:
     parser.add_argument("--size", type=int, default=128, help="image width and height")
     parser.add_argument("--repeats", type=int, default=4, help="renders per build, scene and integrator")
     parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--boundary", choices=["dielectric", "index_matched"],
+                        help="the bunny's boundary (default: the scene's, dielectric); index_matched "
+                        "makes every scattering event of pt sample the lights (NEE)")
     parser.add_argument("--out", type=Path, default=REPO / "bench" / "results" / "ab.json")
     args = parser.parse_args()
 
@@ -101,7 +107,7 @@ def main() -> None:
     rows = []
     with tempfile.TemporaryDirectory(prefix="sssphere-ab-") as tmp:
         tmp = Path(tmp)
-        for name, scene in sweep_scenes(tmp, args.size).items():
+        for name, scene in sweep_scenes(tmp, args.size, args.boundary).items():
             for integrator in ("pt", "st"):
                 times = {"a": [], "b": []}
                 walls = {"a": [], "b": []}
@@ -139,6 +145,7 @@ def main() -> None:
         "date": datetime.datetime.now().isoformat(timespec="seconds"),
         "machine": platform.platform(), "a": args.a, "b": args.b, "spp": args.spp,
         "size": args.size, "threads": args.threads, "repeats": args.repeats,
+        "boundary": args.boundary or "dielectric (the scene's)",
         "geomean_ratio": summary, "rows": rows}, indent=1) + "\n")
     print(f"wrote {args.out}")
 
