@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "core/rng.h"
+#include "shared/ray_offset.h"
 #include "shared/sampling.h"
 
 using namespace sss;
@@ -114,4 +115,41 @@ TEST(RayTracer, CrossingsAreTheSuccessiveClosestHits) {
     Crossing one[1];
     EXPECT_EQ(tracer.crossings(Vec3(-2.f, 0.f, 0.f), Vec3(1.f, 0.f, 0.f), 10.f, one, 1),
               -1);
+}
+
+// A ray leaving a surface point from offset_ray_origin never meets that surface again,
+// also where the surface's plane is exact in float: an axis-aligned floor through the
+// render frame's y = 0 (the hit point's error bound along the normal is 0 there), and the
+// same floor moved off 0. Reflected rays in random directions above the floor, and rays
+// turned back through it, cross it at most once.
+TEST(RayTracer, RaysLeavingAFloorAtZeroDoNotMeetItAgain) {
+    for (const float y : {0.f, -0.37f}) {
+        TriangleMesh floor;
+        floor.positions = {
+            {-3.f, y, -3.f}, {3.f, y, -3.f}, {3.f, y, 3.f}, {-3.f, y, 3.f}};
+        floor.triangles = {{0, 2, 1}, {0, 3, 2}};
+        RayTracer tracer;
+        tracer.add_mesh(floor);
+        tracer.commit();
+        Rng rng(5, 0, 0);
+        for (int i = 0; i < 2000; ++i) {
+            const Vec3 o(2.f * rng.uniform() - 1.f, y + 1.f, 2.f * rng.uniform() - 1.f);
+            const Vec3 d =
+                normalize(Vec3(rng.uniform() - 0.5f, -1.f, rng.uniform() - 0.5f));
+            Hit hit;
+            ASSERT_TRUE(tracer.intersect(o, d, 0.f, 10.f, &hit));
+            Vec3 w = sample_uniform_sphere(rng.uniform(), rng.uniform());
+            if (w.y < 0.f) w.y = -w.y;  // back up, on the side the ray came from
+            Hit again;
+            EXPECT_FALSE(
+                tracer.intersect(offset_ray_origin(hit.p, hit.p_error, hit.normal, w), w,
+                                 0.f, 10.f, &again))
+                << "y = " << y << ", ray " << i;
+            // Through the floor: the origin is below it, so nothing is met either.
+            const Vec3 down(w.x, -w.y, w.z);
+            EXPECT_FALSE(
+                tracer.intersect(offset_ray_origin(hit.p, hit.p_error, hit.normal, down),
+                                 down, 0.f, 10.f, &again));
+        }
+    }
 }

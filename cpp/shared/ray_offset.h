@@ -33,8 +33,14 @@ SSS_FN Vec3 triangle_point(Vec3 v0, Vec3 e1, Vec3 e2, float b1, float b2,
 // with unit normal n in direction w: p moved along n, to w's side, by the error bound's
 // extent along n, then rounded away from p so that the sum's own rounding cannot bring it
 // back. The ray then starts strictly on w's side of the surface's plane.
+//
+// A plane normal to an axis through that axis' 0 (a floor at y = 0 of the render frame)
+// has a hit point exact along n: the bound there is 0, and a ray from p itself would meet
+// the plane again at t = 0. Such a point moves by the bound of the other coordinates
+// instead, which still follows the scene's scale.
 SSS_FN Vec3 offset_ray_origin(Vec3 p, Vec3 error, Vec3 n, Vec3 w) {
     float d = dot(abs(n), error);
+    if (!(d > 0.f)) d = max(error.x, max(error.y, error.z));
     Vec3 offset = n * (dot(w, n) < 0.f ? -d : d);
     Vec3 o = p + offset;
     o.x = offset.x > 0.f ? next_float_up(o.x)
