@@ -52,6 +52,21 @@ def error_of(scene, **kwargs):
         (lambda s: s["render"].update(sphere_threshold=-1), ["render.sphere_threshold", "0 to 1e30"]),
         (lambda s: s["render"].update(models=3), ["render.models", "directory path"]),
         (lambda s: s["render"].update(integrator="st", models="nowhere"), ["nowhere: not a directory"]),
+        # Opaque surfaces: exactly one of medium and surface, no boundary, checked values.
+        (lambda s: s["shapes"][0].update(surface={"type": "diffuse"}),
+         ["shapes[0]", "exactly one of 'medium'", "'surface'"]),
+        (lambda s: s["shapes"][0].pop("medium"), ["shapes[0]", "exactly one of 'medium'"]),
+        (lambda s: (s["shapes"][0].pop("medium"), s["shapes"][0].update(surface={"type": "diffuse"})),
+         ["shapes[0].boundary", "no boundary"]),
+        (lambda s: (s["shapes"][0].pop("medium"), s["shapes"][0].pop("boundary"),
+                    s["shapes"][0].update(surface={"type": "diffuse", "reflectance": [0.5, 1.2, 0]})),
+         ["shapes[0].surface.reflectance", "[0.5,1.2,0]", "[0, 1]"]),
+        (lambda s: (s["shapes"][0].pop("medium"), s["shapes"][0].pop("boundary"),
+                    s["shapes"][0].update(surface={"type": "metal"})),
+         ["shapes[0].surface.type", "\"metal\"", "\"diffuse\""]),
+        (lambda s: (s["shapes"][0].pop("medium"), s["shapes"][0].pop("boundary"),
+                    s["shapes"][0].update(surface={"type": "diffuse", "roughness": 1})),
+         ["shapes[0].surface.roughness", "unknown key"]),
     ],
 )
 def test_bad_scene_dict_names_field_and_value(small_scene, edit, expected):
@@ -104,6 +119,21 @@ def test_bad_meshes_are_refused_with_the_file_named(tmp_path, small_scene, faces
     (tmp_path / "scene.json").write_text(json.dumps(small_scene))
     msg = error_of(tmp_path / "scene.json")
     assert "shapes[0].mesh" in msg and "m.off" in msg and expected in msg, msg
+
+
+def test_open_meshes_make_surfaces_but_not_media(tmp_path, small_scene):
+    """A floor of two triangles is an opaque surface; the same open mesh cannot hold a
+    medium (the error says it is not closed)."""
+    _write_off(tmp_path / "floor.off", [(-2, -1, -2), (2, -1, -2), (2, -1, 2), (-2, -1, 2)],
+               [(0, 2, 1), (0, 3, 2)])
+    floor = {"mesh": str(tmp_path / "floor.off"), "medium": small_scene["shapes"][0]["medium"]}
+    small_scene["shapes"].append(floor)
+    msg = error_of(small_scene)
+    assert "shapes[1].mesh" in msg and "floor.off" in msg and "not closed" in msg, msg
+    del floor["medium"]
+    floor["surface"] = {"type": "diffuse", "reflectance": 0.5}
+    img = sssphere.render(sssphere.load_scene(small_scene), spp=4)
+    assert np.isfinite(img).all() and img.mean() > 0
 
 
 def test_flat_mesh_is_refused(tmp_path, small_scene):

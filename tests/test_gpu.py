@@ -82,6 +82,20 @@ def sphere_scene(res=(16, 16), sigma_t=30.0, albedo=(0.99, 0.95, 0.9), g=0.5,
     return d
 
 
+def sphere_on_floor_scene(boundary=INDEX_MATCHED, lights=None) -> dict:
+    """sphere_scene seen from above, the sphere resting over an opaque diffuse floor (an open
+    mesh, scenes/meshes/floor.obj) that fills the lower half of the image; a point light
+    besides the area light and the environment."""
+    d = sphere_scene(sigma_t=30.0, g=0.5, boundary=boundary, lights=lights)
+    d["camera"].update(origin=[0, 2.0, 4.0])
+    d["shapes"].append({"mesh": str(REPO / "scenes" / "meshes" / "floor.obj"),
+                        "transform": {"scale": 8, "translate": [0, -1.02, 0]},
+                        "surface": {"type": "diffuse", "reflectance": [0.7, 0.6, 0.5]}})
+    if lights is None:
+        d["lights"].append({"type": "point", "position": [2, 2, -1], "intensity": [8, 8, 8]})
+    return d
+
+
 # ---------------------------------------------------------------------------------------------
 # BVH: closest hits against Embree.
 
@@ -438,6 +452,10 @@ RENDER_CASES = {
     # extinction: one channel per path, shadow roulette by that channel's bound.
     "bunny_index_matched_nee": (
         lambda: bunny_scene(sigma_t=[60.0, 80.0, 100.0], boundary=INDEX_MATCHED), True),
+    # An opaque diffuse floor (light sampling and MIS at its points, shadow rays it blocks)
+    # under an index-matched and under a dielectric medium.
+    "floor_index_matched_nee": (lambda: sphere_on_floor_scene(), True),
+    "floor_dielectric_nee": (lambda: sphere_on_floor_scene(boundary=DIELECTRIC), True),
     # Dense: sigma*r up to 300, beyond the models' range (200), so steps are clipped to it.
     "sphere_dense": (lambda: sphere_scene(sigma_t=300.0, albedo=(0.99, 0.98, 0.95), g=0.7), True),
 }

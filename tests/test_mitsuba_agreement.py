@@ -13,12 +13,14 @@ Nothing is tuned: every tolerance comes from the variance estimates.
 
 Sensitivity (checked by hand): rendering our side with the albedo scaled by 0.95 fails every
 scene by a wide margin (chi-square p ~ 0, max |z| 18 to 46); so does a scale of 0.99 (max |z|
-5.5 to 11, chi-square p < 1e-50).
+5.5 to 11, chi-square p < 1e-50). For the floors: Mitsuba's floor reflectance scaled by 0.98
+fails (e) and (f) (chi-square p ~ 0, max |z| 24 and 13).
 
 Scenes: (a) thin sphere, point light; (b) bunny, directional light; (c) dielectric sphere, area
 light + environment (no next-event estimation through the dielectric); (d) index-matched sphere,
 area light + environment (next-event estimation and phase sampling both reach the lights, so
-the MIS weights are exercised).
+the MIS weights are exercised); (e)-(g) an opaque diffuse floor (an open mesh): alone under
+three kinds of light, under an index-matched medium, under a dielectric one.
 
 Known Mitsuba-side bias (measured, see mitsuba_util.py): Mitsuba re-spawns rays at every null
 (index-matched) interface with an offset of (1 + max|p|) * 8.9e-5 along the normal, which skips a
@@ -33,6 +35,8 @@ Runtime: about 65 s on 2 idle cores (twice that on a busy machine). Deselect wit
 """
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -128,6 +132,69 @@ def scene_matched_sphere_area_env() -> dict:
     }
 
 
+FLOOR = str(Path(__file__).resolve().parents[1] / "scenes" / "meshes" / "floor.obj")
+
+
+def _floor(y: float, reflectance) -> dict:
+    """An open two-triangle floor, 8 x 8, in the plane y: an opaque diffuse surface."""
+    return {"mesh": FLOOR, "transform": {"scale": 8, "translate": [0, y, 0]},
+            "surface": {"type": "diffuse", "reflectance": reflectance}}
+
+
+def scene_floor_lights() -> dict:
+    """(e) A diffuse floor alone, seen from above at an angle, under a point light, an area
+    light and a constant environment: light sampling at a surface, and its MIS with BSDF
+    sampling against the area light and the environment."""
+    return {
+        "camera": _camera([0, 2.5, 3]),
+        "shapes": [_floor(-0.5, [0.7, 0.5, 0.3])],
+        "lights": [
+            {"type": "point", "position": [1, 1, 0.5], "intensity": [3, 3, 3]},
+            {"type": "area", "corner": [-1.2, 0.6, -0.8], "edge1": [0.6, 0, 0],
+             "edge2": [0, 0, 0.6], "radiance": [6, 6, 6]},
+            {"type": "environment", "radiance": [0.3, 0.4, 0.5]},
+        ],
+    }
+
+
+def scene_matched_sphere_on_floor() -> dict:
+    """(f) An index-matched medium above a diffuse floor, a point light and an environment:
+    light reaches the floor through the medium (shadow rays across the medium's boundary),
+    the medium sees the floor's reflected light and casts a shadow on it."""
+    return {
+        "camera": _camera([0, 1.2, 4]),
+        "shapes": [
+            {"sphere": {"center": [0, 0.1, 0], "radius": 0.8},
+             "medium": {"sigma_t": [3, 3, 3], "albedo": [0.95, 0.8, 0.6], "g": 0.3}},
+            _floor(-0.75, [0.6, 0.6, 0.6]),
+        ],
+        "lights": [
+            {"type": "point", "position": [1.5, 2.5, 1], "intensity": [12, 12, 12]},
+            {"type": "environment", "radiance": [0.2, 0.2, 0.25]},
+        ],
+    }
+
+
+def scene_dielectric_sphere_on_floor() -> dict:
+    """(g) A dielectric medium above a diffuse floor under an area light: the floor's light
+    enters the medium only through sampled refraction, and the floor sees the light both
+    straight and through the dielectric (caustic paths found by BSDF sampling)."""
+    return {
+        "camera": _camera([0, 1.2, 4]),
+        "shapes": [
+            {"sphere": {"center": [0, 0.1, 0], "radius": 0.8},
+             "medium": {"sigma_t": [4, 4, 4], "albedo": [0.9, 0.9, 0.8], "g": 0.0},
+             "boundary": {"type": "dielectric", "ior": 1.4}},
+            _floor(-0.75, [0.5, 0.6, 0.7]),
+        ],
+        "lights": [
+            {"type": "area", "corner": [-0.5, 1.8, -0.5], "edge1": [1, 0, 0], "edge2": [0, 0, 1],
+             "radiance": [8, 8, 8]},
+            {"type": "environment", "radiance": [0.1, 0.1, 0.1]},
+        ],
+    }
+
+
 def _halves(img: np.ndarray) -> tuple[float, float, float, float]:
     g = img.mean(axis=2)
     h, w = g.shape
@@ -193,3 +260,18 @@ def test_dielectric_sphere_area_and_environment_matches_mitsuba():
 @pytest.mark.slow
 def test_index_matched_sphere_area_and_environment_matches_mitsuba():
     _check(scene_matched_sphere_area_env())
+
+
+@pytest.mark.slow
+def test_diffuse_floor_matches_mitsuba():
+    _check(scene_floor_lights())
+
+
+@pytest.mark.slow
+def test_index_matched_sphere_on_diffuse_floor_matches_mitsuba():
+    _check(scene_matched_sphere_on_floor())
+
+
+@pytest.mark.slow
+def test_dielectric_sphere_on_diffuse_floor_matches_mitsuba():
+    _check(scene_dielectric_sphere_on_floor())

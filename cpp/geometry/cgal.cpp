@@ -70,7 +70,7 @@ float round_down(double d) {
 
 }  // namespace
 
-TriangleMesh load_mesh(const std::string& path) {
+TriangleMesh load_mesh(const std::string& path, MeshKind kind) {
     namespace fs = std::filesystem;
     std::string ext = fs::path(path).extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
@@ -119,14 +119,20 @@ TriangleMesh load_mesh(const std::string& path) {
         }
         polys.push_back(std::move(q));
     }
-    return make_closed_mesh(std::move(pos), std::move(polys), path);
+    return kind == MeshKind::Closed
+               ? make_closed_mesh(std::move(pos), std::move(polys), path)
+               : make_open_mesh(std::move(pos), std::move(polys), path);
 }
 
-TriangleMesh make_closed_mesh(std::vector<Vec3> positions,
-                              std::vector<std::vector<uint32_t>> polygons,
-                              const std::string& what) {
+namespace {
+
+// The soup both kinds of mesh start from: polygons fan-triangulated, coincident vertices
+// merged, degenerate triangles refused, duplicate triangles and unused vertices dropped.
+void clean_soup(const std::vector<Vec3>& positions,
+                const std::vector<std::vector<uint32_t>>& polygons,
+                const std::string& what, std::vector<Point>& points,
+                std::vector<std::vector<std::size_t>>& tris) {
     // Fan-triangulate polygons (OBJ/PLY/OFF may hold quads or n-gons).
-    std::vector<std::vector<std::size_t>> tris;
     for (size_t f = 0; f < polygons.size(); ++f) {
         const auto& poly = polygons[f];
         if (poly.size() < 3)
@@ -135,7 +141,6 @@ TriangleMesh make_closed_mesh(std::vector<Vec3> positions,
         for (size_t i = 1; i + 1 < poly.size(); ++i)
             tris.push_back({poly[0], poly[i], poly[i + 1]});
     }
-    std::vector<Point> points;
     points.reserve(positions.size());
     for (const Vec3& p : positions) points.emplace_back(p.x, p.y, p.z);
 
@@ -153,7 +158,36 @@ TriangleMesh make_closed_mesh(std::vector<Vec3> positions,
     // surface mesh, which orient_to_bound_a_volume reads out of bounds (found by fuzzing:
     // tests/fuzz/regressions/mesh_obj/unused-vertices).
     PMP::remove_isolated_points_in_polygon_soup(points, tris);
+}
 
+TriangleMesh soup_to_mesh(const std::vector<Point>& points,
+                          const std::vector<std::vector<std::size_t>>& tris) {
+    TriangleMesh mesh;
+    for (const Point& p : points)
+        mesh.positions.emplace_back(float(p.x()), float(p.y()), float(p.z()));
+    for (const auto& t : tris)
+        mesh.triangles.push_back({uint32_t(t[0]), uint32_t(t[1]), uint32_t(t[2])});
+    return mesh;
+}
+
+}  // namespace
+
+TriangleMesh make_open_mesh(std::vector<Vec3> positions,
+                            std::vector<std::vector<uint32_t>> polygons,
+                            const std::string& what) {
+    std::vector<Point> points;
+    std::vector<std::vector<std::size_t>> tris;
+    clean_soup(positions, polygons, what, points, tris);
+    if (tris.empty()) fail(what, ": mesh has no faces");
+    return soup_to_mesh(points, tris);
+}
+
+TriangleMesh make_closed_mesh(std::vector<Vec3> positions,
+                              std::vector<std::vector<uint32_t>> polygons,
+                              const std::string& what) {
+    std::vector<Point> points;
+    std::vector<std::vector<std::size_t>> tris;
+    clean_soup(positions, polygons, what, points, tris);
     if (!PMP::orient_polygon_soup(points, tris))
         fail(what,
              ": mesh is not manifold (some edges are shared by more than two triangles, "

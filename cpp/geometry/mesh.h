@@ -1,6 +1,7 @@
-// Closed triangle meshes: loading (OBJ, PLY, OFF, STL), validation and orientation.
-// Every mesh that reaches the renderer is closed, free of degenerate triangles, and
-// oriented so that counter-clockwise winding gives the outward normal.
+// Triangle meshes: loading (OBJ, PLY, OFF, STL), validation and orientation. Every mesh
+// that holds a medium is closed, free of degenerate triangles, and oriented so that
+// counter-clockwise winding gives the outward normal; an opaque surface's mesh may be
+// open (MeshKind::Open), and is then neither checked for closure nor oriented.
 #pragma once
 
 #include <array>
@@ -23,9 +24,12 @@ struct TriangleMesh {
     double volume() const;  // signed; > 0 for an outward-oriented closed mesh
 };
 
+enum class MeshKind { Closed, Open };
+
 // Reads a polygon mesh from `path` (by extension: .obj .ply .off .stl), triangulates it
-// and hands it to make_closed_mesh. Throws sss::Error naming the file and the problem.
-TriangleMesh load_mesh(const std::string& path);
+// and hands it to make_closed_mesh (or make_open_mesh). Throws sss::Error naming the file
+// and the problem.
+TriangleMesh load_mesh(const std::string& path, MeshKind kind = MeshKind::Closed);
 
 // Validates and orients a polygon soup (`what` names it in errors): duplicate vertices
 // are merged; degenerate (zero-area) triangles, open boundaries, non-manifold edges and
@@ -33,6 +37,12 @@ TriangleMesh load_mesh(const std::string& path);
 TriangleMesh make_closed_mesh(std::vector<Vec3> positions,
                               std::vector<std::vector<uint32_t>> polygons,
                               const std::string& what);
+
+// The same checks short of closure, orientation and volume, for opaque surfaces: merged
+// vertices, no degenerate triangles, the winding as given.
+TriangleMesh make_open_mesh(std::vector<Vec3> positions,
+                            std::vector<std::vector<uint32_t>> polygons,
+                            const std::string& what);
 
 // Icosphere: the icosahedron subdivided `subdivisions` times, vertices on the sphere.
 TriangleMesh make_icosphere(Vec3 center, float radius, int subdivisions);

@@ -10,7 +10,7 @@ namespace sss {
 
 namespace {
 
-constexpr char kMagic[8] = {'S', 'S', 'S', 'G', 'P', 'U', '0', '3'};
+constexpr char kMagic[8] = {'S', 'S', 'S', 'G', 'P', 'U', '0', '4'};
 
 template <class T>
 void write_array(std::ofstream& out, const std::vector<T>& v) {
@@ -76,11 +76,12 @@ GpuSceneData load_gpu_scene(const std::string& path) {
     char magic[8] = {};
     in.read(magic, sizeof(magic));
     if (in && (std::memcmp(magic, "SSSGPU01", sizeof(magic)) == 0 ||
-               std::memcmp(magic, "SSSGPU02", sizeof(magic)) == 0))
+               std::memcmp(magic, "SSSGPU02", sizeof(magic)) == 0 ||
+               std::memcmp(magic, "SSSGPU03", sizeof(magic)) == 0))
         fail(path, ": baked by an earlier version of sssphere (", std::string(magic, 8),
-             ", another layout of the lights): bake the scene again");
+             ", another layout of the scene header): bake the scene again");
     if (!in || std::memcmp(magic, kMagic, sizeof(kMagic)) != 0)
-        fail(path, ": not a baked GPU scene (no SSSGPU03 header)");
+        fail(path, ": not a baked GPU scene (no SSSGPU04 header)");
     GpuSceneData s;
     uint64_t n = 0;
     in.read(reinterpret_cast<char*>(&n), sizeof(n));

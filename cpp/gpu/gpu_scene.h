@@ -45,7 +45,8 @@ struct GpuSceneData {
 // shapes when `model` is empty (no steps are taken then).
 std::vector<int32_t> gpu_model_constants(const std::vector<float>& model);
 
-// Binary file: magic "SSSGPU03" (01: before NEE, 02: before render/lights/, refused),
+// Binary file: magic "SSSGPU04" (01: before NEE, 02: before render/lights/, 03: before
+// render/surfaces/; refused),
 // then the header and the four arrays (each a uint64 count then its elements),
 // little-endian as in memory. Errors name the file.
 void save_gpu_scene(const GpuSceneData& scene, const std::string& path);

@@ -118,11 +118,14 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
 
     // Shapes and their grids.
     std::vector<const TriangleMesh*> meshes;
-    bool index_matched = false;
+    bool shadow_rays_pass = false;  // some vertex can see a light straight
     for (int i = 0; i < scene.num_shapes(); ++i) {
         const Shape& s = desc.shapes[i];
         meshes.push_back(&s.mesh);
-        index_matched = index_matched || s.boundary.passes_shadow_rays();
+        shadow_rays_pass =
+            shadow_rays_pass || s.is_surface() || s.boundary.passes_shadow_rays();
+        put3(h.shapes[i].surface, Vec3(float(s.surface.type), s.surface.x, 0.f), 0.f);
+        put3(h.shapes[i].surface_color, s.surface.color, 0.f);
         put3(h.shapes[i].sigma_t, s.medium.sigma_t, 0.f);
         put3(h.shapes[i].phase,
              Vec3(float(s.medium.phase.type), s.medium.phase.x, s.medium.phase.y), 0.f);
@@ -147,9 +150,9 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
     h.counts[3] = uint32_t(c.height);
     h.lighting[0] = uint32_t(desc.lights.size());
     // A straight shadow ray never leaves a dielectric boundary (docs/notation.md,
-    // "Next-event estimation"): with only those, NEE finds nothing and the shaders skip
-    // it (the same estimator).
-    h.lighting[1] = nee && index_matched && !desc.lights.empty() ? 1u : 0u;
+    // "Next-event estimation"): with only those and no opaque surface, NEE finds nothing
+    // and the shaders skip it (the same estimator).
+    h.lighting[1] = nee && shadow_rays_pass && !desc.lights.empty() ? 1u : 0u;
     h.lighting[2] = num_delta;
     // The area lights' quads, after the shapes in Scene's order (its ray tracer's).
     std::vector<TriangleMesh> quads;

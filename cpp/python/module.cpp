@@ -172,6 +172,17 @@ PYBIND11_MODULE(_core, m) {
         "text).");
 
     m.def(
+        "surface_to_mitsuba",
+        [](const std::string& surface_json) {
+            const Surface sf = parse_surface(surface_json, "<surface>");
+            return sf.kind().mitsuba(nlohmann::json::parse(surface_json)).dump();
+        },
+        py::arg("surface_json"),
+        "A scene file's opaque surface (JSON text) as the BSDF of a Mitsuba 3 shape "
+        "(JSON "
+        "text).");
+
+    m.def(
         "phase_to_mitsuba",
         [](const std::string& medium_json) {
             const Phase p = parse_phase(medium_json, "<medium>");

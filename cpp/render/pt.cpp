@@ -58,7 +58,8 @@ Vec3 PathTracer::transmittance(const Vec3& p, const Vec3& w, float dist, int sha
             emitter->normal = h.normal;
             return tr;
         }
-        if (!shapes[h.mesh].boundary.passes_shadow_rays()) return Vec3(0.f);
+        if (shapes[h.mesh].is_surface() || !shapes[h.mesh].boundary.passes_shadow_rays())
+            return Vec3(0.f);
         shape = dot(w, h.normal) < 0.f ? int(h.mesh) : -1;
         t_prev = h.t;
     }
@@ -86,10 +87,37 @@ Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
         shadow_weight = roulette_weight(bound / kShadowRoulette, rng.uniform());
         if (shadow_weight == 0.f) return Vec3(0.f);
     }
+    LightVertex v;
+    v.p = p;
+    v.d = d;
+    v.phase = &s.medium.phase;
+    return sample_light(v, shape, rng, mis, delta_only) * shadow_weight;
+}
 
-    // One light per event, chosen uniformly: the estimate is weighted by n_lights, and
+namespace {
+
+// The vertex's scattering towards w: the phase function (its own pdf), or the surface's
+// BSDF times the cosine, and the pdf of sampling w there.
+SurfaceEval scatter_eval(const LightVertex& v, const Vec3& w) {
+    if (v.surface) return surface_eval(*v.surface, -v.d, w, v.hit->normal);
+    SurfaceEval e;
+    e.pdf = phase_eval(*v.phase, dot(v.d, w));
+    e.f = Vec3(e.pdf);
+    return e;
+}
+
+// Where a shadow ray along w from the vertex starts: off the surface, on w's side.
+Vec3 shadow_origin(const LightVertex& v, const Vec3& w) {
+    return v.hit ? leave(*v.hit, w) : v.p;
+}
+
+}  // namespace
+
+Vec3 PathTracer::sample_light(const LightVertex& v, int shape, Rng& rng, bool mis,
+                              bool delta_only) const {
+    // One light per vertex, chosen uniformly: the estimate is weighted by n_lights, and
     // the light-sampling pdfs in the MIS weights carry the selection probability 1 /
-    // n_lights (as on emission hits in trace()).
+    // n_lights (as on emission hits in run()).
     const auto& lights = scene_.desc().lights;
     const size_t count = delta_only ? delta_lights_.size() : lights.size();
     if (count == 0) return Vec3(0.f);
@@ -97,34 +125,35 @@ Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
     size_t i = std::min(count - 1, size_t(rng.uniform() * n_lights));
     if (delta_only) i = size_t(delta_lights_[i]);
     const Light& l = lights[i];
-    const Phase& phase_fn = s.medium.phase;
     const float u1 = rng.uniform(), u2 = rng.uniform();
-    const LightSample ls = light_sample(l, p, u1, u2);  // render/lights/registry.h
+    const LightSample ls = light_sample(l, v.p, u1, u2);  // render/lights/registry.h
     Vec3 sum(0.f);
-    if (!is_black(ls.L)) {
-        const float phase = phase_eval(phase_fn, dot(d, ls.w));
-        const Vec3 tr = transmittance(p, ls.w, ls.dist, shape);
+    const SurfaceEval f = scatter_eval(v, ls.w);
+    if (!is_black(ls.L) && !is_black(f.f)) {
+        const Vec3 tr = transmittance(shadow_origin(v, ls.w), ls.w, ls.dist, shape);
         if (ls.pdf == 0.f) {
-            sum += ls.L * tr * phase;  // a delta light
+            sum += ls.L * tr * f.f;  // a delta light
         } else {
-            // With mis, the partner is the path's own phase-sampled flight (which sees
+            // With mis, the partner is the path's own sampled continuation (which sees
             // the light selection too); without, the phase-sampled shadow ray below.
-            const float mis_w = power_heuristic(mis ? ls.pdf / n_lights : ls.pdf, phase);
-            sum += ls.L * tr * (phase * mis_w / ls.pdf);
+            const float mis_w = power_heuristic(mis ? ls.pdf / n_lights : ls.pdf, f.pdf);
+            sum += ls.L * tr * f.f * (mis_w / ls.pdf);
         }
     }
     if (!mis && !l.is_delta()) {
-        // The second strategy: a phase-sampled shadow ray that meets this light
-        // (phase / pdf = 1).
-        const Vec3 wp = phase_sample(phase_fn, d, rng.uniform(), rng.uniform());
+        // The second strategy (media only: a sphere step's events): a phase-sampled
+        // shadow ray that meets this light (phase / pdf = 1).
+        SSS_CHECK(v.phase != nullptr);
+        const Vec3 wp = phase_sample(*v.phase, v.d, rng.uniform(), rng.uniform());
         EmitterHit e;
-        const Vec3 trp = transmittance(p, wp, kInf, shape, &e);
+        const Vec3 trp = transmittance(v.p, wp, kInf, shape, &e);
         if (e.light == int(i)) {
-            const LightEval le = light_eval(l, p, wp, e.t, e.normal);
-            sum += le.L * trp * power_heuristic(phase_eval(phase_fn, dot(d, wp)), le.pdf);
+            const LightEval le = light_eval(l, v.p, wp, e.t, e.normal);
+            sum +=
+                le.L * trp * power_heuristic(phase_eval(*v.phase, dot(v.d, wp)), le.pdf);
         }
     }
-    return sum * (shadow_weight * n_lights);
+    return sum * n_lights;
 }
 
 void PathTracer::start(PathState& ps, const Vec3& o, const Vec3& d,
@@ -264,6 +293,33 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
     // NEE picks one light uniformly: the light-sampling pdfs in MIS weights carry 1/n.
     const float light_select_pdf =
         desc.lights.empty() ? 0.f : 1.f / float(desc.lights.size());
+    // An opaque surface at `hit`, met in vacuum or (where a surface touches a medium)
+    // inside medium `shape`: light sampling, then a reflected direction (BSDF sampling,
+    // whose pdf an emitter hit next shares MIS with); false when the path ends there.
+    // It counts as a scattering event.
+    auto reflect = [&](const Hit& hit, const Surface& surface) {
+        ++out.scatter_events;
+        if (max_bounces_ >= 0 && int(out.scatter_events) > max_bounces_) return false;
+        if (nee_ && !desc.lights.empty()) {
+            LightVertex v;
+            v.p = hit.p;
+            v.d = d;
+            v.surface = &surface;
+            v.hit = &hit;
+            L += beta * sample_light(v, shape, rng);
+        }
+        const float u1 = rng.uniform(), u2 = rng.uniform();
+        const SurfaceSample ss = surface_sample(surface, -d, hit.normal, u1, u2);
+        beta *= ss.weight;
+        if (!(ss.pdf > 0.f) || is_black(beta)) return false;
+        phase_pdf = ss.pdf;
+        scatter_pos = hit.p;
+        specular = false;
+        d = ss.wo;
+        o = leave(hit, d);
+        r_at_o = -1.f;
+        return survives_roulette(beta, beta_start, rng);
+    };
 
     for (;;) {
         if (shape < 0) {
@@ -295,6 +351,10 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
                 break;  // emitters absorb
             }
             const Shape& s = desc.shapes[hit.mesh];
+            if (s.is_surface()) {
+                if (!reflect(hit, s.surface)) break;
+                continue;
+            }
             if (dot(d, hit.normal) >= 0.f) {
                 // Leaving a shape the path never entered (a grazing hit on a silhouette
                 // edge): the crossing says it is outside now, as it was.
@@ -373,6 +433,10 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
         // Reached a boundary from inside. Where the photon is after a crossing follows
         // from the crossing, never from distances: behind a front face of a shape it is
         // inside that shape, behind a back face outside it.
+        if (int(hit.mesh) < scene_.num_shapes() && desc.shapes[hit.mesh].is_surface()) {
+            if (!reflect(hit, desc.shapes[hit.mesh].surface)) break;
+            continue;
+        }
         if (int(hit.mesh) != shape || dot(d, hit.normal) <= 0.f) {
             // A crossing this state does not expect: a front face of our own shape (the
             // photon was outside after all, by rounding in a grazing hit), a face of

@@ -19,11 +19,12 @@ SceneDesc furnace_scene(Vec3 sigma_t, float g, BoundaryType boundary) {
 }
 
 // White furnace: no absorption inside a uniform environment of radiance 1, so every pixel
-// has expectation 1. Each pixel's mean is compared with 1 using its own estimated
-// variance: per channel, the sum of z^2 over pixels must pass a chi-square test at p =
-// 1e-4 and the image mean must be within 4 sigma of 1. (Per channel: in a grey medium the
-// three channels carry the same samples, and pooled they would not be independent terms.)
-void expect_furnace(const SceneDesc& d, int spp) {
+// has expectation 1 (or `expected`). Each pixel's mean is compared with it using its own
+// estimated variance: per channel, the sum of z^2 over pixels must pass a chi-square test
+// at p = 1e-4 and the image mean must be within 4 sigma of it. (Per channel: in a grey
+// medium the three channels carry the same samples, and pooled they would not be
+// independent terms.)
+void expect_furnace(const SceneDesc& d, int spp, Vec3 expected = Vec3(1.f)) {
     Scene scene(d, 2);
     RenderOptions opt;
     opt.spp = spp;
@@ -40,15 +41,16 @@ void expect_furnace(const SceneDesc& d, int spp) {
             mean += r.image[i];
             var_mean += r.variance[i];
             if (r.variance[i] == 0.f) {  // background pixels see the environment directly
-                EXPECT_FLOAT_EQ(r.image[i], 1.f);
+                EXPECT_FLOAT_EQ(r.image[i], expected[c]);
                 continue;
             }
-            chi2 += (r.image[i] - 1.0) * (r.image[i] - 1.0) / r.variance[i];
+            chi2 +=
+                (r.image[i] - expected[c]) * (r.image[i] - expected[c]) / r.variance[i];
             ++n;
         }
         mean /= pixels;
         const double se = std::sqrt(var_mean) / pixels;
-        EXPECT_NEAR(mean, 1.0, 4.0 * se) << "image mean " << mean << " +- " << se;
+        EXPECT_NEAR(mean, expected[c], 4.0 * se) << "image mean " << mean << " +- " << se;
         ASSERT_GT(n, 30);
         EXPECT_LT(chi2, sss::test::chi2_critical(n))
             << "chi2 " << chi2 << " over " << n << " pixels";
@@ -78,6 +80,32 @@ TEST(PathTracer, FurnaceDielectricIsExactPerPath) {
     double events = 0;
     for (float e : r.events) events += e;
     EXPECT_GT(events, 0.0);  // paths did enter the medium
+}
+
+// A diffuse floor of reflectance R (an open mesh of two triangles, at the render frame's
+// y = 0) seen from above in a constant environment of radiance 1: every point of it sees
+// the environment over its whole upper hemisphere and nothing else, so every pixel is R,
+// with light sampling and MIS (a statistical test), and without (exact per path: one
+// bounce of weight R, then the environment).
+TEST(PathTracer, DiffuseFloorInAnEnvironmentReflectsItsReflectance) {
+    SceneDesc d = test::sphere_in_environment(Vec3(1.f), Vec3(1.f), 0.f,
+                                              BoundaryType::IndexMatched);
+    d.source = "floor";
+    d.shapes[0].mesh = make_open_mesh(
+        {{-10.f, 0.f, -10.f}, {10.f, 0.f, -10.f}, {10.f, 0.f, 10.f}, {-10.f, 0.f, 10.f}},
+        {{0, 2, 1}, {0, 3, 2}}, "floor");
+    d.shapes[0].surface =
+        parse_surface(R"({"type": "diffuse", "reflectance": [0.8, 0.5, 0.2]})");
+    d.camera.origin = {0.3f, 2.f, 0.5f};
+    d.camera.target = {0.f, 0.f, 0.f};
+    expect_furnace(d, 32, Vec3(0.8f, 0.5f, 0.2f));
+    Scene scene(d, 2);
+    RenderOptions opt;
+    opt.spp = 4;
+    opt.nee = false;
+    RenderResult r = render(scene, opt);
+    for (size_t i = 0; i < r.image.size(); ++i)
+        ASSERT_NEAR(r.image[i], Vec3(0.8f, 0.5f, 0.2f)[int(i % 3)], 1e-6f) << i;
 }
 
 TEST(PathTracer, AbsorbingSphereTransmitsBeerLambert) {

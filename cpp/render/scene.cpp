@@ -118,10 +118,35 @@ struct ParsedShape {
     std::vector<Vec3d> positions;
 };
 
+Surface parse_surface(const json& j, const Field& f) {
+    const SurfaceKind& kind = kind_named(surface_kinds(), j, f);
+    std::vector<const char*> keys{"type"};
+    keys.insert(keys.end(), kind.keys.begin(), kind.keys.end());
+    check_keys(j, f, keys);
+    Surface s;
+    static_cast<SurfaceData&>(s) = kind.parse(j, f);
+    s.type = kind.id;
+    return s;
+}
+
 ParsedShape parse_shape(const json& j, const Field& f, const std::string& base_dir) {
-    check_keys(
-        j, f, {"name", "mesh", "sphere", "normalize", "transform", "medium", "boundary"});
+    check_keys(j, f,
+               {"name", "mesh", "sphere", "normalize", "transform", "medium", "boundary",
+                "surface"});
     Shape s;
+    // A medium or an opaque surface, decided first: a surface's mesh may be open.
+    if (j.contains("medium") == j.contains("surface"))
+        f.error("give exactly one of 'medium' (a translucent shape) or 'surface' (an ",
+                "opaque one)");
+    if (j.contains("surface")) {
+        if (j.contains("boundary"))
+            f.at("boundary")
+                .error(
+                    "an opaque surface has no boundary (allowed: 'boundary' with a "
+                    "'medium' "
+                    "only)");
+        s.surface = parse_surface(j["surface"], f.at("surface"));
+    }
     if (j.contains("name")) {
         if (!j["name"].is_string())
             f.at("name").error("expected a string, got ", show(j["name"]));
@@ -141,7 +166,8 @@ ParsedShape parse_shape(const json& j, const Field& f, const std::string& base_d
         std::filesystem::path p(m.get<std::string>());
         if (p.is_relative()) p = std::filesystem::path(base_dir) / p;
         try {
-            s.mesh = load_mesh(p.string());
+            s.mesh =
+                load_mesh(p.string(), s.is_surface() ? MeshKind::Open : MeshKind::Closed);
         } catch (const Error& e) {
             f.at("mesh").error(e.what());
         }
@@ -192,7 +218,8 @@ ParsedShape parse_shape(const json& j, const Field& f, const std::string& base_d
     for (const Vec3d& p : positions)
         if (!is_finite(p.to_float()))
             f.at("transform").error("moves the mesh out of single-precision range");
-    s.medium = parse_medium(require(j, "medium", f), f.at("medium"));
+    if (s.is_surface()) return {std::move(s), std::move(positions)};
+    s.medium = parse_medium(j["medium"], f.at("medium"));
     if (j.contains("boundary"))
         s.boundary = parse_boundary(j["boundary"], f.at("boundary"));
     return {std::move(s), std::move(positions)};
@@ -258,6 +285,7 @@ void warn_past_limits(SceneDesc& d, double extent) {
         return os.str();
     };
     for (size_t i = 0; i < d.shapes.size(); ++i) {
+        if (d.shapes[i].is_surface()) continue;  // no inside to be thin
         const TriangleMesh& m = d.shapes[i].mesh;
         const double thickness = 4.0 * m.volume() / m.area();  // mean chord length
         if (thickness < kMinThickness * extent)
@@ -352,6 +380,10 @@ Boundary parse_boundary(const std::string& json_text, const std::string& source)
     return parse_boundary(parse_json(json_text, source), Field{source, ""});
 }
 
+Surface parse_surface(const std::string& json_text, const std::string& source) {
+    return parse_surface(parse_json(json_text, source), Field{source, ""});
+}
+
 SceneDesc load_scene_file(const std::string& path) {
     namespace fs = std::filesystem;
     check_input_file(path, "scene file");
@@ -367,6 +399,8 @@ Scene::Scene(SceneDesc desc, int threads)
     : desc_(std::move(desc)), tracer_(std::make_unique<RayTracer>()) {
     for (const Shape& s : desc_.shapes) {
         tracer_->add_mesh(s.mesh);
+        has_surfaces_ = has_surfaces_ || s.is_surface();
+        if (s.is_surface()) continue;
         grey_ = grey_ && s.medium.sigma_t.x == s.medium.sigma_t.y &&
                 s.medium.sigma_t.x == s.medium.sigma_t.z;
     }
@@ -379,11 +413,16 @@ Scene::Scene(SceneDesc desc, int threads)
     }
     tracer_->commit();
     for (const Shape& s : desc_.shapes) {
+        if (s.is_surface()) {  // no medium to step through
+            grids_.emplace_back();
+            continue;
+        }
         const int res = desc_.render.grid_resolution > 0 ? desc_.render.grid_resolution
                                                          : auto_grid_resolution(s);
         grids_.push_back(DistanceGrid::build(s.mesh, res, threads));
     }
     for (size_t i = 0; i < desc_.shapes.size(); ++i) {
+        if (desc_.shapes[i].is_surface()) continue;
         if (point_inside_mesh(desc_.shapes[i].mesh, desc_.camera.origin)) {
             const Vec3d o = to_scene(desc_.camera.origin);
             fail(desc_.source, ": camera.origin: [", o.x, ", ", o.y, ", ", o.z,

@@ -17,6 +17,7 @@
 #include "render/lights/registry.h"
 #include "render/options.h"
 #include "render/phase/registry.h"
+#include "render/surfaces/registry.h"
 
 namespace sss {
 
@@ -42,11 +43,23 @@ struct Boundary : BoundaryData {
     bool passes_shadow_rays() const { return boundary_passes_shadow_rays(*this); }
 };
 
+// An opaque surface of any type of render/surfaces/registry.h (SurfaceData says what it
+// holds); type -1 (the default) means none: the shape holds a medium.
+struct Surface : SurfaceData {
+    Surface() : SurfaceData{-1, Vec3(0.f), 0.f} {}
+    const SurfaceKind& kind() const { return surface_kind(type); }
+};
+
+// A shape is either a medium inside a closed mesh, behind its boundary, or an opaque
+// surface (any mesh, open ones too: a floor is two triangles). Surfaces must not reach
+// into a medium (docs/scene-format.md).
 struct Shape {
     std::string name;
-    TriangleMesh mesh;  // closed, outward-oriented, in world space
-    Medium medium;
-    Boundary boundary;
+    TriangleMesh mesh;  // in the render frame; closed and outward-oriented for a medium
+    Medium medium;      // media only
+    Boundary boundary;  // media only
+    Surface surface;    // surfaces only
+    bool is_surface() const { return surface.type >= 0; }
 };
 
 struct Camera {
@@ -94,6 +107,9 @@ Phase parse_phase(const std::string& medium_json, const std::string& source = "<
 // One boundary from its JSON object, as in a scene file.
 Boundary parse_boundary(const std::string& json_text,
                         const std::string& source = "<boundary>");
+// One opaque surface from its JSON object, as in a scene file.
+Surface parse_surface(const std::string& json_text,
+                      const std::string& source = "<surface>");
 
 // The built scene. Immutable after construction and safe to share between threads.
 class Scene {
@@ -102,6 +118,7 @@ public:
 
     const SceneDesc& desc() const { return desc_; }
     const RayTracer& tracer() const { return *tracer_; }
+    // The distance grid of a medium's shape (a surface's is empty).
     const DistanceGrid& grid(int shape) const { return grids_[shape]; }
     int num_shapes() const { return int(desc_.shapes.size()); }
     // The light whose quad is Embree mesh `mesh` (LightType::quad; the quads follow the
@@ -109,6 +126,8 @@ public:
     int area_light_of_mesh(unsigned mesh) const;
     // The index of the light every escaping ray meets (LightType::environment), or -1.
     int environment() const { return environment_; }
+    // Whether some shape is an opaque surface.
+    bool has_surfaces() const { return has_surfaces_; }
     // True when every medium has the same sigma_t in all channels (paths then carry RGB).
     bool grey_media() const { return grey_; }
     // Between the scene file's coordinates and the render frame (SceneDesc::origin).
@@ -131,6 +150,7 @@ private:
     std::vector<int> area_lights_;  // light index per extra Embree mesh
     int environment_ = -1;
     bool grey_ = true;
+    bool has_surfaces_ = false;
 };
 
 }  // namespace sss

@@ -37,13 +37,14 @@ SphereTracing::SphereTracing(const Scene& scene, float threshold, SphereSampler 
         fail("sphere_threshold must be a number >= 0 (inf: no sphere steps), got ",
              threshold);
     for (int i = 0; i < scene_.num_shapes(); ++i)
-        if (max_component(scene_.desc().shapes[i].medium.sigma_t) *
-                scene_.grid(i).max_query() >=
-            threshold_)
+        if (!scene_.desc().shapes[i].is_surface() &&
+            max_component(scene_.desc().shapes[i].medium.sigma_t) *
+                    scene_.grid(i).max_query() >=
+                threshold_)
             may_step_ = true;
     if (!std::isinf(threshold))
         for (const Shape& s : scene_.desc().shapes)
-            if (!s.medium.phase.kind().sphere_steps)
+            if (!s.is_surface() && !s.medium.phase.kind().sphere_steps)
                 fail(scene_.desc().source, ": shape '", s.name,
                      "': integrator 'st' takes steps trained for Henyey-Greenstein phase "
                      "functions, not phase '",
@@ -76,7 +77,8 @@ SphereTracing::SphereTracing(const Scene& scene, float threshold, SphereSampler 
     const auto& shapes = scene_.desc().shapes;
     for (size_t i = 0; i < shapes.size(); ++i) {
         const Medium& m = shapes[i].medium;
-        if (max_component(m.sigma_t) == 0.f) continue;  // no collisions, no steps
+        if (shapes[i].is_surface() || max_component(m.sigma_t) == 0.f)
+            continue;  // no collisions, no steps
         const bool event = wants_event(int(i));
         auto context = [&] {
             std::ostringstream os;

@@ -1,8 +1,10 @@
-// The extension points' registries (render/lights/, render/boundaries/, render/phase/):
+// The extension points' registries (render/lights/, render/boundaries/, render/phase/,
+// render/surfaces/):
 // every registered type parses from an example, translates for Mitsuba, and keeps the
 // contract the integrators rely on (light sampling consistent with evaluation, pdfs that
 // integrate to 1, boundaries that obey Fresnel and Snell, phase functions sampled
-// exactly). A type added to a registry without an example here fails the first test.
+// exactly, surfaces whose sampling matches their BSDF). A type added to a registry
+// without an example here fails the first test.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -31,6 +33,9 @@ const std::map<std::string, std::string> kLightExamples = {
 const std::map<std::string, std::string> kBoundaryExamples = {
     {"index_matched", R"({"type": "index_matched"})"},
     {"dielectric", R"({"type": "dielectric", "ior": 1.33})"},
+};
+const std::map<std::string, std::string> kSurfaceExamples = {
+    {"diffuse", R"({"type": "diffuse", "reflectance": [0.8, 0.5, 0.2]})"},
 };
 const std::map<std::string, std::string> kPhaseExamples = {
     {"hg", R"({"phase": {"type": "hg", "g": 0.6}})"},
@@ -61,6 +66,14 @@ TEST(Registries, EveryTypeHasAnExampleAndAMitsubaTranslation) {
         EXPECT_EQ(parse_phase(kPhaseExamples.at(k.name)).type, k.id);
         const json j = json::parse(kPhaseExamples.at(k.name))["phase"];
         EXPECT_TRUE(k.mitsuba(j).contains("type"));
+    }
+    for (size_t i = 0; i < surface_kinds().size(); ++i) {
+        const SurfaceKind& k = surface_kinds()[i];
+        EXPECT_EQ(k.id, int(i));
+        ASSERT_TRUE(kSurfaceExamples.count(k.name))
+            << "no example for surface " << k.name;
+        EXPECT_EQ(parse_surface(kSurfaceExamples.at(k.name)).type, k.id);
+        EXPECT_TRUE(k.mitsuba(json::parse(kSurfaceExamples.at(k.name))).contains("type"));
     }
     // Defaults: index-matched, Henyey-Greenstein with g = 0.
     EXPECT_STREQ(Boundary().kind().name, "index_matched");
@@ -236,6 +249,136 @@ TEST(Registries, PhaseFunctionsAreSampledExactly) {
         EXPECT_NEAR(c_sum / n, m_sum / n,
                     4 * std::hypot(se(c_sum, c_sum2), se(m_sum, m_sum2)))
             << name;
+    }
+}
+
+// The chi-square value that a chi-square variable with `dof` degrees of freedom exceeds
+// with probability 1e-3 (Wilson-Hilferty; within a few per cent for dof >= 10).
+double chi2_limit(int dof) {
+    const double z = 3.0902, k = 2.0 / (9.0 * dof);
+    return dof * std::pow(1.0 - k + z * std::sqrt(k), 3.0);
+}
+
+// Surfaces, for light arriving from several directions on both sides of the normal:
+// - sampling follows the BSDF: a chi-square test (alpha = 1e-3) of sampled directions in
+//   40 x 16 bins of (cos theta, phi) about the normal against the sample pdf the type's
+//   eval gives, integrated over each bin (bins expecting fewer than 5 pooled);
+// - a sample's weight is eval's f / pdf, and its pdf eval's pdf;
+// - the pdf integrates to 1 and the albedo (the integral of f) is at most 1 per channel,
+//   both within 4 standard errors (uniform directions);
+// - f / |cos wo| is reciprocal: the same with wi and wo swapped.
+TEST(Registries, SurfacesSampleTheirBsdfAndConserveEnergy) {
+    const Vec3 n = normalize(Vec3(0.2f, 0.9f, -0.3f));
+    const Frame frame = frame_from_z(n);
+    constexpr int kCos = 40, kPhi = 16;
+    for (const auto& [name, text] : kSurfaceExamples) {
+        const Surface s = parse_surface(text);
+        Rng rng(17, s.type);
+        for (const float cos_i : {0.95f, 0.4f, 0.05f, -0.6f}) {
+            const float sin_i = std::sqrt(1.f - cos_i * cos_i);
+            const Vec3 wi = frame_to_world(frame, Vec3(sin_i, 0.f, cos_i));
+            auto bin_of = [&](Vec3 w) {
+                const Vec3 l = frame_to_local(frame, w);
+                const int c = std::clamp(int((l.z + 1.f) * 0.5f * kCos), 0, kCos - 1);
+                const float phi = std::atan2(l.y, l.x) + float(M_PI);
+                const int p =
+                    std::clamp(int(phi / (2.f * float(M_PI)) * kPhi), 0, kPhi - 1);
+                return c * kPhi + p;
+            };
+            // Sampled counts, with each sample checked against eval.
+            const int n_samples = 200000;
+            std::vector<double> observed(kCos * kPhi, 0.0), expected(kCos * kPhi, 0.0);
+            for (int i = 0; i < n_samples; ++i) {
+                const float u1 = rng.uniform(), u2 = rng.uniform();
+                const SurfaceSample ss = surface_sample(s, wi, n, u1, u2);
+                if (!(ss.pdf > 0.f)) continue;
+                observed[bin_of(ss.wo)] += 1;
+                const SurfaceEval e = surface_eval(s, wi, ss.wo, n);
+                ASSERT_NEAR(e.pdf, ss.pdf, 1e-4f * ss.pdf) << name;
+                for (int c = 0; c < 3; ++c)
+                    ASSERT_NEAR(ss.weight[c], e.f[c] / e.pdf, 1e-4f) << name;
+            }
+            // Expected counts: eval's pdf integrated over each bin (8 x 8 midpoints).
+            for (int c = 0; c < kCos; ++c)
+                for (int p = 0; p < kPhi; ++p)
+                    for (int a = 0; a < 8; ++a)
+                        for (int b = 0; b < 8; ++b) {
+                            const float z = -1.f + 2.f * (c + (a + 0.5f) / 8.f) / kCos;
+                            const float phi =
+                                2.f * float(M_PI) * (p + (b + 0.5f) / 8.f) / kPhi -
+                                float(M_PI);
+                            const float r = std::sqrt(std::max(0.f, 1.f - z * z));
+                            const Vec3 w = frame_to_world(
+                                frame, Vec3(r * std::cos(phi), r * std::sin(phi), z));
+                            const double d_omega =
+                                (2.0 / kCos) * (2.0 * M_PI / kPhi) / 64.0;
+                            expected[c * kPhi + p] +=
+                                surface_eval(s, wi, w, n).pdf * d_omega * n_samples;
+                        }
+            double chi2 = 0, pooled_o = 0, pooled_e = 0;
+            int dof = -1;
+            for (size_t k = 0; k < expected.size(); ++k) {
+                if (expected[k] < 5) {
+                    pooled_o += observed[k];
+                    pooled_e += expected[k];
+                    continue;
+                }
+                chi2 += (observed[k] - expected[k]) * (observed[k] - expected[k]) /
+                        expected[k];
+                ++dof;
+            }
+            if (pooled_e >= 5) {
+                chi2 += (pooled_o - pooled_e) * (pooled_o - pooled_e) / pooled_e;
+                ++dof;
+            } else {
+                EXPECT_LT(pooled_o, 5 + 5 * std::sqrt(5.0)) << name << ": samples where "
+                                                            << "eval says almost none";
+            }
+            ASSERT_GT(dof, 50) << name;
+            EXPECT_LT(chi2, chi2_limit(dof)) << name << ", cos_i " << cos_i;
+
+            // The pdf integrates to 1, the albedo to at most 1; reciprocity.
+            const int n_dirs = 200000;
+            double sum = 0, sum2 = 0;
+            Vec3 albedo(0.f), albedo2(0.f);
+            for (int i = 0; i < n_dirs; ++i) {
+                const Vec3 wo = sample_uniform_sphere(rng.uniform(), rng.uniform());
+                const SurfaceEval e = surface_eval(s, wi, wo, n);
+                const double v = e.pdf / uniform_sphere_pdf();
+                sum += v;
+                sum2 += v * v;
+                const Vec3 fa = e.f / uniform_sphere_pdf();
+                albedo += fa;
+                albedo2 += fa * fa;
+                const SurfaceEval back = surface_eval(s, wo, wi, n);
+                for (int c = 0; c < 3; ++c)
+                    EXPECT_NEAR(e.f[c] * std::abs(dot(wi, n)),
+                                back.f[c] * std::abs(dot(wo, n)), 1e-5f)
+                        << name;
+            }
+            const double mean = sum / n_dirs;
+            EXPECT_NEAR(mean, 1.0, 4 * std::sqrt((sum2 / n_dirs - mean * mean) / n_dirs))
+                << name;
+            for (int c = 0; c < 3; ++c) {
+                const double a = albedo[c] / n_dirs;
+                const double se = std::sqrt((albedo2[c] / n_dirs - a * a) / n_dirs);
+                EXPECT_LE(a, 1.0 + 4 * se) << name << " channel " << c;
+            }
+        }
+    }
+}
+
+// The diffuse surface reflects exactly its reflectance (its albedo), on either side.
+TEST(Registries, DiffuseSurfaceReflectsItsReflectance) {
+    const Surface s = parse_surface(kSurfaceExamples.at("diffuse"));
+    const Vec3 n(0.f, 0.f, 1.f);
+    for (const float z : {0.7f, -0.7f}) {
+        const Vec3 wi = normalize(Vec3(0.3f, 0.2f, z));
+        const SurfaceSample ss = surface_sample(s, wi, n, 0.3f, 0.6f);
+        EXPECT_GT(ss.wo.z * z, 0.f);  // on wi's side
+        EXPECT_EQ(ss.weight.x, s.color.x);
+        EXPECT_EQ(ss.weight.z, s.color.z);
+        EXPECT_EQ(surface_eval(s, wi, Vec3(0.f, 0.f, -z), n).pdf, 0.f);  // through it
     }
 }
 

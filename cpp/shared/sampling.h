@@ -22,6 +22,14 @@ SSS_FN Vec3 sample_uniform_sphere(float u1, float u2) {
 }
 SSS_FN float uniform_sphere_pdf() { return kInvFourPi; }
 
+// Cosine-weighted direction about +z (Malley: a uniform point of the unit disc lifted
+// onto the hemisphere); pdf cos(theta) / pi.
+SSS_CONST float kInvPi = 0.3183098861837907f;
+SSS_FN Vec3 sample_cosine_hemisphere(float u1, float u2) {
+    float r = sqrt(u1), phi = 2.f * kPi * u2;
+    return Vec3(r * cos(phi), r * sin(phi), sqrt(max(0.f, 1.f - u1)));
+}
+
 // Russian roulette with survival probability q, decided by u in [0, 1): the weight 1/q if
 // the sample survives, 0 if not. u can be exactly 0, so a survivor of a tiny q would get
 // a weight that overflows to inf (and 0 * inf = NaN downstream): below kMinRouletteQ the

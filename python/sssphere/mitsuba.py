@@ -15,6 +15,9 @@ The translation keeps everything that matters for an unbiased comparison identic
 * boundary: ``null`` BSDF for index-matched shapes, ``dielectric`` (int_ior, ext_ior = 1)
   otherwise; the medium is the shape's ``interior`` (homogeneous, ``sigma_t`` as an unbounded
   sRGB spectrum since it exceeds 1, ``albedo`` rgb, ``hg`` phase);
+* opaque surfaces: each surface type writes its own BSDF (``mitsuba`` in
+  cpp/render/surfaces/<type>.h): ``diffuse`` as ``twosided`` ``diffuse`` (ours reflects on
+  both sides of an open mesh), with no interior medium;
 * camera: ``perspective`` with ``look_at(origin, target, up)``, ``fov_axis = 'y'`` (our fov is
   vertical), ``hdrfilm`` with a ``box`` filter (each sample lands in one pixel, uniform jitter);
   Mitsuba's images are not mirrored against ours (checked in the tests with an asymmetric scene);
@@ -142,6 +145,17 @@ def mitsuba_scene_dict(
         verts, tris = our_scene.shape_mesh(i)
         ply = os.path.join(os.fspath(mesh_dir), f"shape{i}.ply")
         write_ply(ply, verts, tris)
+        if "surface" in shape:
+            # An opaque surface: its type writes its BSDF (render/surfaces/<type>.h).
+            out[f"shape{i}"] = {
+                "type": "ply",
+                "filename": ply,
+                "face_normals": True,
+                "bsdf": _from_markers(
+                    mi, json.loads(_core.surface_to_mitsuba(json.dumps(shape["surface"])))
+                ),
+            }
+            continue
         med = shape["medium"]
         # Each boundary type writes its own BSDF (render/boundaries/<type>.h).
         boundary = shape.get("boundary", {"type": "index_matched"})

@@ -46,6 +46,10 @@ struct GpuShape {
     vec4 albedo;    // xyz: albedo
     vec4 boundary;  // render/boundaries/boundary.h's BoundaryData: x its type, y, z x, y
     vec4 phase;     // render/phase/phase.h's PhaseData: x its type, y, z x, y
+    // render/surfaces/surface.h's SurfaceData: surface.x its type (-1: the shape holds a
+    // medium), surface.y its x; surface_color.xyz its colour
+    vec4 surface;
+    vec4 surface_color;
 };
 
 struct GpuGrid {
@@ -97,17 +101,17 @@ struct GpuRenderPush {
 
 // std430 puts vec4s and structs of them 16 bytes apart, with no padding: so must C++.
 static_assert(sizeof(vec4) == 16 && sizeof(uvec4) == 16 && sizeof(ivec4) == 16);
-static_assert(sizeof(GpuShape) == 4 * 16 && sizeof(GpuGrid) == 3 * 16 &&
+static_assert(sizeof(GpuShape) == 6 * 16 && sizeof(GpuGrid) == 3 * 16 &&
               sizeof(GpuLight) == 4 * 16);
 static_assert(offsetof(GpuSceneHeader, shapes) == 7 * 16);
-static_assert(offsetof(GpuSceneHeader, grids) == (7 + 4 * kGpuMaxShapes) * 16);
-static_assert(offsetof(GpuSceneHeader, emitters) == (7 + 7 * kGpuMaxShapes) * 16);
+static_assert(offsetof(GpuSceneHeader, grids) == (7 + 6 * kGpuMaxShapes) * 16);
+static_assert(offsetof(GpuSceneHeader, emitters) == (7 + 9 * kGpuMaxShapes) * 16);
 static_assert(offsetof(GpuSceneHeader, lighting) ==
-              (7 + 7 * kGpuMaxShapes + kGpuMaxEmitters) * 16);
+              (7 + 9 * kGpuMaxShapes + kGpuMaxEmitters) * 16);
 static_assert(offsetof(GpuSceneHeader, lights) ==
-              (8 + 7 * kGpuMaxShapes + kGpuMaxEmitters) * 16);
+              (8 + 9 * kGpuMaxShapes + kGpuMaxEmitters) * 16);
 static_assert(sizeof(GpuSceneHeader) ==
-              (9 + 7 * kGpuMaxShapes + kGpuMaxEmitters + 4 * kGpuMaxLights) * 16);
+              (9 + 9 * kGpuMaxShapes + kGpuMaxEmitters + 4 * kGpuMaxLights) * 16);
 static_assert(sizeof(GpuRenderPush) == 5 * 4);  // scalars: 4 bytes each in both
 }  // namespace sss
 #endif

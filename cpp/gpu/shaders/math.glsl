@@ -1,6 +1,7 @@
 // The CPU's random streams and scattering maths (core/rng.h, core/frame.h and
 // cpp/shared/: PCG32, HG, Fresnel, free flights, roulette, MIS, Softplus, the sphere
-// step's frame, exit and weights), compiled from the same headers through portable.glsl.
+// step's frame, exit and weights) and the registered lights, boundaries, phase functions
+// and surfaces, compiled from the same headers through portable.glsl.
 // Needs GL_EXT_shader_explicit_arithmetic_types_int64 (the streams' 64-bit state).
 
 #include "gpu/shaders/portable.glsl"
@@ -17,4 +18,5 @@
 #include "render/boundaries/registry.h"
 #include "render/lights/registry.h"
 #include "render/phase/registry.h"
+#include "render/surfaces/registry.h"
 

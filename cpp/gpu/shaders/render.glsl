@@ -62,6 +62,17 @@ PhaseData phase_data(GpuShape s) {
     return p;
 }
 
+// A GpuShape's opaque surface unpacked (gpu/shaders/layout.h); type -1: a medium.
+SurfaceData surface_data(GpuShape s) {
+    SurfaceData d;
+    d.type = int(s.surface.x);
+    d.color = s.surface_color.xyz;
+    d.x = s.surface.y;
+    return d;
+}
+
+bool is_surface(uint mesh) { return mesh < counts.x && shapes[mesh].surface.x >= 0.0; }
+
 // A GpuLight unpacked (gpu/shaders/layout.h).
 LightData light_data(GpuLight g) {
     LightData l;
@@ -76,7 +87,8 @@ LightData light_data(GpuLight g) {
 
 // PathTracer::transmittance from p along w over dist, starting in `shape` (-1: vacuum):
 // Beer's law through the media it crosses at index-matched boundaries; 0 when a dielectric
-// boundary or an emitter is in the way, or after kMaxShadowCrossings boundaries.
+// boundary, an opaque surface or an emitter is in the way, or after kMaxShadowCrossings
+// boundaries.
 vec3 transmittance(vec3 p, vec3 w, float dist, int shape) {
     vec3 tr = vec3(1.0);
     float t_prev = 0.0;
@@ -85,7 +97,8 @@ vec3 transmittance(vec3 p, vec3 w, float dist, int shape) {
         bool hit = intersect_between(p, w, t_prev, dist, h);
         if (shape >= 0) tr *= beer(shapes[shape].sigma_t.xyz, (hit ? h.t : dist) - t_prev);
         if (!hit || is_black(tr)) return tr;
-        if (h.mesh >= counts.x || !boundary_passes_shadow_rays(boundary_data(shapes[h.mesh])))
+        if (h.mesh >= counts.x || is_surface(h.mesh) ||
+            !boundary_passes_shadow_rays(boundary_data(shapes[h.mesh])))
             return vec3(0.0);
         shape = dot(w, h.normal) < 0.0 ? int(h.mesh) : -1;
         t_prev = h.t;
@@ -93,11 +106,44 @@ vec3 transmittance(vec3 p, vec3 w, float dist, int shape) {
     return vec3(0.0);
 }
 
+// PathTracer::sample_light with MIS at a vertex at p, the photon arriving along d: a
+// scattering event in medium `shape` with phase function ph (on_surface false), or a
+// point of an opaque surface sf found by `hit` (in medium `shape`, -1: vacuum). One light
+// chosen uniformly, weighted by the number of lights; with delta_only, one of the point
+// and directional lights (the first lighting.z of lights[]).
+vec3 sample_light(vec3 p, vec3 d, int shape, PhaseData ph, bool on_surface, SurfaceData sf,
+                  Hit hit, bool delta_only, inout RngState rng) {
+    uint count = delta_only ? lighting.z : lighting.x;
+    if (count == 0u) return vec3(0.0);
+    float n_lights = float(count);
+    uint i = min(count - 1u, uint(rng_uniform(rng) * n_lights));
+    LightData l = light_data(lights[i]);
+    float u1 = rng_uniform(rng), u2 = rng_uniform(rng);
+    LightSample ls = light_sample(l, p, u1, u2);  // render/lights/registry.h
+    vec3 f;  // the vertex's scattering towards ls.w, and the pdf of sampling it there
+    float pdf;
+    if (on_surface) {
+        SurfaceEval e = surface_eval(sf, -d, ls.w, hit.normal);
+        f = e.f;
+        pdf = e.pdf;
+    } else {
+        pdf = phase_eval(ph, dot(d, ls.w));
+        f = vec3(pdf);
+    }
+    vec3 sum = vec3(0.0);
+    if (!is_black(ls.L) && !is_black(f)) {
+        vec3 tr = transmittance(on_surface ? leave(hit, ls.w) : p, ls.w, ls.dist, shape);
+        sum = ls.pdf == 0.0  // a delta light
+                  ? ls.L * tr * f
+                  : ls.L * tr * f * (power_heuristic(ls.pdf / n_lights, pdf) / ls.pdf);
+    }
+    return sum * n_lights;
+}
+
 // PathTracer::direct_light with MIS at a scattering event at p (grid bound r, < 0:
-// unknown) in `shape`, the photon travelling along d: one light chosen uniformly, weighted
-// by the number of lights; with delta_only, one of the point and directional lights (the
-// first lighting.z of lights[]). A shadow ray whose transmittance the bound puts below
-// kShadowRoulette is traced with probability bound / kShadowRoulette and reweighted.
+// unknown) in `shape`, the photon travelling along d: sample_light, after a shadow ray
+// whose transmittance the bound puts below kShadowRoulette is kept with probability
+// bound / kShadowRoulette and reweighted.
 vec3 direct_light(vec3 p, float r, vec3 d, int shape, int channel, bool delta_only,
                   inout RngState rng) {
     GpuShape s = shapes[shape];
@@ -111,22 +157,10 @@ vec3 direct_light(vec3 p, float r, vec3 d, int shape, int channel, bool delta_on
         shadow_weight = roulette_weight(bound / kShadowRoulette, rng_uniform(rng));
         if (shadow_weight == 0.0) return vec3(0.0);
     }
-    uint count = delta_only ? lighting.z : lighting.x;
-    if (count == 0u) return vec3(0.0);
-    float n_lights = float(count);
-    uint i = min(count - 1u, uint(rng_uniform(rng) * n_lights));
-    LightData l = light_data(lights[i]);
-    float u1 = rng_uniform(rng), u2 = rng_uniform(rng);
-    LightSample ls = light_sample(l, p, u1, u2);  // render/lights/registry.h
-    vec3 sum = vec3(0.0);
-    if (!is_black(ls.L)) {
-        float phase = phase_eval(phase_data(s), dot(d, ls.w));
-        vec3 tr = transmittance(p, ls.w, ls.dist, shape);
-        sum = ls.pdf == 0.0  // a delta light
-                  ? ls.L * tr * phase
-                  : ls.L * tr * (phase * power_heuristic(ls.pdf / n_lights, phase) / ls.pdf);
-    }
-    return sum * (shadow_weight * n_lights);
+    Hit none;
+    return sample_light(p, d, shape, phase_data(s), false, surface_data(s), none, delta_only,
+                        rng) *
+           shadow_weight;
 }
 
 // One path's state between iterations of its loop.
@@ -148,6 +182,37 @@ struct Path {
     bool pending;   // "st": waits for a sphere step at o, of bound r_step
     float r_step;
 };
+
+// An opaque surface at `hit` (PathTracer::run's reflect): light sampling, then a
+// reflected direction; it counts as a scattering event.
+void reflect_off(inout Path p, Hit hit) {
+    ++p.events;
+    if (max_bounces >= 0 && int(p.events) > max_bounces) {
+        p.done = true;
+        return;
+    }
+    SurfaceData sf = surface_data(shapes[hit.mesh]);
+    if (NEE) {
+        PhaseData none;
+        p.L += p.beta * sample_light(hit.p, p.d, p.shape, none, true, sf, hit, false, p.rng);
+    }
+    float u1 = rng_uniform(p.rng), u2 = rng_uniform(p.rng);
+    SurfaceSample ss = surface_sample(sf, -p.d, hit.normal, u1, u2);
+    p.beta *= ss.weight;
+    if (!(ss.pdf > 0.0) || is_black(p.beta)) {
+        p.done = true;
+        return;
+    }
+    if (NEE) {  // for the MIS weight of a light this direction may hit
+        p.phase_pdf = ss.pdf;
+        p.scatter_pos = hit.p;
+        p.specular = false;
+    }
+    p.d = ss.wo;
+    p.o = leave(hit, p.d);
+    p.r_at_o = -1.0;
+    if (!survives_roulette(p.beta, p.beta_start, p.rng)) p.done = true;
+}
 
 // One iteration of PathTracer::run's loop: a flight in vacuum to the next surface, or a
 // free flight in a medium and what ends it (a collision or the boundary). A collision
@@ -178,6 +243,10 @@ void path_iterate(inout Path p) {
                                          : 1.0;
             p.L += p.beta * e.L * w;
             p.done = true;
+            return;
+        }
+        if (is_surface(hit.mesh)) {
+            reflect_off(p, hit);
             return;
         }
         GpuShape s = shapes[hit.mesh];
@@ -252,6 +321,10 @@ void path_iterate(inout Path p) {
     // Reached a boundary from inside; the crossing decides where the photon is after it
     // (as PathTracer::run): an unexpected one passes straight through, into the shape
     // whose front face it crosses.
+    if (is_surface(hit.mesh)) {  // a surface touching the medium
+        reflect_off(p, hit);
+        return;
+    }
     if (int(hit.mesh) != p.shape || dot(p.d, hit.normal) <= 0.0) {
         if (dot(p.d, hit.normal) < 0.0 && hit.mesh < num_shapes) p.shape = int(hit.mesh);
         p.o = leave(hit, p.d);
