@@ -136,6 +136,44 @@ def test_open_meshes_make_surfaces_but_not_media(tmp_path, small_scene):
     assert np.isfinite(img).all() and img.mean() > 0
 
 
+def test_bad_environment_maps_are_refused_with_file_and_field_named(tmp_path, small_scene):
+    """An environment light takes exactly one of radiance and map; the map must exist, be an
+    EXR or HDR file twice as wide as high, with finite radiance >= 0."""
+    def env_error(**light):
+        scene = json.loads(json.dumps(small_scene))
+        scene["lights"] = [dict(type="environment", **light)]
+        return error_of(scene, base_dir=tmp_path)
+
+    sssphere.write_image(tmp_path / "ok.exr", np.full((4, 8, 3), 0.5, np.float32))
+    sssphere.write_image(tmp_path / "square.exr", np.full((8, 8, 3), 0.5, np.float32))
+    bad = np.full((4, 8, 3), 0.5, np.float32)
+    bad[1, 2, 1] = -1
+    sssphere.write_image(tmp_path / "negative.exr", bad)
+    (tmp_path / "broken.exr").write_bytes(b"not an image")
+    cases = [
+        (dict(radiance=1, map="ok.exr"), ["lights[0]", "exactly one of 'radiance'", "'map'"]),
+        (dict(), ["lights[0]", "exactly one of 'radiance'"]),
+        (dict(radiance=1, scale=2), ["lights[0].scale", "'map' only"]),
+        (dict(map="missing.exr"), ["lights[0].map", "missing.exr", "does not exist"]),
+        (dict(map="ok.png"), ["lights[0].map", "'.png'", ".exr, .hdr"]),
+        (dict(map="square.exr"), ["lights[0].map", "square.exr", "8 x 8", "twice as wide"]),
+        (dict(map="negative.exr"), ["lights[0].map", "pixel (2, 1) channel 1", "-1", ">= 0"]),
+        (dict(map="broken.exr"), ["lights[0].map", "broken.exr"]),
+        (dict(map="ok.exr", scale=-1), ["lights[0].scale", "-1", "[0, 1e30]"]),
+        (dict(map="ok.exr", rotate_deg=[0, 1]), ["lights[0].rotate_deg", "3 numbers"]),
+        (dict(map=3), ["lights[0].map", "image file path"]),
+    ]
+    for light, expected in cases:
+        msg = env_error(**light)
+        for part in expected:
+            assert part in msg, (light, part, msg)
+    # And the good one renders.
+    scene = json.loads(json.dumps(small_scene))
+    scene["lights"] = [{"type": "environment", "map": "ok.exr", "scale": 2}]
+    img = sssphere.render(sssphere.load_scene(scene, base_dir=tmp_path), spp=2)
+    assert np.isfinite(img).all() and img.max() > 0
+
+
 def test_flat_mesh_is_refused(tmp_path, small_scene):
     # Two triangles back to back: closed and manifold, but no volume.
     _write_off(tmp_path / "flat.off", [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [(0, 1, 2), (0, 2, 1)])

@@ -19,6 +19,7 @@ module is skipped only where no Vulkan device can be opened (or the build has no
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 from pathlib import Path
@@ -94,6 +95,21 @@ def sphere_on_floor_scene(boundary=INDEX_MATCHED, lights=None) -> dict:
     if lights is None:
         d["lights"].append({"type": "point", "position": [2, 2, -1], "intensity": [8, 8, 8]})
     return d
+
+
+@functools.lru_cache(maxsize=None)
+def _sky_map() -> str:
+    """scenes/make_sky.py's sky (a 64 x 32 map with a small bright sun) in a file of its
+    own, written once per test session."""
+    import sys
+    import tempfile
+
+    sys.path.insert(0, str(REPO / "scenes"))
+    import make_sky
+
+    path = Path(tempfile.mkdtemp(prefix="sssphere-gpu-test-")) / "sky.exr"
+    sssphere.write_image(path, make_sky.sky(64, 40, 70, sun_radiance=300.0, sun_radius_deg=4))
+    return str(path)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -456,6 +472,10 @@ RENDER_CASES = {
     # under an index-matched and under a dielectric medium.
     "floor_index_matched_nee": (lambda: sphere_on_floor_scene(), True),
     "floor_dielectric_nee": (lambda: sphere_on_floor_scene(boundary=DIELECTRIC), True),
+    # An environment map (its importance sampling, the table the shaders read), turned.
+    "floor_environment_map_nee": (lambda: sphere_on_floor_scene(lights=[
+        {"type": "environment", "map": _sky_map(), "scale": 0.8, "rotate_deg": [0, 30, 0]}]),
+        True),
     # Dense: sigma*r up to 300, beyond the models' range (200), so steps are clipped to it.
     "sphere_dense": (lambda: sphere_scene(sigma_t=300.0, albedo=(0.99, 0.98, 0.95), g=0.7), True),
 }

@@ -195,6 +195,46 @@ def scene_dielectric_sphere_on_floor() -> dict:
     }
 
 
+def _asymmetric_sky(path: Path) -> str:
+    """scenes/make_sky.py's sky without its sun disc, with a red patch to the right of the
+    camera's view (+x) and a green one to its left, low over the horizon, and behind the
+    object as the camera sees it (travel along -z: u = 0, where the map wraps around) stripes
+    of 2 pixels of uneven colours: an image no mirror or turn maps onto itself, with detail
+    where the camera sees the map itself."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scenes"))
+    import make_sky
+
+    img = make_sky.sky(96, sun_elevation=30, sun_azimuth=200, sun_radiance=1.0)
+    h, w = img.shape[:2]
+    img[h // 3: h // 2 - 2, w // 8: w // 4] = [2.0, 0.2, 0.1]         # phi ~ 30-90 deg: +x
+    img[h // 4: h // 2 - 4, 5 * w // 8: 3 * w // 4] = [0.1, 1.5, 0.2]  # phi ~ 225-270: -x
+    for x in range(-8, 8):  # around u = 0, across the seam
+        img[h // 3: h // 2, x % w] *= [1.0, 0.4, 0.2] if (x // 2) % 2 else [0.3, 0.8, 1.6]
+    sssphere.write_image(path, img)
+    return str(path)
+
+
+def scene_environment_map(map_path: str, rotate=None) -> dict:
+    """(h) An index-matched medium on a diffuse floor lit by an environment map alone, seen
+    with the map behind it: the background pixels must match Mitsuba's envmap exactly (the
+    same orientation, the same bilinear lookup), and the lit object statistically (the
+    map's importance sampling, MIS at the medium and at the floor)."""
+    light = {"type": "environment", "map": map_path, "scale": 1.5}
+    if rotate is not None:
+        light["rotate_deg"] = rotate
+    return {
+        "camera": _camera([0, 0.6, 4], fov=40),
+        "shapes": [
+            {"sphere": {"center": [0, 0, 0], "radius": 0.7},
+             "medium": {"sigma_t": [4, 5, 6], "albedo": [0.95, 0.9, 0.85], "g": 0.3}},
+            _floor(-0.72, [0.5, 0.5, 0.5]),
+        ],
+        "lights": [light],
+    }
+
+
 def _halves(img: np.ndarray) -> tuple[float, float, float, float]:
     g = img.mean(axis=2)
     h, w = g.shape
@@ -275,3 +315,13 @@ def test_index_matched_sphere_on_diffuse_floor_matches_mitsuba():
 @pytest.mark.slow
 def test_dielectric_sphere_on_diffuse_floor_matches_mitsuba():
     _check(scene_dielectric_sphere_on_floor())
+
+
+@pytest.mark.slow
+def test_environment_map_matches_mitsuba(tmp_path):
+    _check(scene_environment_map(_asymmetric_sky(tmp_path / "sky.exr")))
+
+
+@pytest.mark.slow
+def test_rotated_environment_map_matches_mitsuba(tmp_path):
+    _check(scene_environment_map(_asymmetric_sky(tmp_path / "sky.exr"), rotate=[10, 75, -5]))

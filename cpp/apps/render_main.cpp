@@ -58,6 +58,7 @@ int main(int argc, char** argv) {
         "Render a scene file (docs/scene-format.md) to an image: .exr (linear) or "
         ".png (sRGB). The C++ twin of `sssphere render`.",
         "sssphere-render"};
+    sss::install_image_reader();  // environment maps
     std::string scene_path, out_path;
     bool quiet = false, aovs = false;
     app.add_option("scene", scene_path, "scene file (JSON, docs/scene-format.md)")

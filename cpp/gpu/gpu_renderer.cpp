@@ -52,9 +52,9 @@ bool can_take_steps(const GpuSceneData& scene) {
         const GpuGrid& g = h.grids[i];
         if (g.n[0] == 0) continue;
         const size_t first = size_t(g.n[3]), count = size_t(g.n[0]) * g.n[1] * g.n[2];
-        if (first + count > scene.grid_values.size()) return true;  // cannot tell
-        const float r = *std::max_element(scene.grid_values.begin() + first,
-                                          scene.grid_values.begin() + first + count);
+        if (first + count > scene.floats.size()) return true;  // cannot tell
+        const float r = *std::max_element(scene.floats.begin() + first,
+                                          scene.floats.begin() + first + count);
         const float* s = h.shapes[i].sigma_t;
         if (std::max({s[0], s[1], s[2]}) * r >= h.params[1]) return true;
     }
@@ -73,7 +73,7 @@ GpuRenderer::GpuRenderer(VulkanCompute& vk, const GpuSceneData& scene)
     vk.upload(header_, &scene.header, sizeof(GpuSceneHeader));
     nodes_ = upload_array(vk, scene.nodes, scene.source, "BVH nodes");
     triangles_ = upload_array(vk, scene.triangles, scene.source, "triangles");
-    grid_ = upload_array(vk, scene.grid_values, scene.source, "distance grids");
+    grid_ = upload_array(vk, scene.floats, scene.source, "distance grids");
     // The uniform block of model.glsl: kGpuModelFloats, zeros after the decoders.
     std::vector<float> model(size_t(kGpuModelFloats), 0.f);
     SSS_CHECK(scene.model.size() <= model.size());
@@ -238,7 +238,7 @@ std::vector<float> gpu_trace_rays(VulkanCompute& vk, const GpuSceneData& scene,
     vk.upload(header, &scene.header, sizeof(GpuSceneHeader));
     auto nodes = upload_array(vk, scene.nodes, scene.source, "BVH nodes");
     auto tris = upload_array(vk, scene.triangles, scene.source, "triangles");
-    auto grid = upload_array(vk, scene.grid_values, scene.source, "distance grids");
+    auto grid = upload_array(vk, scene.floats, scene.source, "distance grids");
     auto bin = upload_array(vk, in, "gpu_trace_rays", "rays");
     auto bout = vk.create_buffer(out.size() * 4);
     auto pipe = vk.create_pipeline(kTraceRays, sizeof(kTraceRays) / 4, 6, 4);

@@ -64,7 +64,7 @@ void save_gpu_scene(const GpuSceneData& scene, const std::string& path) {
     out.write(reinterpret_cast<const char*>(&scene.header), sizeof(scene.header));
     write_array(out, scene.nodes);
     write_array(out, scene.triangles);
-    write_array(out, scene.grid_values);
+    write_array(out, scene.floats);
     write_array(out, scene.model);
     if (!out) fail(path, ": writing failed");
 }
@@ -92,7 +92,7 @@ GpuSceneData load_gpu_scene(const std::string& path) {
     if (!in) fail(path, ": the header is truncated");
     read_array(in, s.nodes, path, "BVH node");
     read_array(in, s.triangles, path, "triangle");
-    read_array(in, s.grid_values, path, "grid");
+    read_array(in, s.floats, path, "grid");
     read_array(in, s.model, path, "model");
     if (s.nodes.empty() || s.triangles.empty())
         fail(path, ": the scene has no triangles");

@@ -34,7 +34,9 @@ struct GpuSceneData {
     GpuSceneHeader header{};
     std::vector<FlatBvhNode> nodes;
     std::vector<FlatTriangle> triangles;
-    std::vector<float> grid_values;
+    // The distance grids (GpuGrid.n.w: where each starts), then the lights' table of
+    // floats (SceneDesc::light_floats; header.lighting.w: where it starts).
+    std::vector<float> floats;
     std::vector<float> model;  // packed decoders; empty when the scene has no models
     int width() const { return int(header.counts[2]); }
     int height() const { return int(header.counts[3]); }

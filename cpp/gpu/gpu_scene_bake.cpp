@@ -138,12 +138,20 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
         gg.scale[0] = g.cell_size() > 0.f ? 1.f / g.cell_size() : 0.f;
         gg.scale[1] = g.guard();
         gg.n[0] = g.nx(), gg.n[1] = g.ny(), gg.n[2] = g.nz();
-        gg.n[3] = int32_t(out.grid_values.size());
+        gg.n[3] = int32_t(out.floats.size());
         const auto& v = g.node_distances();
-        out.grid_values.insert(out.grid_values.end(), v.begin(), v.end());
-        if (out.grid_values.size() >= (size_t(1) << 31))
+        out.floats.insert(out.floats.end(), v.begin(), v.end());
+        if (out.floats.size() >= (size_t(1) << 31))
             fail(desc.source, ": the distance grids are too large for the GPU path");
     }
+    // The lights' table of floats after the grids.
+    h.lighting[3] = uint32_t(out.floats.size());
+    out.floats.insert(out.floats.end(), desc.light_floats.begin(),
+                      desc.light_floats.end());
+    if (out.floats.size() >= (size_t(1) << 31))
+        fail(desc.source,
+             ": the distance grids and light tables are too large for the GPU "
+             "path");
     h.counts[0] = uint32_t(scene.num_shapes());
     h.counts[1] = uint32_t(emitters);
     h.counts[2] = uint32_t(c.width);

@@ -29,7 +29,7 @@ TEST(GpuScene, FileRoundTrip) {
     s.nodes[2].child[1] = 7;
     s.triangles.resize(2);
     s.triangles[1].mesh = 4;
-    s.grid_values = {0.5f, 1.5f};
+    s.floats = {0.5f, 1.5f};
     s.model = {1.f, 2.f, 3.f};
     const std::string path = temp_path("round_trip.bin");
     save_gpu_scene(s, path);
@@ -40,7 +40,7 @@ TEST(GpuScene, FileRoundTrip) {
     EXPECT_EQ(t.nodes[2].child[1], 7u);
     ASSERT_EQ(t.triangles.size(), 2u);
     EXPECT_EQ(t.triangles[1].mesh, 4u);
-    EXPECT_EQ(t.grid_values, s.grid_values);
+    EXPECT_EQ(t.floats, s.floats);
     EXPECT_EQ(t.model, s.model);
     std::remove(path.c_str());
 }

@@ -13,6 +13,7 @@
 
 #include "core/check.h"
 #include "core/files.h"
+#include "io/image_input.h"
 
 namespace sss {
 
@@ -312,6 +313,14 @@ std::vector<float> read_image(const std::string& path, int* width, int* height,
     if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, px.data()))
         fail(path, ": cannot read image: ", in->geterror());
     return px;
+}
+
+void install_image_reader() {
+    image_reader() = [](const std::string& path) {
+        ImageData img;
+        img.pixels = read_image(path, &img.width, &img.height, &img.channels);
+        return img;
+    };
 }
 
 }  // namespace sss

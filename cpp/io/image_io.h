@@ -20,6 +20,9 @@ void write_image(const std::string& path, const std::vector<float>& pixels, int 
 std::vector<float> read_image(const std::string& path, int* width, int* height,
                               int* channels);
 
+// Makes read_image the scene parser's image reader (io/image_input.h).
+void install_image_reader();
+
 // sRGB encoding of a linear value, clamped to [0, 1].
 float linear_to_srgb(float v);
 

@@ -11,6 +11,7 @@
 
 #include "core/check.h"
 #include "geometry/distance_grid.h"
+#include "io/image_input.h"
 #include "python/render_progress.h"
 #include "render/renderer.h"
 #include "render/scene.h"
@@ -49,6 +50,23 @@ const Shape& shape_at(const Scene& s, int i) {
 PYBIND11_MODULE(_core, m) {
     m.doc() = "sssphere native core (private; use the sssphere package)";
     py::register_exception<Error>(m, "SceneError", PyExc_ValueError);
+    // Environment maps are read by sssphere._image (OpenImageIO, which _core does not
+    // link), imported when a scene first needs one. Scenes are parsed holding the GIL.
+    image_reader() = [](const std::string& path) {
+        py::gil_scoped_acquire gil;
+        py::array_t<float, py::array::c_style | py::array::forcecast> a;
+        try {
+            a = py::module_::import("sssphere._image").attr("read_image")(path);
+        } catch (py::error_already_set& e) {
+            fail(py::str(e.value()).cast<std::string>());  // the message, not its type
+        }
+        ImageData img;
+        img.height = int(a.shape(0));
+        img.width = int(a.shape(1));
+        img.channels = int(a.shape(2));
+        img.pixels.assign(a.data(), a.data() + a.size());
+        return img;
+    };
     bind_media(m);
     bind_nn(m);
     bind_gpu(m);
@@ -68,6 +86,8 @@ PYBIND11_MODULE(_core, m) {
         .def_property_readonly("height",
                                [](const Scene& s) { return s.desc().camera.height; })
         .def_property_readonly("source", [](const Scene& s) { return s.desc().source; })
+        .def_property_readonly("base_dir",
+                               [](const Scene& s) { return s.desc().base_dir; })
         .def_property_readonly("warnings",
                                [](const Scene& s) { return s.desc().warnings; })
         .def_property_readonly("integrator",

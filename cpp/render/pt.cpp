@@ -126,7 +126,8 @@ Vec3 PathTracer::sample_light(const LightVertex& v, int shape, Rng& rng, bool mi
     if (delta_only) i = size_t(delta_lights_[i]);
     const Light& l = lights[i];
     const float u1 = rng.uniform(), u2 = rng.uniform();
-    const LightSample ls = light_sample(l, v.p, u1, u2);  // render/lights/registry.h
+    const LightSample ls =
+        light_sample(l, v.p, u1, u2, scene_.light_floats());  // render/lights/registry.h
     Vec3 sum(0.f);
     const SurfaceEval f = scatter_eval(v, ls.w);
     if (!is_black(ls.L) && !is_black(f.f)) {
@@ -148,7 +149,8 @@ Vec3 PathTracer::sample_light(const LightVertex& v, int shape, Rng& rng, bool mi
         EmitterHit e;
         const Vec3 trp = transmittance(v.p, wp, kInf, shape, &e);
         if (e.light == int(i)) {
-            const LightEval le = light_eval(l, v.p, wp, e.t, e.normal);
+            const LightEval le =
+                light_eval(l, v.p, wp, e.t, e.normal, scene_.light_floats());
             sum +=
                 le.L * trp * power_heuristic(phase_eval(*v.phase, dot(v.d, wp)), le.pdf);
         }
@@ -327,8 +329,8 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             Hit hit;
             if (!scene_.tracer().intersect(o, d, 0.f, kInf, &hit)) {
                 if (const int env = scene_.environment(); env >= 0) {
-                    const LightEval e =
-                        light_eval(desc.lights[env], scatter_pos, d, kInf, Vec3(0.f));
+                    const LightEval e = light_eval(desc.lights[env], scatter_pos, d, kInf,
+                                                   Vec3(0.f), scene_.light_floats());
                     const float w =
                         specular || !nee_
                             ? 1.f
@@ -342,7 +344,8 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
                 // The light-sampling pdf is that of NEE at the last scattering event, so
                 // distances count from there, across any index-matched boundaries.
                 const LightEval e = light_eval(desc.lights[light], scatter_pos, d,
-                                               length(p - scatter_pos), hit.normal);
+                                               length(p - scatter_pos), hit.normal,
+                                               scene_.light_floats());
                 const float w =
                     specular || !nee_
                         ? 1.f

@@ -225,14 +225,14 @@ ParsedShape parse_shape(const json& j, const Field& f, const std::string& base_d
     return {std::move(s), std::move(positions)};
 }
 
-Light parse_light(const json& j, const Field& f, Vec3d frame) {
+Light parse_light(const json& j, const Field& f, const LightContext& ctx) {
     const LightType* kind = &kind_named(light_types(), j, f);
     std::vector<const char*> keys{"type"};
     keys.insert(keys.end(), kind->keys.begin(), kind->keys.end());
     keys.insert(keys.end(), kind->optional.begin(), kind->optional.end());
     check_keys(j, f, keys);
     Light l;
-    static_cast<LightData&>(l) = kind->parse(j, f, frame);
+    static_cast<LightData&>(l) = kind->parse(j, f, ctx);
     l.type = kind->id;
     return l;
 }
@@ -321,6 +321,7 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
     json root = parse_json(json_text, source);
     SceneDesc d;
     d.source = source;
+    d.base_dir = base_dir;
     Field f{d.source, ""};
     if (!root.is_object())
         fail(source, ": the scene must be a JSON object, got ", show(root));
@@ -356,8 +357,12 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
         if (!lights.is_array())
             f.at("lights").error("expected an array of lights, got ", show(lights));
         int environments = 0;
+        LightContext ctx;
+        ctx.frame = d.origin;
+        ctx.base_dir = base_dir;
+        ctx.floats = &d.light_floats;
         for (size_t i = 0; i < lights.size(); ++i) {
-            d.lights.push_back(parse_light(lights[i], f.at("lights").at(i), d.origin));
+            d.lights.push_back(parse_light(lights[i], f.at("lights").at(i), ctx));
             if (d.lights.back().kind().environment && ++environments > 1)
                 f.at("lights").at(i).error("a scene has at most one environment light");
         }
@@ -368,8 +373,14 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
     return d;
 }
 
-Light parse_light(const std::string& json_text, const std::string& source, Vec3d frame) {
-    return parse_light(parse_json(json_text, source), Field{source, ""}, frame);
+Light parse_light(const std::string& json_text, const std::string& source, Vec3d frame,
+                  const std::string& base_dir, std::vector<float>* floats) {
+    std::vector<float> scratch;
+    LightContext ctx;
+    ctx.frame = frame;
+    ctx.base_dir = base_dir;
+    ctx.floats = floats ? floats : &scratch;
+    return parse_light(parse_json(json_text, source), Field{source, ""}, ctx);
 }
 
 Phase parse_phase(const std::string& medium_json, const std::string& source) {

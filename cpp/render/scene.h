@@ -81,11 +81,15 @@ struct Light : LightData {
 // file's coordinates less `origin` (the centre of the shapes' bounds, kept in double), so
 // that float precision follows the shapes' size, not where they sit (docs/robustness.md).
 struct SceneDesc {
-    std::string source;  // file name (or "<dict>") used in error messages
-    Vec3d origin;        // the render frame's origin in the scene file's coordinates
+    std::string source;          // file name (or "<dict>") used in error messages
+    std::string base_dir = ".";  // where relative file names (meshes, maps) start
+    Vec3d origin;  // the render frame's origin in the scene file's coordinates
     Camera camera;
     std::vector<Shape> shapes;
     std::vector<Light> lights;
+    // The lights' table of floats (environment maps and their sampling tables), which
+    // the light types read at offsets in their data (render/lights/light.h).
+    std::vector<float> light_floats;
     RenderSettings render;
     // Where the scene goes past the limits of docs/robustness.md: it renders, but maybe
     // not within 1 %. The command lines print them; Python raises sssphere.SceneWarning.
@@ -98,9 +102,11 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
                       const std::string& source);
 SceneDesc load_scene_file(const std::string& path);
 // One light from its JSON object, as in a scene file whose render frame has its origin
-// at `frame`.
+// at `frame` (relative file names from base_dir). A light that keeps a table appends it
+// to *floats (required for such a light: an environment map).
 Light parse_light(const std::string& json_text, const std::string& source = "<light>",
-                  Vec3d frame = Vec3d());
+                  Vec3d frame = Vec3d(), const std::string& base_dir = ".",
+                  std::vector<float>* floats = nullptr);
 // A medium's phase function from the medium's JSON object ("phase", or "g" for
 // Henyey-Greenstein), as in a scene file.
 Phase parse_phase(const std::string& medium_json, const std::string& source = "<medium>");
@@ -120,6 +126,8 @@ public:
     const RayTracer& tracer() const { return *tracer_; }
     // The distance grid of a medium's shape (a surface's is empty).
     const DistanceGrid& grid(int shape) const { return grids_[shape]; }
+    // The lights' table of floats, for light_sample and light_eval.
+    const float* light_floats() const { return desc_.light_floats.data(); }
     int num_shapes() const { return int(desc_.shapes.size()); }
     // The light whose quad is Embree mesh `mesh` (LightType::quad; the quads follow the
     // shapes, in the order of the lights), or -1.

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "core/rng.h"
+#include "io/image_io.h"
 #include "render/scene.h"
 #include "shared/sampling.h"
 
@@ -133,7 +134,7 @@ TEST(Registries, LightSamplingAgreesWithEvaluation) {
         int valid = 0;
         for (int i = 0; i < 2000; ++i) {
             const float u1 = rng.uniform(), u2 = rng.uniform();
-            const LightSample s = light_sample(l, p, u1, u2);
+            const LightSample s = light_sample(l, p, u1, u2, nullptr);
             if (is_black(s.L)) continue;
             ++valid;
             EXPECT_NEAR(length(s.w), 1.f, 1e-5f) << name;
@@ -144,7 +145,7 @@ TEST(Registries, LightSamplingAgreesWithEvaluation) {
             float t;
             Vec3 n;
             ASSERT_TRUE(meet(l, p, s.w, t, n)) << name;
-            const LightEval e = light_eval(l, p, s.w, t, n);
+            const LightEval e = light_eval(l, p, s.w, t, n, nullptr);
             EXPECT_NEAR(e.pdf, s.pdf, 1e-3f * s.pdf) << name;
             EXPECT_EQ(e.L.x, s.L.x) << name;
             if (std::isfinite(t)) {
@@ -161,13 +162,117 @@ TEST(Registries, LightSamplingAgreesWithEvaluation) {
             Vec3 n;
             double v = 0;
             if (meet(l, p, w, t, n))
-                v = light_eval(l, p, w, t, n).pdf / uniform_sphere_pdf();
+                v = light_eval(l, p, w, t, n, nullptr).pdf / uniform_sphere_pdf();
             sum += v;
             sum2 += v * v;
         }
         const double mean = sum / n_dirs,
                      se = std::sqrt((sum2 / n_dirs - mean * mean) / n_dirs);
         EXPECT_NEAR(mean, 1.0, 4 * se + 1e-6) << name;
+    }
+}
+
+// The chi-square value that a chi-square variable with `dof` degrees of freedom exceeds
+// with probability 1e-3 (Wilson-Hilferty; within a few per cent for dof >= 10).
+double chi2_limit(int dof) {
+    const double z = 3.0902, k = 2.0 / (9.0 * dof);
+    return dof * std::pow(1.0 - k + z * std::sqrt(k), 3.0);
+}
+
+// An environment map with structure in every direction and a small bright spot: written
+// as an EXR, read back through the installed reader, as a scene would.
+Light environment_map_light(std::vector<float>& floats, const char* extra = "") {
+    const int W = 64, H = 32;
+    std::vector<float> px(size_t(3) * W * H);
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x)
+            for (int c = 0; c < 3; ++c)
+                px[size_t(3) * (y * W + x) + c] =
+                    0.2f + 0.1f * c + float(x) / W + 0.5f * float(y % 5 == 0) +
+                    (x == 40 && y == 9 ? 400.f : 0.f) + (y > 20 && x < 10 ? 0.f : 0.05f);
+    const std::string path = ::testing::TempDir() + "types_test_env.exr";
+    write_image(path, px, W, H);
+    install_image_reader();
+    return parse_light(std::string(R"({"type": "environment", "map": ")") + path +
+                           R"(", "scale": 1.5)" + extra + "}",
+                       "<env>", Vec3d(), ".", &floats);
+}
+
+// An environment map: a sampled direction, evaluated, gives back its radiance and pdf;
+// the pdf integrates to 1; light sampling estimates the map's integral (the mean of
+// L / pdf over light samples equals that of 4 pi L over uniform directions, within 4
+// standard errors of their difference); and the sampled directions fall into the map's
+// cells as often as the cells' probabilities say, uniformly within each (a chi-square
+// test over 3 x 2 parts of every cell, alpha = 1e-3, parts expecting fewer than 5
+// pooled), the seam of the map at u = 0 included.
+TEST(Registries, EnvironmentMapSamplingAgreesWithEvaluation) {
+    for (const char* extra : {"", ", \"rotate_deg\": [20, -70, 10]"}) {
+        std::vector<float> floats;
+        const Light l = environment_map_light(floats, extra);
+        const float* f = floats.data();
+        const Vec3 p(0.f);
+        Rng rng(21, 1);
+        const int n = 400000;
+        const int W = int(f[0]), H = int(f[1]);
+        constexpr int kSx = 3, kSy = 2;  // parts of a cell along x and y
+        std::vector<double> observed(size_t(kSx * kSy) * W * (H - 1), 0.0);
+        double s_sum = 0, s_sum2 = 0, u_sum = 0, u_sum2 = 0, pdf_sum = 0, pdf_sum2 = 0;
+        for (int i = 0; i < n; ++i) {
+            const float u1 = rng.uniform(), u2 = rng.uniform();
+            const LightSample s = light_sample(l, p, u1, u2, f);
+            if (s.pdf > 0.f) {
+                const LightEval e = light_eval(l, p, s.w, kInf, Vec3(0.f), f);
+                ASSERT_NEAR(e.pdf, s.pdf, 1e-3f * s.pdf) << extra;
+                ASSERT_NEAR(e.L.y, s.L.y, 1e-4f * s.L.y + 1e-6f) << extra;
+                const double v = s.L.y / s.pdf;
+                s_sum += v;
+                s_sum2 += v * v;
+                const Vec3 xy = env_map_xy(l, s.w, W, H);
+                observed[size_t(std::min(int(kSy * xy.y), kSy * (H - 1) - 1)) * kSx * W +
+                         size_t(std::min(int(kSx * xy.x), kSx * W - 1))] += 1;
+            }
+            const Vec3 w = sample_uniform_sphere(rng.uniform(), rng.uniform());
+            const LightEval e = light_eval(l, p, w, kInf, Vec3(0.f), f);
+            const double v = e.L.y / uniform_sphere_pdf();
+            u_sum += v;
+            u_sum2 += v * v;
+            const double q = e.pdf / uniform_sphere_pdf();
+            pdf_sum += q;
+            pdf_sum2 += q * q;
+        }
+        auto se = [n](double s, double s2) {
+            return std::sqrt((s2 / n - (s / n) * (s / n)) / n);
+        };
+        EXPECT_NEAR(pdf_sum / n, 1.0, 4 * se(pdf_sum, pdf_sum2)) << extra;
+        const int m = environment_map::marginal_offset(W, H);
+        double chi2 = 0, pooled_o = 0, pooled_e = 0;
+        int dof = -1;
+        for (int j = 0; j + 1 < H; ++j)
+            for (int i = 0; i < W; ++i) {
+                const int c = environment_map::conditional_offset(W, H, j);
+                const double e = n * double(f[m + j + 1] - f[m + j]) *
+                                 double(f[c + i + 1] - f[c + i]) / (kSx * kSy);
+                for (int q = 0; q < kSx * kSy; ++q) {
+                    const double o = observed[size_t(kSy * j + q / kSx) * kSx * W +
+                                              size_t(kSx * i + q % kSx)];
+                    if (e < 5) {
+                        pooled_o += o;
+                        pooled_e += e;
+                        continue;
+                    }
+                    chi2 += (o - e) * (o - e) / e;
+                    ++dof;
+                }
+            }
+        if (pooled_e > 0) {
+            chi2 += (pooled_o - pooled_e) * (pooled_o - pooled_e) / pooled_e;
+            ++dof;
+        }
+        ASSERT_GT(dof, 500);
+        EXPECT_LT(chi2, chi2_limit(dof)) << extra;
+        EXPECT_NEAR(s_sum / n, u_sum / n,
+                    4 * std::hypot(se(s_sum, s_sum2), se(u_sum, u_sum2)))
+            << extra << ": light sampling " << s_sum / n << ", uniform " << u_sum / n;
     }
 }
 
@@ -250,13 +355,6 @@ TEST(Registries, PhaseFunctionsAreSampledExactly) {
                     4 * std::hypot(se(c_sum, c_sum2), se(m_sum, m_sum2)))
             << name;
     }
-}
-
-// The chi-square value that a chi-square variable with `dof` degrees of freedom exceeds
-// with probability 1e-3 (Wilson-Hilferty; within a few per cent for dof >= 10).
-double chi2_limit(int dof) {
-    const double z = 3.0902, k = 2.0 / (9.0 * dof);
-    return dof * std::pow(1.0 - k + z * std::sqrt(k), 3.0);
 }
 
 // Surfaces, for light arriving from several directions on both sides of the normal:

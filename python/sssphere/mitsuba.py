@@ -23,8 +23,9 @@ The translation keeps everything that matters for an unbiased comparison identic
   Mitsuba's images are not mirrored against ours (checked in the tests with an asymmetric scene);
 * lights: each light type translates itself (``mitsuba`` in cpp/render/lights/<type>.h):
   ``point`` (intensity), ``directional`` (irradiance, direction = direction of travel),
-  ``constant`` environment (radiance), and an area light as a ``rectangle`` whose ``to_world``
-  maps [-1, 1]^2 onto corner + [0, 1] edge1 + [0, 1] edge2 with local +z onto
+  ``constant`` environment (radiance), an environment map as ``envmap`` (the same file, its
+  ``scale``, ``to_world`` the rotation: our map convention is Mitsuba's), and an area light
+  as a ``rectangle`` whose ``to_world`` maps [-1, 1]^2 onto corner + [0, 1] edge1 + [0, 1] edge2 with local +z onto
   normalize(cross(edge1, edge2)) -- Mitsuba's area emitter emits towards its normal, one-sided,
   as ours does; its BSDF is black (ours absorbs everything that hits the quad);
 * integrator: ``volpath`` with ``max_depth = -1`` and a huge ``rr_depth`` (Mitsuba's default
@@ -174,6 +175,8 @@ def mitsuba_scene_dict(
             },
         }
     for j, light in enumerate(scene_dict.get("lights", [])):
+        if "map" in light:  # an environment map: its file, found as our scene found it
+            light = dict(light, map=os.path.join(our_scene.base_dir, light["map"]))
         # Each light type writes its own translation (render/lights/<type>.h).
         out[f"light{j}"] = _from_markers(mi, json.loads(_core.light_to_mitsuba(json.dumps(light))))
     return out

@@ -55,7 +55,7 @@ struct GpuShape {
 struct GpuGrid {
     vec4 origin;  // xyz: node (0, 0, 0); w: cell size
     vec4 scale;   // x: 1 / cell; y: guard
-    ivec4 n;      // nodes per axis; w: offset of node (0, 0, 0) in grid_values
+    ivec4 n;      // nodes per axis; w: offset of node (0, 0, 0) in scene_floats
 };
 
 // A light (render/lights/light.h's LightData): a.xyz, b.xyz, c.xyz and value.rgb its
@@ -66,7 +66,8 @@ struct GpuLight {
 
 // The scene header (binding 0): C++ struct GpuSceneHeader, GLSL buffer block SceneHeader.
 // lighting: x the number of lights, y 1 when the shaders sample lights (NEE), z the
-// number of point and directional ones (first in lights[]). params.w: 1 for grey media.
+// number of point and directional ones (first in lights[]), w where the lights' table of
+// floats starts in scene_floats. params.w: 1 for grey media.
 // clang-format off
 #define SSS_GPU_SCENE_HEADER_FIELDS                                                      \
     vec4 cam_origin;                /* w: tan(fov / 2) */                               \
@@ -79,7 +80,7 @@ struct GpuLight {
     GpuShape shapes[kGpuMaxShapes];                                                     \
     GpuGrid grids[kGpuMaxShapes];                                                       \
     vec4 emitters[kGpuMaxEmitters]; /* mesh counts.x + i: rgb; w: index in lights */    \
-    uvec4 lighting;                 /* lights, NEE, point + directional (first) */      \
+    uvec4 lighting;                 /* lights, NEE, point + directional, floats */      \
     GpuLight lights[kGpuMaxLights];                                                     \
     vec4 event_phi;                 /* x, y: EventGen's range of phi */
 // clang-format on

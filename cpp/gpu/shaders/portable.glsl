@@ -21,6 +21,9 @@ float expm1(float x) {
     return abs(x) < 1e-2 ? x * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x / 24.0))) : exp(x) - 1.0;
 }
 
+// C's atan2 (GLSL spells it atan(y, x)).
+float atan2(float y, float x) { return atan(y, x); }
+
 // |a| with the sign of b (of -0.0 too), as C's copysign.
 float copysign(float a, float b) { return (floatBitsToUint(b) >> 31) != 0u ? -abs(a) : abs(a); }
 

@@ -22,6 +22,7 @@
 
 layout(local_size_x = 64) in;
 
+#include "gpu/shaders/scene_buffers.glsl"  // before math.glsl: the lights read its floats
 #include "gpu/shaders/math.glsl"
 #include "gpu/shaders/scene.glsl"
 

@@ -2,17 +2,11 @@
 // flattened BVH (cpp/geometry/flat_bvh.h) and the distance grids. Closest-hit traversal
 // and the grid's conservative bound, as RayTracer::intersect and DistanceGrid::query.
 
-#include "gpu/shaders/layout.h"
+#include "gpu/shaders/scene_buffers.glsl"
 
 const uint kLeafBit = 0x80000000u;
 const uint kNoChild = 0xffffffffu;
 const int kStackSize = 48;  // kBvhMaxDepth
-
-// GpuShape, GpuGrid, GpuLight and the header's fields: gpu/shaders/layout.h
-layout(std430, binding = 0) readonly buffer SceneHeader { SSS_GPU_SCENE_HEADER_FIELDS };
-layout(std430, binding = 1) readonly buffer BvhNodes { vec4 nodes[]; };
-layout(std430, binding = 2) readonly buffer BvhTriangles { vec4 triangles[]; };
-layout(std430, binding = 3) readonly buffer GridValues { float grid_values[]; };
 
 struct Hit {
     float t;
@@ -164,8 +158,8 @@ float grid_query(int shape, vec3 p) {
         for (int j = 0; j < 2; ++j) {
             int row = base + k * slab + j * gr.n.x;
             float yz = (j == 0 ? q0.y : q1.y) + (k == 0 ? q0.z : q1.z);
-            r = max(r, grid_values[row] - gr.origin.w * sqrt(q0.x + yz));
-            r = max(r, grid_values[row + 1] - gr.origin.w * sqrt(q1.x + yz));
+            r = max(r, scene_floats[row] - gr.origin.w * sqrt(q0.x + yz));
+            r = max(r, scene_floats[row + 1] - gr.origin.w * sqrt(q1.x + yz));
         }
     }
     return max(0.0, r - gr.scale.y);

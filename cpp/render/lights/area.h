@@ -11,7 +11,8 @@
 namespace sss {
 #endif
 
-SSS_FN LightSample area_light_sample(LightData l, Vec3 p, float u1, float u2) {
+SSS_FN LightSample area_light_sample(LightData l, Vec3 p, float u1,
+                                     float u2 SSS_LIGHT_FLOATS_PARAM) {
     LightSample s = no_light_sample();
     Vec3 q = l.a + l.b * u1 + l.c * u2;
     Vec3 n = normalize(cross(l.b, l.c));
@@ -27,7 +28,8 @@ SSS_FN LightSample area_light_sample(LightData l, Vec3 p, float u1, float u2) {
     return s;
 }
 
-SSS_FN LightEval area_light_eval(LightData l, Vec3 p, Vec3 w, float t, Vec3 n) {
+SSS_FN LightEval area_light_eval(LightData l, Vec3 p, Vec3 w, float t,
+                                 Vec3 n SSS_LIGHT_FLOATS_PARAM) {
     LightEval e = no_light_eval();
     if (dot(w, n) >= 0.f) return e;  // its back
     e.L = l.value;
@@ -43,9 +45,9 @@ inline LightType area_light_type() {
     t.quad = true;
     t.position_key = "corner";
     t.keys = {"corner", "edge1", "edge2", "radiance"};
-    t.parse = [](const json& j, const Field& f, Vec3d frame) {
+    t.parse = [](const json& j, const Field& f, const LightContext& ctx) {
         LightData l{};
-        l.a = (point3(require(j, "corner", f), f.at("corner")) - frame).to_float();
+        l.a = (point3(require(j, "corner", f), f.at("corner")) - ctx.frame).to_float();
         l.b = vec3(require(j, "edge1", f), f.at("edge1"));
         l.c = vec3(require(j, "edge2", f), f.at("edge2"));
         l.scalar = length(cross(l.b, l.c));

@@ -10,7 +10,8 @@
 namespace sss {
 #endif
 
-SSS_FN LightSample directional_light_sample(LightData l, Vec3 p, float u1, float u2) {
+SSS_FN LightSample directional_light_sample(LightData l, Vec3 p, float u1,
+                                            float u2 SSS_LIGHT_FLOATS_PARAM) {
     LightSample s = no_light_sample();
     s.w = -l.a;
     s.dist = kInf;
@@ -18,7 +19,8 @@ SSS_FN LightSample directional_light_sample(LightData l, Vec3 p, float u1, float
     return s;
 }
 
-SSS_FN LightEval directional_light_eval(LightData l, Vec3 p, Vec3 w, float t, Vec3 n) {
+SSS_FN LightEval directional_light_eval(LightData l, Vec3 p, Vec3 w, float t,
+                                        Vec3 n SSS_LIGHT_FLOATS_PARAM) {
     return no_light_eval();
 }
 
@@ -29,7 +31,7 @@ inline LightType directional_light_type() {
     t.name = "directional";
     t.delta = true;
     t.keys = {"direction", "irradiance"};
-    t.parse = [](const json& j, const Field& f, Vec3d) {
+    t.parse = [](const json& j, const Field& f, const LightContext&) {
         LightData l{};
         l.a = normalize(nonzero_vec3(require(j, "direction", f), f.at("direction")));
         l.value = light_fields::radiometric(j, f, "irradiance");

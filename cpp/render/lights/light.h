@@ -17,6 +17,24 @@
 namespace sss {
 #endif
 
+// Light types that need more than LightData (an environment map's texels and sampling
+// tables) keep it in the scene's table of floats (SceneDesc::light_floats) at an offset
+// they store in their data, and read it with SSS_LIGHT_FLOAT(i). In C++ the table is the
+// last parameter of the sampling functions (SSS_LIGHT_FLOATS_PARAM, passed on with
+// SSS_LIGHT_FLOATS_ARG); the shaders read it from a buffer (render.glsl defines
+// SSS_LIGHT_FLOAT there; shaders that sample no lights read 0).
+#ifdef __cplusplus
+#define SSS_LIGHT_FLOATS_PARAM , const float* light_floats
+#define SSS_LIGHT_FLOATS_ARG , light_floats
+#define SSS_LIGHT_FLOAT(i) light_floats[i]
+#else
+#define SSS_LIGHT_FLOATS_PARAM
+#define SSS_LIGHT_FLOATS_ARG
+#ifndef SSS_LIGHT_FLOAT
+#define SSS_LIGHT_FLOAT(i) 0.0
+#endif
+#endif
+
 // A light as the integrators see it: its type (an id of registry.h) and up to three
 // vectors, a colour and a number, whose meaning each type states. Positions are in the
 // render frame. On the GPU it is a GpuLight (gpu/shaders/layout.h): four vec4s.
@@ -66,6 +84,15 @@ SSS_FN LightEval no_light_eval() {
 }
 
 #ifdef __cplusplus
+// What a light type's parser may need besides its JSON object: the render frame's origin
+// in the scene file's coordinates (positions are stored relative to it), the directory
+// relative file names start from, and the scene's table of floats to append to.
+struct LightContext {
+    Vec3d frame;
+    std::string base_dir = ".";
+    std::vector<float>* floats = nullptr;
+};
+
 // The C++ side of a light type.
 struct LightType {
     const char* name = "";  // the scene file's "type"
@@ -83,13 +110,14 @@ struct LightType {
     // The keys it takes besides "type"; each is required unless listed in `optional`.
     std::vector<const char*> keys, optional;
     // Reads a light of this type from the scene file's object `j` (at field f); positions
-    // are moved into the render frame, whose origin is `frame`. The keys are checked
-    // before. Errors name the field, the value and what is allowed.
+    // are moved into the render frame (LightContext). The keys are checked before. Errors
+    // name the field, the value and what is allowed.
     std::function<LightData(const json_fields::json& j, const json_fields::Field& f,
-                            Vec3d frame)>
+                            const LightContext& ctx)>
         parse;
     // The same light as an entry of Mitsuba 3's load_dict, from the scene file's object
-    // (file coordinates). Colours are {"$rgb": [r, g, b]} (unbounded sRGB) and transforms
+    // (file coordinates; relative file names are resolved by the caller). Colours are
+    // {"$rgb": [r, g, b]} (unbounded sRGB) and transforms
     // {"$matrix": 4x4 rows}: sssphere/mitsuba.py turns them into Mitsuba's types.
     std::function<json_fields::json(const json_fields::json& j)> mitsuba;
 };

@@ -9,7 +9,8 @@
 namespace sss {
 #endif
 
-SSS_FN LightSample point_light_sample(LightData l, Vec3 p, float u1, float u2) {
+SSS_FN LightSample point_light_sample(LightData l, Vec3 p, float u1,
+                                      float u2 SSS_LIGHT_FLOATS_PARAM) {
     LightSample s = no_light_sample();
     Vec3 to = l.a - p;
     float dist = length(to);
@@ -20,7 +21,8 @@ SSS_FN LightSample point_light_sample(LightData l, Vec3 p, float u1, float u2) {
     return s;
 }
 
-SSS_FN LightEval point_light_eval(LightData l, Vec3 p, Vec3 w, float t, Vec3 n) {
+SSS_FN LightEval point_light_eval(LightData l, Vec3 p, Vec3 w, float t,
+                                  Vec3 n SSS_LIGHT_FLOATS_PARAM) {
     return no_light_eval();
 }
 
@@ -32,9 +34,10 @@ inline LightType point_light_type() {
     t.delta = true;
     t.position_key = "position";
     t.keys = {"position", "intensity"};
-    t.parse = [](const json& j, const Field& f, Vec3d frame) {
+    t.parse = [](const json& j, const Field& f, const LightContext& ctx) {
         LightData l{};
-        l.a = (point3(require(j, "position", f), f.at("position")) - frame).to_float();
+        l.a =
+            (point3(require(j, "position", f), f.at("position")) - ctx.frame).to_float();
         l.value = light_fields::radiometric(j, f, "intensity");
         return l;
     };

@@ -23,19 +23,22 @@
 namespace sss {
 #endif
 
-// Samples a direction towards light l from p (uniforms u1, u2).
-SSS_FN LightSample light_sample(LightData l, Vec3 p, float u1, float u2) {
+// Samples a direction towards light l from p (uniforms u1, u2). Light types may read the
+// scene's table of floats (SSS_LIGHT_FLOAT, light.h): C++ callers pass it last.
+SSS_FN LightSample light_sample(LightData l, Vec3 p, float u1,
+                                float u2 SSS_LIGHT_FLOATS_PARAM) {
 #define SSS_LIGHT_CASE(name, type_id) \
-    if (l.type == type_id) return name##_light_sample(l, p, u1, u2);
+    if (l.type == type_id) return name##_light_sample(l, p, u1, u2 SSS_LIGHT_FLOATS_ARG);
     SSS_LIGHT_TYPES(SSS_LIGHT_CASE)
 #undef SSS_LIGHT_CASE
     return no_light_sample();
 }
 
 // What a ray from p along w meets on light l at distance t, surface normal n.
-SSS_FN LightEval light_eval(LightData l, Vec3 p, Vec3 w, float t, Vec3 n) {
+SSS_FN LightEval light_eval(LightData l, Vec3 p, Vec3 w, float t,
+                            Vec3 n SSS_LIGHT_FLOATS_PARAM) {
 #define SSS_LIGHT_CASE(name, type_id) \
-    if (l.type == type_id) return name##_light_eval(l, p, w, t, n);
+    if (l.type == type_id) return name##_light_eval(l, p, w, t, n SSS_LIGHT_FLOATS_ARG);
     SSS_LIGHT_TYPES(SSS_LIGHT_CASE)
 #undef SSS_LIGHT_CASE
     return no_light_eval();
