@@ -71,6 +71,38 @@ Vec3 PathTracer::transmittance(const Vec3& p, const Vec3& w, float dist, int sha
     return tr;
 }
 
+namespace {
+
+// A scattering event in a medium, for sample_light: the phase function is its own pdf,
+// and shadow rays start at the event.
+struct MediumScatter {
+    const Phase& phase;
+    Vec3 p, d;  // where, and the direction the photon arrived along
+    SurfaceEval eval(const Vec3& w) const {
+        SurfaceEval e;
+        e.pdf = phase_eval(phase, dot(d, w));
+        e.f = Vec3(e.pdf);
+        return e;
+    }
+    Vec3 origin(const Vec3&) const { return p; }
+    const Phase* phase_function() const { return &phase; }
+};
+
+// A reflection on an opaque surface, for sample_light: the BSDF times the cosine, and
+// shadow rays start off the surface on their side.
+struct SurfaceScatter {
+    const Surface& surface;
+    const Hit& hit;
+    Vec3 d;
+    SurfaceEval eval(const Vec3& w) const {
+        return surface_eval(surface, -d, w, hit.normal);
+    }
+    Vec3 origin(const Vec3& w) const { return leave(hit, w); }
+    const Phase* phase_function() const { return nullptr; }
+};
+
+}  // namespace
+
 Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
                               int channel, Rng& rng, bool mis, bool delta_only) const {
     const Shape& s = scene_.desc().shapes[shape];
@@ -87,34 +119,14 @@ Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
         shadow_weight = roulette_weight(bound / kShadowRoulette, rng.uniform());
         if (shadow_weight == 0.f) return Vec3(0.f);
     }
-    LightVertex v;
-    v.p = p;
-    v.d = d;
-    v.phase = &s.medium.phase;
-    return sample_light(v, shape, rng, mis, delta_only) * shadow_weight;
+    return sample_light(p, MediumScatter{s.medium.phase, p, d}, shape, rng, mis,
+                        delta_only) *
+           shadow_weight;
 }
 
-namespace {
-
-// The vertex's scattering towards w: the phase function (its own pdf), or the surface's
-// BSDF times the cosine, and the pdf of sampling w there.
-SurfaceEval scatter_eval(const LightVertex& v, const Vec3& w) {
-    if (v.surface) return surface_eval(*v.surface, -v.d, w, v.hit->normal);
-    SurfaceEval e;
-    e.pdf = phase_eval(*v.phase, dot(v.d, w));
-    e.f = Vec3(e.pdf);
-    return e;
-}
-
-// Where a shadow ray along w from the vertex starts: off the surface, on w's side.
-Vec3 shadow_origin(const LightVertex& v, const Vec3& w) {
-    return v.hit ? leave(*v.hit, w) : v.p;
-}
-
-}  // namespace
-
-Vec3 PathTracer::sample_light(const LightVertex& v, int shape, Rng& rng, bool mis,
-                              bool delta_only) const {
+template <class Scatter>
+Vec3 PathTracer::sample_light(const Vec3& p, const Scatter& scatter, int shape, Rng& rng,
+                              bool mis, bool delta_only) const {
     // One light per vertex, chosen uniformly: the estimate is weighted by n_lights, and
     // the light-sampling pdfs in the MIS weights carry the selection probability 1 /
     // n_lights (as on emission hits in run()).
@@ -127,11 +139,11 @@ Vec3 PathTracer::sample_light(const LightVertex& v, int shape, Rng& rng, bool mi
     const Light& l = lights[i];
     const float u1 = rng.uniform(), u2 = rng.uniform();
     const LightSample ls =
-        light_sample(l, v.p, u1, u2, scene_.light_floats());  // render/lights/registry.h
+        light_sample(l, p, u1, u2, scene_.light_floats());  // render/lights/registry.h
     Vec3 sum(0.f);
-    const SurfaceEval f = scatter_eval(v, ls.w);
+    const SurfaceEval f = scatter.eval(ls.w);
     if (!is_black(ls.L) && !is_black(f.f)) {
-        const Vec3 tr = transmittance(shadow_origin(v, ls.w), ls.w, ls.dist, shape);
+        const Vec3 tr = transmittance(scatter.origin(ls.w), ls.w, ls.dist, shape);
         if (ls.pdf == 0.f) {
             sum += ls.L * tr * f.f;  // a delta light
         } else {
@@ -144,15 +156,16 @@ Vec3 PathTracer::sample_light(const LightVertex& v, int shape, Rng& rng, bool mi
     if (!mis && !l.is_delta()) {
         // The second strategy (media only: a sphere step's events): a phase-sampled
         // shadow ray that meets this light (phase / pdf = 1).
-        SSS_CHECK(v.phase != nullptr);
-        const Vec3 wp = phase_sample(*v.phase, v.d, rng.uniform(), rng.uniform());
+        const Phase* phase = scatter.phase_function();
+        SSS_CHECK(phase != nullptr);
+        const Vec3 wp = phase_sample(*phase, scatter.d, rng.uniform(), rng.uniform());
         EmitterHit e;
-        const Vec3 trp = transmittance(v.p, wp, kInf, shape, &e);
+        const Vec3 trp = transmittance(p, wp, kInf, shape, &e);
         if (e.light == int(i)) {
             const LightEval le =
-                light_eval(l, v.p, wp, e.t, e.normal, scene_.light_floats());
-            sum +=
-                le.L * trp * power_heuristic(phase_eval(*v.phase, dot(v.d, wp)), le.pdf);
+                light_eval(l, p, wp, e.t, e.normal, scene_.light_floats());
+            sum += le.L * trp *
+                   power_heuristic(phase_eval(*phase, dot(scatter.d, wp)), le.pdf);
         }
     }
     return sum * n_lights;
@@ -302,14 +315,8 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
     auto reflect = [&](const Hit& hit, const Surface& surface) {
         ++out.scatter_events;
         if (max_bounces_ >= 0 && int(out.scatter_events) > max_bounces_) return false;
-        if (nee_ && !desc.lights.empty()) {
-            LightVertex v;
-            v.p = hit.p;
-            v.d = d;
-            v.surface = &surface;
-            v.hit = &hit;
-            L += beta * sample_light(v, shape, rng);
-        }
+        if (nee_ && !desc.lights.empty())
+            L += beta * sample_light(hit.p, SurfaceScatter{surface, hit, d}, shape, rng);
         const float u1 = rng.uniform(), u2 = rng.uniform();
         const SurfaceSample ss = surface_sample(surface, -d, hit.normal, u1, u2);
         beta *= ss.weight;
