@@ -141,10 +141,8 @@ ParsedShape parse_shape(const json& j, const Field& f, const std::string& base_d
     if (j.contains("surface")) {
         if (j.contains("boundary"))
             f.at("boundary")
-                .error(
-                    "an opaque surface has no boundary (allowed: 'boundary' with a "
-                    "'medium' "
-                    "only)");
+                .error("an opaque surface has no boundary (allowed: ",
+                       "'boundary' with a 'medium' only)");
         s.surface = parse_surface(j["surface"], f.at("surface"));
     }
     if (j.contains("name")) {
