@@ -42,6 +42,7 @@ AREA = {"type": "area", "corner": [-1.5, 2.5, 1.5], "edge1": [0, 0, -3.0], "edge
         "radiance": [1.5, 1.5, 1.5]}
 ENV = {"type": "environment", "radiance": [0.3, 0.2, 0.1]}
 DIELECTRIC = {"type": "dielectric", "ior": 1.5}
+ROUGH_DIELECTRIC = {"type": "dielectric", "ior": 1.5, "roughness": 0.2}
 INDEX_MATCHED = {"type": "index_matched"}
 
 # Two-sided tolerance on a z-score of an image mean or a mean path length (p ~ 6e-5 each).
@@ -472,6 +473,10 @@ RENDER_CASES = {
     # under an index-matched and under a dielectric medium.
     "floor_index_matched_nee": (lambda: sphere_on_floor_scene(), True),
     "floor_dielectric_nee": (lambda: sphere_on_floor_scene(boundary=DIELECTRIC), True),
+    # A rough dielectric: light sampling at boundary vertices from both sides (point, area
+    # and environment lights, MIS with the sampled lobe), over the floor.
+    "floor_rough_dielectric_nee": (
+        lambda: sphere_on_floor_scene(boundary=ROUGH_DIELECTRIC), True),
     # An environment map (its importance sampling, the table the shaders read), turned.
     "floor_environment_map_nee": (lambda: sphere_on_floor_scene(lights=[
         {"type": "environment", "map": _sky_map(), "scale": 0.8, "rotate_deg": [0, 30, 0]}]),

@@ -122,8 +122,8 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
     for (int i = 0; i < scene.num_shapes(); ++i) {
         const Shape& s = desc.shapes[i];
         meshes.push_back(&s.mesh);
-        shadow_rays_pass =
-            shadow_rays_pass || s.is_surface() || s.boundary.passes_shadow_rays();
+        shadow_rays_pass = shadow_rays_pass || s.is_surface() ||
+                           s.boundary.passes_shadow_rays() || s.boundary.samples_lights();
         put3(h.shapes[i].surface, Vec3(float(s.surface.type), s.surface.x, 0.f), 0.f);
         put3(h.shapes[i].surface_color, s.surface.color, 0.f);
         put3(h.shapes[i].sigma_t, s.medium.sigma_t, 0.f);
@@ -157,7 +157,7 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
     h.counts[2] = uint32_t(c.width);
     h.counts[3] = uint32_t(c.height);
     h.lighting[0] = uint32_t(desc.lights.size());
-    // A straight shadow ray never leaves a dielectric boundary (docs/notation.md,
+    // A straight shadow ray never leaves a smooth dielectric boundary (docs/notation.md,
     // "Next-event estimation"): with only those and no opaque surface, NEE finds nothing
     // and the shaders skip it (the same estimator).
     h.lighting[1] = nee && shadow_rays_pass && !desc.lights.empty() ? 1u : 0u;

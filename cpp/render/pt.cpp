@@ -78,6 +78,7 @@ namespace {
 struct MediumScatter {
     const Phase& phase;
     Vec3 p, d;  // where, and the direction the photon arrived along
+    int shape;  // the medium
     SurfaceEval eval(const Vec3& w) const {
         SurfaceEval e;
         e.pdf = phase_eval(phase, dot(d, w));
@@ -85,6 +86,7 @@ struct MediumScatter {
         return e;
     }
     Vec3 origin(const Vec3&) const { return p; }
+    int shape_along(const Vec3&) const { return shape; }
     const Phase* phase_function() const { return &phase; }
 };
 
@@ -94,10 +96,29 @@ struct SurfaceScatter {
     const Surface& surface;
     const Hit& hit;
     Vec3 d;
+    int shape;  // the medium the surface touches there, -1: vacuum
     SurfaceEval eval(const Vec3& w) const {
         return surface_eval(surface, -d, w, hit.normal);
     }
     Vec3 origin(const Vec3& w) const { return leave(hit, w); }
+    int shape_along(const Vec3&) const { return shape; }
+    const Phase* phase_function() const { return nullptr; }
+};
+
+// A vertex on a rough boundary, for sample_light: its BSDF (reflection or transmission),
+// and shadow rays start off the surface on their side, inside the shape or outside.
+struct BoundaryScatter {
+    const Boundary& boundary;
+    const Hit& hit;
+    Vec3 d;
+    SurfaceEval eval(const Vec3& w) const {
+        const BoundaryEval b = boundary_eval(boundary, d, w, hit.normal);
+        return SurfaceEval{Vec3(b.f), b.pdf};
+    }
+    Vec3 origin(const Vec3& w) const { return leave(hit, w); }
+    int shape_along(const Vec3& w) const {
+        return dot(w, hit.normal) < 0.f ? int(hit.mesh) : -1;
+    }
     const Phase* phase_function() const { return nullptr; }
 };
 
@@ -119,14 +140,14 @@ Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
         shadow_weight = roulette_weight(bound / kShadowRoulette, rng.uniform());
         if (shadow_weight == 0.f) return Vec3(0.f);
     }
-    return sample_light(p, MediumScatter{s.medium.phase, p, d}, shape, rng, mis,
+    return sample_light(p, MediumScatter{s.medium.phase, p, d, shape}, rng, mis,
                         delta_only) *
            shadow_weight;
 }
 
 template <class Scatter>
-Vec3 PathTracer::sample_light(const Vec3& p, const Scatter& scatter, int shape, Rng& rng,
-                              bool mis, bool delta_only) const {
+Vec3 PathTracer::sample_light(const Vec3& p, const Scatter& scatter, Rng& rng, bool mis,
+                              bool delta_only) const {
     // One light per vertex, chosen uniformly: the estimate is weighted by n_lights, and
     // the light-sampling pdfs in the MIS weights carry the selection probability 1 /
     // n_lights (as on emission hits in run()).
@@ -143,7 +164,8 @@ Vec3 PathTracer::sample_light(const Vec3& p, const Scatter& scatter, int shape, 
     Vec3 sum(0.f);
     const SurfaceEval f = scatter.eval(ls.w);
     if (!is_black(ls.L) && !is_black(f.f)) {
-        const Vec3 tr = transmittance(scatter.origin(ls.w), ls.w, ls.dist, shape);
+        const Vec3 tr =
+            transmittance(scatter.origin(ls.w), ls.w, ls.dist, scatter.shape_along(ls.w));
         if (ls.pdf == 0.f) {
             sum += ls.L * tr * f.f;  // a delta light
         } else {
@@ -160,7 +182,7 @@ Vec3 PathTracer::sample_light(const Vec3& p, const Scatter& scatter, int shape, 
         SSS_CHECK(phase != nullptr);
         const Vec3 wp = phase_sample(*phase, scatter.d, rng.uniform(), rng.uniform());
         EmitterHit e;
-        const Vec3 trp = transmittance(p, wp, kInf, shape, &e);
+        const Vec3 trp = transmittance(p, wp, kInf, scatter.shape_along(wp), &e);
         if (e.light == int(i)) {
             const LightEval le =
                 light_eval(l, p, wp, e.t, e.normal, scene_.light_floats());
@@ -316,7 +338,7 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
         ++out.scatter_events;
         if (max_bounces_ >= 0 && int(out.scatter_events) > max_bounces_) return false;
         if (nee_ && !desc.lights.empty())
-            L += beta * sample_light(hit.p, SurfaceScatter{surface, hit, d}, shape, rng);
+            L += beta * sample_light(hit.p, SurfaceScatter{surface, hit, d, shape}, rng);
         const float u1 = rng.uniform(), u2 = rng.uniform();
         const SurfaceSample ss = surface_sample(surface, -d, hit.normal, u1, u2);
         beta *= ss.weight;
@@ -328,6 +350,28 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
         o = leave(hit, d);
         r_at_o = -1.f;
         return survives_roulette(beta, beta_start, rng);
+    };
+    // The photon meets the boundary of the shape of `hit`, from outside or from inside:
+    // on a rough interface the meeting point is a path vertex that samples lights first;
+    // then the boundary reflects or transmits it. False when the path ends there.
+    auto cross = [&](const Hit& hit, const Boundary& boundary) {
+        if (nee_ && !desc.lights.empty() && boundary.samples_lights())
+            L += beta * sample_light(hit.p, BoundaryScatter{boundary, hit, d}, rng);
+        const BoundaryEvent b = boundary_cross(boundary, d, hit.normal, rng.state());
+        beta *= b.weight;
+        if (is_black(beta)) return false;
+        if (b.pdf > 0.f) {  // a sampled lobe: the next emitter hit shares MIS with it
+            phase_pdf = b.pdf;
+            scatter_pos = hit.p;
+            specular = false;
+        } else {
+            specular = specular || b.specular;
+        }
+        d = b.d;
+        o = leave(hit, d);
+        if (b.crossed) shape = shape < 0 ? int(hit.mesh) : -1;
+        r_at_o = shape >= 0 ? 0.f : -1.f;  // on the surface: the grid could only say so
+        return true;
     };
 
     for (;;) {
@@ -371,17 +415,7 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
                 o = leave(hit, d);
                 continue;
             }
-            const BoundaryEvent b =
-                boundary_cross(s.boundary, d, hit.normal, rng.state());
-            d = b.d;
-            specular = specular || b.specular;
-            if (!b.crossed) {
-                o = leave(hit, d);
-                continue;
-            }
-            shape = int(hit.mesh);
-            o = leave(hit, d);
-            r_at_o = 0.f;  // on the surface: the grid could only say so
+            if (!cross(hit, s.boundary)) break;
             continue;
         }
 
@@ -457,16 +491,7 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             o = leave(hit, d);
             continue;
         }
-        const BoundaryEvent b = boundary_cross(s.boundary, d, hit.normal, rng.state());
-        d = b.d;
-        specular = specular || b.specular;
-        if (!b.crossed) {
-            o = leave(hit, d);
-            r_at_o = 0.f;
-            continue;
-        }
-        shape = -1;
-        o = leave(hit, d);
+        if (!cross(hit, s.boundary)) break;
     }
     return finish();
 }

@@ -79,15 +79,16 @@ private:
     // "st": fills state.step, the request for a step at the path's position, where the
     // grid gives r.
     void request_step(PathState& state, float r) const;
-    // Scattering x transmittance x emitted radiance / pdf at the path vertex p in medium
-    // `shape` (-1: vacuum) from one light chosen uniformly (weighted by the number of
-    // lights; delta_only: among the point and directional lights), with MIS against the
-    // vertex's own sampled continuation; mis = false: see direct_light. `scatter` is the
-    // vertex's scattering (MediumScatter or SurfaceScatter in pt.cpp: its value and pdf
-    // towards a direction, where its shadow rays start, its phase function if any).
+    // Scattering x transmittance x emitted radiance / pdf at the path vertex p from one
+    // light chosen uniformly (weighted by the number of lights; delta_only: among the
+    // point and directional lights), with MIS against the vertex's own sampled
+    // continuation; mis = false: see direct_light. `scatter` is the
+    // vertex's scattering (MediumScatter, SurfaceScatter or BoundaryScatter in pt.cpp:
+    // its value and pdf towards a direction, where its shadow rays start and in which
+    // medium, its phase function if any).
     template <class Scatter>
-    Vec3 sample_light(const Vec3& p, const Scatter& scatter, int shape, Rng& rng,
-                      bool mis = true, bool delta_only = false) const;
+    Vec3 sample_light(const Vec3& p, const Scatter& scatter, Rng& rng, bool mis = true,
+                      bool delta_only = false) const;
     // Phase x transmittance x emitted radiance / pdf at medium point p of shape `shape`
     // (r: the distance grid's bound at p, or < 0 to query it), for a photon travelling
     // along d before scattering, from one light chosen uniformly

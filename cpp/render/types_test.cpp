@@ -35,6 +35,12 @@ const std::map<std::string, std::string> kBoundaryExamples = {
     {"index_matched", R"({"type": "index_matched"})"},
     {"dielectric", R"({"type": "dielectric", "ior": 1.33})"},
 };
+// Rough boundaries, for the BSDF's property tests.
+const std::vector<std::string> kRoughBoundaries = {
+    R"({"type": "dielectric", "ior": 1.5, "roughness": 0.3})",
+    R"({"type": "dielectric", "ior": 1.33, "roughness": 0.6})",
+    R"({"type": "dielectric", "ior": 0.7, "roughness": 0.4})",
+};
 const std::map<std::string, std::string> kSurfaceExamples = {
     {"diffuse", R"({"type": "diffuse", "reflectance": [0.8, 0.5, 0.2]})"},
 };
@@ -323,6 +329,152 @@ TEST(Registries, BoundariesObeyFresnelAndSnell) {
         normalize(Vec3(0.9f, 0.f, 0.2f));  // from inside, beyond critical
     for (int i = 0; i < 100; ++i)
         EXPECT_FALSE(boundary_cross(di, grazing, n, rng).crossed);
+}
+
+// A rough dielectric boundary, for photons arriving from several directions on both
+// sides (outward normal n, tilted):
+// - sampling follows the BSDF: a chi-square test (alpha = 1e-3) of sampled directions in
+//   40 x 16 bins of (cos theta, phi) about the normal against the pdf boundary_eval
+//   gives, integrated over each bin (16 x 16 midpoints; bins expecting fewer than 5
+//   pooled); samples that fail (masked) are the missing mass;
+// - a sample's weight is eval's f / pdf, and its pdf eval's pdf (to float precision:
+//   near the critical angle the Fresnel term amplifies rounding);
+// - energy: the integral of f (uniform directions) is at most 1, within 4 standard
+//   errors;
+// - reciprocity with the squared indices: f(wi, wo) / eta_o^2 = f(wo, wi) / eta_i^2, f
+//   being eval's value over |cos wo|: to 1e-3 for 99 % of the directions and 10 % for
+//   all (where the refracted ray grazes its micro-facet, at the critical angle, the
+//   Fresnel term's derivative is infinite, and float rounding of the inputs shows).
+TEST(Registries, RoughDielectricSamplesItsBsdf) {
+    const Vec3 n = normalize(Vec3(-0.3f, 0.2f, 0.9f));
+    const Frame frame = frame_from_z(n);
+    constexpr int kCos = 40, kPhi = 16, kSub = 16;
+    for (const std::string& text : kRoughBoundaries) {
+        const Boundary b = parse_boundary(text);
+        ASSERT_TRUE(b.samples_lights()) << text;
+        RngState rng = rng_make(23, uint64_t(b.x * 100), uint64_t(b.y * 100));
+        for (const float cos_d : {-0.9f, -0.35f, 0.8f, 0.3f}) {  // < 0: from outside
+            const float sin_d = std::sqrt(1.f - cos_d * cos_d);
+            const Vec3 d = frame_to_world(frame, Vec3(sin_d, 0.f, cos_d));
+            const std::string what = text + ", cos_d " + std::to_string(cos_d);
+            auto bin_of = [&](Vec3 w) {
+                const Vec3 l = frame_to_local(frame, w);
+                const int c = std::clamp(int((l.z + 1.f) * 0.5f * kCos), 0, kCos - 1);
+                const float phi = std::atan2(l.y, l.x) + float(M_PI);
+                const int p =
+                    std::clamp(int(phi / (2.f * float(M_PI)) * kPhi), 0, kPhi - 1);
+                return c * kPhi + p;
+            };
+            const int n_samples = 200000;
+            std::vector<double> observed(kCos * kPhi, 0.0), expected(kCos * kPhi, 0.0);
+            for (int i = 0; i < n_samples; ++i) {
+                const BoundaryEvent e = boundary_cross(b, d, n, rng);
+                ASSERT_FALSE(e.specular);
+                if (!(e.weight > 0.f)) continue;
+                observed[bin_of(e.d)] += 1;
+                ASSERT_EQ(e.crossed, dot(e.d, n) * dot(d, n) > 0.f) << what;
+                const BoundaryEval ev = boundary_eval(b, d, e.d, n);
+                ASSERT_NEAR(ev.pdf, e.pdf, 1e-3f * e.pdf + 1e-5f) << what;
+                ASSERT_NEAR(e.weight, ev.f / ev.pdf, 1e-3f) << what;
+                ASSERT_LE(e.weight, 1.f);
+            }
+            for (int c = 0; c < kCos; ++c)
+                for (int p = 0; p < kPhi; ++p)
+                    for (int i = 0; i < kSub; ++i)
+                        for (int j = 0; j < kSub; ++j) {
+                            const float z = -1.f + 2.f * (c + (i + 0.5f) / kSub) / kCos;
+                            const float phi =
+                                2.f * float(M_PI) * (p + (j + 0.5f) / kSub) / kPhi -
+                                float(M_PI);
+                            const float r = std::sqrt(std::max(0.f, 1.f - z * z));
+                            const Vec3 w = frame_to_world(
+                                frame, Vec3(r * std::cos(phi), r * std::sin(phi), z));
+                            const double d_omega =
+                                (2.0 / kCos) * (2.0 * M_PI / kPhi) / (kSub * kSub);
+                            expected[c * kPhi + p] +=
+                                boundary_eval(b, d, w, n).pdf * d_omega * n_samples;
+                        }
+            double chi2 = 0, pooled_o = 0, pooled_e = 0;
+            int dof = -1;
+            for (size_t k = 0; k < expected.size(); ++k) {
+                if (expected[k] < 5) {
+                    pooled_o += observed[k];
+                    pooled_e += expected[k];
+                    continue;
+                }
+                chi2 += (observed[k] - expected[k]) * (observed[k] - expected[k]) /
+                        expected[k];
+                ++dof;
+            }
+            chi2 +=
+                (pooled_o - pooled_e) * (pooled_o - pooled_e) / std::max(pooled_e, 5.0);
+            ++dof;
+            ASSERT_GT(dof, 30) << what;
+            EXPECT_LT(chi2, chi2_limit(dof)) << what;
+
+            // Energy and reciprocity.
+            const int n_dirs = 200000;
+            double sum = 0, sum2 = 0;
+            int nonzero = 0, loose = 0;  // reciprocal only to within 1e-3 (see above)
+            const float eta_d = dot(d, n) < 0.f ? 1.f : b.x;  // the index on d's side
+            for (int i = 0; i < n_dirs; ++i) {
+                const Vec3 wo = sample_uniform_sphere(rng_uniform(rng), rng_uniform(rng));
+                const BoundaryEval e = boundary_eval(b, d, wo, n);
+                const double v = e.f / uniform_sphere_pdf();
+                sum += v;
+                sum2 += v * v;
+                if (!(e.f > 0.f)) continue;
+                const float eta_o = dot(wo, n) > 0.f ? 1.f : b.x;
+                const BoundaryEval back = boundary_eval(b, -wo, -d, n);
+                const double f = e.f / std::abs(dot(wo, n)) / (eta_o * eta_o),
+                             f_back = back.f / std::abs(dot(d, n)) / (eta_d * eta_d);
+                ++nonzero;
+                if (std::abs(f - f_back) > 1e-3 * f + 1e-5) ++loose;
+                EXPECT_NEAR(f, f_back, 0.1 * f + 1e-5) << what;
+            }
+            EXPECT_LT(loose, nonzero / 100) << what;
+            const double mean = sum / n_dirs;
+            EXPECT_LE(mean, 1.0 + 4 * std::sqrt((sum2 / n_dirs - mean * mean) / n_dirs))
+                << what;
+        }
+    }
+}
+
+// The rough interface's smooth limit: at alpha = 1e-3 a photon is reflected with the
+// Fresnel reflectance as frequency (within 4 standard errors), with weight ~1, along the
+// mirror or the refracted direction of the smooth interface: GGX has long tails (a
+// micro-normal is tilted by more than 0.01 rad with probability alpha^2 / (alpha^2 +
+// 0.01^2) ~ 1 %), so at most 3 % of them deviate by more than 0.02 rad.
+TEST(Registries, RoughDielectricTendsToTheSmoothOne) {
+    const Vec3 n(0.f, 0.f, 1.f);
+    const Boundary rough =
+        parse_boundary(R"({"type": "dielectric", "ior": 1.5, "roughness": 0.001})");
+    const Boundary smooth = parse_boundary(R"({"type": "dielectric", "ior": 1.5})");
+    RngState rng = rng_make(29, 30, 31);
+    for (const float cos_d : {-0.8f, -0.2f, 0.9f}) {
+        const Vec3 d = normalize(Vec3(std::sqrt(1.f - cos_d * cos_d), 0.f, cos_d));
+        float cos_t;
+        const float F =
+            fresnel_dielectric(std::abs(cos_d), cos_d < 0.f ? 1.5f : 1.f / 1.5f, cos_t);
+        // The smooth interface's two directions.
+        Vec3 mirror(0.f), refracted(0.f);
+        for (int i = 0; i < 200; ++i) {
+            const BoundaryEvent s = boundary_cross(smooth, d, n, rng);
+            (s.crossed ? refracted : mirror) = s.d;
+        }
+        const int trials = 40000;
+        int reflected = 0, off = 0;
+        for (int i = 0; i < trials; ++i) {
+            const BoundaryEvent e = boundary_cross(rough, d, n, rng);
+            ASSERT_GT(e.weight, 0.99f);
+            reflected += e.crossed ? 0 : 1;
+            const Vec3 want = e.crossed ? refracted : mirror;
+            off += std::acos(std::min(1.f, dot(e.d, want))) > 0.02f ? 1 : 0;
+        }
+        EXPECT_LT(off, trials * 3 / 100) << cos_d;
+        const double se = std::sqrt(F * (1.0 - F) / trials);
+        EXPECT_NEAR(double(reflected) / trials, F, 4 * se + 1e-6) << cos_d;
+    }
 }
 
 // Phase functions are sampled exactly: the mean cosine of sampled directions equals the

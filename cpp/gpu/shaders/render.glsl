@@ -107,12 +107,19 @@ vec3 transmittance(vec3 p, vec3 w, float dist, int shape) {
     return vec3(0.0);
 }
 
+// The kinds of path vertex that sample lights (PathTracer's MediumScatter,
+// SurfaceScatter and BoundaryScatter).
+const int kMediumVertex = 0;
+const int kSurfaceVertex = 1;
+const int kBoundaryVertex = 2;
+
 // PathTracer::sample_light with MIS at a vertex at p, the photon arriving along d: a
-// scattering event in medium `shape` with phase function ph (on_surface false), or a
-// point of an opaque surface sf found by `hit` (in medium `shape`, -1: vacuum). One light
-// chosen uniformly, weighted by the number of lights; with delta_only, one of the point
-// and directional lights (the first lighting.z of lights[]).
-vec3 sample_light(vec3 p, vec3 d, int shape, PhaseData ph, bool on_surface, SurfaceData sf,
+// scattering event in medium `shape` with phase function ph (kMediumVertex), a point of
+// an opaque surface sf found by `hit` (in medium `shape`, -1: vacuum; kSurfaceVertex), or
+// a point of a rough boundary, the shape of `hit`'s (kBoundaryVertex). One light chosen
+// uniformly, weighted by the number of lights; with delta_only, one of the point and
+// directional lights (the first lighting.z of lights[]).
+vec3 sample_light(vec3 p, vec3 d, int shape, PhaseData ph, int vertex, SurfaceData sf,
                   Hit hit, bool delta_only, inout RngState rng) {
     uint count = delta_only ? lighting.z : lighting.x;
     if (count == 0u) return vec3(0.0);
@@ -123,17 +130,23 @@ vec3 sample_light(vec3 p, vec3 d, int shape, PhaseData ph, bool on_surface, Surf
     LightSample ls = light_sample(l, p, u1, u2);  // render/lights/registry.h
     vec3 f;  // the vertex's scattering towards ls.w, and the pdf of sampling it there
     float pdf;
-    if (on_surface) {
+    if (vertex == kSurfaceVertex) {
         SurfaceEval e = surface_eval(sf, -d, ls.w, hit.normal);
         f = e.f;
         pdf = e.pdf;
+    } else if (vertex == kBoundaryVertex) {
+        BoundaryEval e = boundary_eval(boundary_data(shapes[hit.mesh]), d, ls.w, hit.normal);
+        f = vec3(e.f);
+        pdf = e.pdf;
+        shape = dot(ls.w, hit.normal) < 0.0 ? int(hit.mesh) : -1;
     } else {
         pdf = phase_eval(ph, dot(d, ls.w));
         f = vec3(pdf);
     }
     vec3 sum = vec3(0.0);
     if (!is_black(ls.L) && !is_black(f)) {
-        vec3 tr = transmittance(on_surface ? leave(hit, ls.w) : p, ls.w, ls.dist, shape);
+        vec3 tr = transmittance(vertex == kMediumVertex ? p : leave(hit, ls.w), ls.w, ls.dist,
+                                shape);
         sum = ls.pdf == 0.0  // a delta light
                   ? ls.L * tr * f
                   : ls.L * tr * f * (power_heuristic(ls.pdf / n_lights, pdf) / ls.pdf);
@@ -159,8 +172,8 @@ vec3 direct_light(vec3 p, float r, vec3 d, int shape, int channel, bool delta_on
         if (shadow_weight == 0.0) return vec3(0.0);
     }
     Hit none;
-    return sample_light(p, d, shape, phase_data(s), false, surface_data(s), none, delta_only,
-                        rng) *
+    return sample_light(p, d, shape, phase_data(s), kMediumVertex, surface_data(s), none,
+                        delta_only, rng) *
            shadow_weight;
 }
 
@@ -195,7 +208,8 @@ void reflect_off(inout Path p, Hit hit) {
     SurfaceData sf = surface_data(shapes[hit.mesh]);
     if (NEE) {
         PhaseData none;
-        p.L += p.beta * sample_light(hit.p, p.d, p.shape, none, true, sf, hit, false, p.rng);
+        p.L += p.beta *
+               sample_light(hit.p, p.d, p.shape, none, kSurfaceVertex, sf, hit, false, p.rng);
     }
     float u1 = rng_uniform(p.rng), u2 = rng_uniform(p.rng);
     SurfaceSample ss = surface_sample(sf, -p.d, hit.normal, u1, u2);
@@ -213,6 +227,38 @@ void reflect_off(inout Path p, Hit hit) {
     p.o = leave(hit, p.d);
     p.r_at_o = -1.0;
     if (!survives_roulette(p.beta, p.beta_start, p.rng)) p.done = true;
+}
+
+// The photon meets the boundary of the shape of `hit`, from outside or inside
+// (PathTracer::run's cross): a rough interface's vertex samples lights first; then the
+// boundary reflects or transmits it.
+void cross(inout Path p, Hit hit) {
+    BoundaryData bd = boundary_data(shapes[hit.mesh]);
+    if (NEE && boundary_samples_lights(bd)) {
+        PhaseData none;
+        SurfaceData no_surface;
+        p.L += p.beta * sample_light(hit.p, p.d, p.shape, none, kBoundaryVertex, no_surface,
+                                     hit, false, p.rng);
+    }
+    BoundaryEvent b = boundary_cross(bd, p.d, hit.normal, p.rng);
+    p.beta *= b.weight;
+    if (is_black(p.beta)) {
+        p.done = true;
+        return;
+    }
+    if (b.pdf > 0.0) {  // a sampled lobe: the next emitter hit shares MIS with it
+        if (NEE) {
+            p.phase_pdf = b.pdf;
+            p.scatter_pos = hit.p;
+            p.specular = false;
+        }
+    } else {
+        p.specular = p.specular || b.specular;
+    }
+    p.d = b.d;
+    p.o = leave(hit, p.d);
+    if (b.crossed) p.shape = p.shape < 0 ? int(hit.mesh) : -1;
+    p.r_at_o = p.shape >= 0 ? 0.0 : -1.0;
 }
 
 // One iteration of PathTracer::run's loop: a flight in vacuum to the next surface, or a
@@ -255,16 +301,7 @@ void path_iterate(inout Path p) {
             p.o = leave(hit, p.d);
             return;
         }
-        BoundaryEvent b = boundary_cross(boundary_data(s), p.d, hit.normal, p.rng);
-        p.d = b.d;
-        p.specular = p.specular || b.specular;
-        if (!b.crossed) {
-            p.o = leave(hit, p.d);
-            return;
-        }
-        p.shape = int(hit.mesh);
-        p.o = leave(hit, p.d);
-        p.r_at_o = 0.0;
+        cross(p, hit);
         return;
     }
 
@@ -331,16 +368,7 @@ void path_iterate(inout Path p) {
         p.o = leave(hit, p.d);
         return;
     }
-    BoundaryEvent b = boundary_cross(boundary_data(s), p.d, hit.normal, p.rng);
-    p.d = b.d;
-    p.specular = p.specular || b.specular;
-    if (!b.crossed) {
-        p.o = leave(hit, p.d);
-        p.r_at_o = 0.0;
-        return;
-    }
-    p.shape = -1;
-    p.o = leave(hit, p.d);
+    cross(p, hit);
 }
 
 #if SSS_ST

@@ -27,15 +27,37 @@ struct BoundaryData {
 };
 
 // What a boundary did to a photon that met it: the photon's new direction d, whether it
-// crossed to the other side (else it stays on its side), and whether d was chosen by a
-// delta distribution (a smooth interface), which gives the next emitter it hits MIS
-// weight 1 (PathState::specular); an interface that leaves the direction alone says
-// false and the path keeps what its last scattering event set.
+// crossed to the other side (else it stays on its side), the factor its throughput takes
+// (weight: 1 for a smooth interface, the sampled lobe's value / pdf for a rough one; 0
+// ends the path), and how d was chosen. specular: by a delta distribution (a smooth
+// interface), which gives the next emitter it hits MIS weight 1 (PathState::specular);
+// an interface that leaves the direction alone says false and the path keeps what its
+// last scattering event set. pdf > 0: sampled from a lobe with that density (solid
+// angle); the meeting point is then a path vertex whose light sampling (boundary_eval)
+// shares MIS with the emitter d hits.
 struct BoundaryEvent {
     Vec3 d;
     bool crossed;
     bool specular;
+    float weight;
+    float pdf;
 };
+
+// A rough boundary's scattering from wi to wo (both pointing away from the surface):
+// the BSDF times |cos| between wo and the normal (f; the radiance scaling by the squared
+// ratio of indices is left out, docs/notation.md), and the density with which sampling
+// would have chosen wo (pdf).
+struct BoundaryEval {
+    float f;
+    float pdf;
+};
+
+SSS_FN BoundaryEval no_boundary_eval() {
+    BoundaryEval e;
+    e.f = 0.f;
+    e.pdf = 0.f;
+    return e;
+}
 
 #ifdef __cplusplus
 // The C++ side of a boundary type.

@@ -16,11 +16,20 @@ SSS_FN BoundaryEvent index_matched_boundary_cross(BoundaryData b, Vec3 d, Vec3 n
     e.d = d;
     e.crossed = true;
     e.specular = false;
+    e.weight = 1.f;
+    e.pdf = 0.f;
     return e;
+}
+
+SSS_FN BoundaryEval index_matched_boundary_eval(BoundaryData b, Vec3 d, Vec3 wo, Vec3 n) {
+    return no_boundary_eval();
 }
 
 // Whether a straight shadow ray may pass through it.
 SSS_FN bool index_matched_boundary_passes_shadow_rays(BoundaryData b) { return true; }
+
+// Whether its vertices sample lights (it has no vertices: the medium's events do).
+SSS_FN bool index_matched_boundary_samples_lights(BoundaryData b) { return false; }
 
 #ifdef __cplusplus
 inline BoundaryKind index_matched_boundary_kind() {

@@ -31,7 +31,28 @@ SSS_FN BoundaryEvent boundary_cross(BoundaryData b, Vec3 d, Vec3 n,
     e.d = d;
     e.crossed = false;
     e.specular = true;
+    e.weight = 0.f;
+    e.pdf = 0.f;
     return e;
+}
+
+// A rough boundary b's BSDF times |cos| and sampling pdf, for a photon that arrived along
+// d and leaves along wo (outward normal n); 0 for smooth and index-matched boundaries.
+SSS_FN BoundaryEval boundary_eval(BoundaryData b, Vec3 d, Vec3 wo, Vec3 n) {
+#define SSS_BOUNDARY_CASE(name, type_id) \
+    if (b.type == type_id) return name##_boundary_eval(b, d, wo, n);
+    SSS_BOUNDARY_TYPES(SSS_BOUNDARY_CASE)
+#undef SSS_BOUNDARY_CASE
+    return no_boundary_eval();
+}
+
+// Whether a path vertex on boundary b samples lights through it (boundary_eval is not 0).
+SSS_FN bool boundary_samples_lights(BoundaryData b) {
+#define SSS_BOUNDARY_CASE(name, type_id) \
+    if (b.type == type_id) return name##_boundary_samples_lights(b);
+    SSS_BOUNDARY_TYPES(SSS_BOUNDARY_CASE)
+#undef SSS_BOUNDARY_CASE
+    return false;
 }
 
 // Whether a straight shadow ray may pass through boundary b.
