@@ -10,6 +10,11 @@ direction of travel at u = (x + 1/2) / W, v = y / (H - 1), theta = pi v, phi = 2
 direction (sin theta sin phi, cos theta, -sin theta cos phi).
 
     python3 scenes/make_sky.py scenes/sky.exr --sun-elevation 35 --sun-azimuth 120
+
+With --no-sun the disc is left out (its glow stays): the sun is then a directional light of
+the scene, travelling along -(cos e sin a, sin e, -cos e cos a) for elevation e and azimuth a,
+as in scenes/showcase.json (whose sky.exr is `--width 256 --no-sun --sun-elevation 35
+--sun-azimuth 250`).
 """
 
 from __future__ import annotations
@@ -21,9 +26,10 @@ import numpy as np
 
 
 def sky(width: int, sun_elevation: float, sun_azimuth: float,
-        sun_radiance: float = 2.0e4, sun_radius_deg: float = 0.8) -> np.ndarray:
+        sun_radiance: float | None = 2.0e4, sun_radius_deg: float = 0.8) -> np.ndarray:
     """The map, (width / 2, width, 3) float32 linear radiance. Angles in degrees; the sun's
-    azimuth is phi = 2 pi u of the convention above (0: towards -z)."""
+    azimuth is phi = 2 pi u of the convention above (0: towards -z). sun_radiance None: no
+    disc."""
     height = width // 2
     x = np.arange(width)
     y = np.arange(height)
@@ -47,8 +53,9 @@ def sky(width: int, sun_elevation: float, sun_azimuth: float,
     w = np.clip(d[..., 1:2] / 0.02 + 0.5, 0.0, 1.0)
     img = img * w + ground * (1 - w)
     # The sun disc.
-    disc = cos_sun > math.cos(math.radians(sun_radius_deg))
-    img[disc] = sun_radiance * np.array([1.0, 0.95, 0.85])
+    if sun_radiance is not None:
+        disc = cos_sun > math.cos(math.radians(sun_radius_deg))
+        img[disc] = sun_radiance * np.array([1.0, 0.95, 0.85])
     return img.astype(np.float32)
 
 
@@ -58,12 +65,15 @@ def main() -> None:
     ap.add_argument("--width", type=int, default=512, help="pixels (height = width / 2)")
     ap.add_argument("--sun-elevation", type=float, default=35.0, help="degrees above the horizon")
     ap.add_argument("--sun-azimuth", type=float, default=120.0, help="degrees, phi = 2 pi u")
+    ap.add_argument("--no-sun", action="store_true",
+                    help="leave out the sun disc (light the scene with a directional light)")
     a = ap.parse_args()
     if a.width < 8 or a.width % 2:
         ap.error("--width must be an even number >= 8")
     import sssphere
 
-    sssphere.write_image(a.output, sky(a.width, a.sun_elevation, a.sun_azimuth))
+    sssphere.write_image(a.output, sky(a.width, a.sun_elevation, a.sun_azimuth,
+                                       sun_radiance=None if a.no_sun else 2.0e4))
     print(f"wrote {a.output}")
 
 
