@@ -6,6 +6,7 @@ means per channel with the one-sigma from both renders' variances. Seeds are fix
 
     python -m bench.st_bias                       # scenes/bunny.json, 64x64, 1024 spp: ~40 s
     python -m bench.st_bias --scene scenes/sphere.json --spp 256
+    python -m bench.st_bias --scene scenes/showcase.json --resolution 96 --spp 256
 
 Writes bench/results/st_bias.json (one entry per scene, replacing an earlier one).
 """
@@ -38,11 +39,9 @@ def main(argv=None) -> int:
 
     d = json.loads(args.scene.read_text())
     d["camera"]["width"] = d["camera"]["height"] = args.resolution
-    for s in d["shapes"]:  # mesh paths as the scene file resolves them
-        mesh = Path(s["mesh"])
-        s["mesh"] = str(mesh if mesh.is_absolute() else args.scene.parent / mesh)
     d.pop("render", None)
-    scene = sssphere.load_scene(d, threads=args.threads)
+    # Relative paths (meshes, maps) as the scene file resolves them.
+    scene = sssphere.load_scene(d, base_dir=args.scene.parent, threads=args.threads)
 
     def run(seed, **kw):
         return sssphere.render_full(scene, spp=args.spp, seed=seed, threads=args.threads, **kw)
