@@ -59,14 +59,27 @@ def test_cli_errors_are_clear(tmp_path, small_scene, args, expected):
     assert "Traceback" not in r.stderr
 
 
+def _default_signals():
+    # A shell that starts a job in the background without job control (`cmd &` in a
+    # script, as a CI runner may) makes it ignore SIGINT, and an ignored SIGINT is
+    # inherited: Python would then never see the test's Ctrl-C. The child gets the default.
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _interrupt_after_start(cmd, tmp_path, sig=signal.SIGINT, after=1.0):
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    # The progress bar's first output says the render has started (after the scene build,
-    # which takes longer on a loaded machine); then a few passes.
-    first = proc.stderr.read(1)
-    time.sleep(after)
-    proc.send_signal(sig)
-    _, err = proc.communicate(timeout=120)
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=_default_signals)
+    try:
+        # The progress bar's first output says the render has started (after the scene
+        # build, which takes longer on a loaded machine); then a few passes.
+        first = proc.stderr.read(1)
+        time.sleep(after)
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:  # the signal did not stop it: do not leave it running
+            proc.kill()
+            proc.communicate()
     return proc.returncode, first + err
 
 

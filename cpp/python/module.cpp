@@ -13,6 +13,7 @@
 #include "geometry/distance_grid.h"
 #include "io/image_input.h"
 #include "python/render_progress.h"
+#include "render/medium_presets.h"
 #include "render/renderer.h"
 #include "render/scene.h"
 
@@ -201,6 +202,40 @@ PYBIND11_MODULE(_core, m) {
         "A scene file's opaque surface (JSON text) as the BSDF of a Mitsuba 3 shape "
         "(JSON "
         "text).");
+
+    m.def(
+        "medium_coefficients",
+        [](const std::string& medium_json) {
+            const Medium med = parse_medium(medium_json, "<medium>");
+            auto rgb = [](Vec3 v) { return std::vector<float>{v.x, v.y, v.z}; };
+            py::dict d;
+            d["sigma_t"] = rgb(med.sigma_t);
+            d["albedo"] = rgb(med.albedo);
+            return d;
+        },
+        py::arg("medium_json"),
+        "A scene file's medium (JSON text, stated any way the format allows) as sigma_t "
+        "(per scene unit) and albedo, RGB.");
+
+    m.def(
+        "medium_presets",
+        [] {
+            auto rgb = [](Vec3 v) { return std::vector<float>{v.x, v.y, v.z}; };
+            py::list out;
+            for (const MediumPreset& p : medium_presets()) {
+                py::dict d;
+                d["name"] = p.name;
+                d["sigma_s_prime"] = rgb(p.sigma_s_prime);
+                d["sigma_a"] = rgb(p.sigma_a);
+                d["ior"] = p.ior > 0.f ? py::object(py::float_(p.ior)) : py::none();
+                d["source"] = p.source;
+                out.append(d);
+            }
+            return out;
+        },
+        "The measured media a scene's \"preset\" names (render/medium_presets.h): "
+        "reduced scattering and absorption in mm^-1, RGB, the index of refraction where "
+        "the source gives one, and the source.");
 
     m.def(
         "phase_to_mitsuba",

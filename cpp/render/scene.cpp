@@ -11,6 +11,7 @@
 #include "core/check.h"
 #include "core/files.h"
 #include "io/json_fields.h"
+#include "render/medium_presets.h"
 
 namespace sss {
 
@@ -100,14 +101,85 @@ Phase parse_phase(const json& j, const Field& f) {
     return p;
 }
 
+// A medium is stated in exactly one of these ways (docs/scene-format.md, "Ways to state a
+// medium"), each coefficient then multiplied by "scale".
 Medium parse_medium(const json& j, const Field& f) {
-    check_keys(j, f, {"sigma_t", "albedo", "g", "phase"});
+    check_keys(
+        j, f,
+        {"sigma_t", "albedo", "sigma_s", "sigma_a", "preset", "scale", "g", "phase"});
+    const char* forms[][2] = {
+        {"sigma_t", "albedo"}, {"sigma_s", "sigma_a"}, {"preset", ""}};
+    std::string given;
+    int form = -1;
+    for (int i = 0; i < 3; ++i) {
+        for (const char* key : forms[i]) {
+            if (!*key || !j.contains(key)) continue;
+            if (form >= 0 && form != i)
+                f.error(
+                    "give exactly one of sigma_t + albedo, sigma_s + sigma_a, preset ",
+                    "(got ", given, " and ", key, ")");
+            if (form < 0) given = key;
+            form = i;
+        }
+    }
+    if (form < 0)
+        f.error("missing a medium: give sigma_t + albedo, sigma_s + sigma_a, or preset");
+    for (const char* key : forms[form])
+        if (*key && !j.contains(key))
+            f.error(given, " needs ", key, " (", forms[form][0], " + ", forms[form][1],
+                    ")");
+    const double scale =
+        j.contains("scale")
+            ? number_in(j["scale"], f.at("scale"), 1e-9, 1e9,
+                        "a number in [1e-9, 1e9] (coefficients per scene unit "
+                        "= the stated ones x scale)")
+            : 1.0;
     Medium m;
-    m.sigma_t = rgb_in(require(j, "sigma_t", f), f.at("sigma_t"), 0.0, 1e7,
-                       "per-channel extinction in [0, 1e7] per scene unit");
-    m.albedo = rgb_in(require(j, "albedo", f), f.at("albedo"), 0.0, 1.0,
-                      "each channel in [0, 1]");
     m.phase = parse_phase(j, f);
+    Vec3 sigma_s, sigma_a;
+    if (form == 0) {
+        m.sigma_t = rgb_in(j["sigma_t"], f.at("sigma_t"), 0.0, 1e7,
+                           "per-channel extinction in [0, 1e7] per scene unit");
+        m.albedo =
+            rgb_in(j["albedo"], f.at("albedo"), 0.0, 1.0, "each channel in [0, 1]");
+        sigma_s = m.sigma_t * m.albedo;
+        sigma_a = m.sigma_t - sigma_s;
+    } else if (form == 1) {
+        sigma_s = rgb_in(j["sigma_s"], f.at("sigma_s"), 0.0, 1e7,
+                         "per-channel scattering in [0, 1e7] per scene unit");
+        sigma_a = rgb_in(j["sigma_a"], f.at("sigma_a"), 0.0, 1e7,
+                         "per-channel absorption in [0, 1e7] per scene unit");
+    } else {
+        const json& name = j["preset"];
+        const MediumPreset* preset = nullptr;
+        std::string names;
+        for (const MediumPreset& p : medium_presets()) {
+            if (name.is_string() && name.get<std::string>() == p.name) preset = &p;
+            names += std::string(names.empty() ? "" : ", ") + p.name;
+        }
+        if (!preset)
+            f.at("preset").error("value ", show(name),
+                                 " is not a preset (allowed: ", names,
+                                 "; `sssphere presets` lists them with their values)");
+        // Reduced scattering back to scattering for this medium's mean cosine g
+        // (Henyey-Greenstein's parameter; the only phase function so far).
+        SSS_CHECK(std::string(m.phase.kind().name) == "hg");
+        const float g = m.phase.x;
+        sigma_s = preset->sigma_s_prime / (1.f - g);
+        sigma_a = preset->sigma_a;
+    }
+    if (form != 0 || scale != 1.0) {
+        sigma_s = sigma_s * float(scale);
+        sigma_a = sigma_a * float(scale);
+        m.sigma_t = sigma_s + sigma_a;
+        for (int c = 0; c < 3; ++c) {
+            if (!(m.sigma_t[c] <= 1e7f))
+                f.error("extinction ", m.sigma_t[c], " per scene unit in channel ", c,
+                        " is above 1e7 (lower scale)");
+            m.albedo[c] =
+                m.sigma_t[c] > 0.f ? std::min(1.f, sigma_s[c] / m.sigma_t[c]) : 0.f;
+        }
+    }
     return m;
 }
 
@@ -383,6 +455,12 @@ Light parse_light(const std::string& json_text, const std::string& source, Vec3d
 
 Phase parse_phase(const std::string& medium_json, const std::string& source) {
     return parse_phase(parse_json(medium_json, source), Field{source, ""});
+}
+
+Medium parse_medium(const std::string& medium_json, const std::string& source) {
+    const json j = parse_json(medium_json, source);
+    if (!j.is_object()) fail(source, ": a medium must be a JSON object, got ", show(j));
+    return parse_medium(j, Field{source, ""});
 }
 
 Boundary parse_boundary(const std::string& json_text, const std::string& source) {

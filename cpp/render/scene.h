@@ -111,6 +111,10 @@ Light parse_light(const std::string& json_text, const std::string& source = "<li
 // A medium's phase function from the medium's JSON object ("phase", or "g" for
 // Henyey-Greenstein), as in a scene file.
 Phase parse_phase(const std::string& medium_json, const std::string& source = "<medium>");
+// A medium from its JSON object, as in a scene file (any way of stating it, resolved to
+// sigma_t and albedo per scene unit).
+Medium parse_medium(const std::string& medium_json,
+                    const std::string& source = "<medium>");
 // One boundary from its JSON object, as in a scene file.
 Boundary parse_boundary(const std::string& json_text,
                         const std::string& source = "<boundary>");

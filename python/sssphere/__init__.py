@@ -30,6 +30,7 @@ _EXPORTS = {
     "SceneWarning": "sssphere.scene",
     "load_mesh": "sssphere.scene",
     "load_scene": "sssphere.scene",
+    "presets": "sssphere.scene",
     "read_image": "sssphere.rendering",
     "render": "sssphere.rendering",
     "render_full": "sssphere.rendering",
@@ -46,6 +47,7 @@ __all__ = [
     "__version__",
     "load_mesh",
     "load_scene",
+    "presets",
     "read_image",
     "render",
     "render_full",
@@ -57,7 +59,7 @@ if TYPE_CHECKING:
     from sssphere._core import SceneError
     from sssphere.model import ScatteringModel
     from sssphere.rendering import RenderResult, read_image, render, render_full, write_image
-    from sssphere.scene import Scene, SceneWarning, load_mesh, load_scene
+    from sssphere.scene import Scene, SceneWarning, load_mesh, load_scene, presets
     from sssphere.walks import sphere_walks
 
 

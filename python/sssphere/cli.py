@@ -149,6 +149,23 @@ def _cmd_export(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_presets(args: argparse.Namespace) -> int:
+    from sssphere.scene import presets
+
+    def rgb(v):
+        return " ".join(f"{x:10.4g}" for x in v)
+
+    print(f"{'preset':28s} {'sigma_s_prime (mm^-1), R G B':>32s}  {'sigma_a (mm^-1), R G B':>32s}"
+          f"  {'ior':>4s}  source")
+    for p in presets():
+        ior = f"{p['ior']:.1f}" if p["ior"] is not None else "-"
+        print(f"{p['name']:28s} {rgb(p['sigma_s_prime'])}  {rgb(p['sigma_a'])}  {ior:>4s}  "
+              f"{p['source']}")
+    print('\nIn a medium: {"preset": NAME, "scale": scene units per mm, "g": ...}; '
+          "sigma_s = sigma_s_prime / (1 - g).")
+    return 0
+
+
 def _cmd_eval(args: argparse.Namespace) -> int:
     from sssphere.learn import evaluate
 
@@ -252,6 +269,9 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--no-plots", action="store_true", help="skip the figures")
     e.add_argument("--quiet", action="store_true", help="no progress bar")
     e.set_defaults(func=_cmd_eval)
+
+    p = sub.add_parser("presets", help="list the measured media a scene's medium can name")
+    p.set_defaults(func=_cmd_presets)
     return parser
 
 

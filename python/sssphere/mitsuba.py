@@ -158,6 +158,8 @@ def mitsuba_scene_dict(
             }
             continue
         med = shape["medium"]
+        # However the medium is stated (sigma_t + albedo, sigma_s + sigma_a, a preset).
+        coefficients = _core.medium_coefficients(json.dumps(med))
         # Each boundary type writes its own BSDF (render/boundaries/<type>.h).
         boundary = shape.get("boundary", {"type": "index_matched"})
         bsdf = _from_markers(mi, json.loads(_core.boundary_to_mitsuba(json.dumps(boundary))))
@@ -168,8 +170,8 @@ def mitsuba_scene_dict(
             "bsdf": bsdf,
             "interior": {
                 "type": "homogeneous",
-                "sigma_t": _unbounded(mi, med["sigma_t"]),
-                "albedo": _rgb(mi, med["albedo"]),
+                "sigma_t": _unbounded(mi, coefficients["sigma_t"]),
+                "albedo": _rgb(mi, coefficients["albedo"]),
                 # Each phase function type writes its own (render/phase/<type>.h).
                 "phase": json.loads(_core.phase_to_mitsuba(json.dumps(med))),
             },

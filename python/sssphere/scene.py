@@ -99,3 +99,12 @@ def load_mesh(path: Union[str, os.PathLike]) -> tuple[np.ndarray, np.ndarray]:
     """Load, check and orient a closed mesh. Returns (vertices (n, 3) float32,
     triangles (m, 3) uint32), counter-clockwise = outward."""
     return _core.load_mesh(str(path))
+
+
+def presets() -> list[dict]:
+    """The measured media a scene's ``"preset"`` names (docs/scene-format.md, "Ways to state a
+    medium"): one dict per medium with ``name``, ``sigma_s_prime`` (reduced scattering) and
+    ``sigma_a`` (absorption), RGB in mm^-1, ``ior`` (the source's index of refraction, or
+    None) and ``source``. A preset medium gets sigma_s = sigma_s_prime / (1 - g) for its own
+    ``g``, times its ``scale`` (scene units per mm)."""
+    return [dict(p) for p in _core.medium_presets()]

@@ -1,0 +1,117 @@
+"""Ways to state a medium (docs/scene-format.md, "Ways to state a medium"): sigma_t + albedo,
+sigma_s + sigma_a, a measured preset, each times `scale`; the preset table; the Mitsuba export
+of a stated medium."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import sssphere
+from sssphere import _core
+
+JENSEN = ["apple", "chicken1", "chicken2", "cream", "ketchup", "marble", "potato", "skimmilk",
+          "skin1", "skin2", "spectralon", "wholemilk"]
+
+
+def coefficients(medium: dict) -> tuple[np.ndarray, np.ndarray]:
+    c = _core.medium_coefficients(json.dumps(medium))
+    return np.array(c["sigma_t"], np.float64), np.array(c["albedo"], np.float64)
+
+
+def test_preset_table_has_both_papers_with_units_and_sources():
+    table = {p["name"]: p for p in sssphere.presets()}
+    assert set(JENSEN) <= set(table)
+    narasimhan = [p for p in table.values() if p["source"].startswith("Narasimhan")]
+    assert len(narasimhan) == 35
+    for p in table.values():
+        assert len(p["sigma_s_prime"]) == 3 and len(p["sigma_a"]) == 3
+        assert min(p["sigma_s_prime"]) >= 0 and min(p["sigma_a"]) >= 0, p["name"]
+        assert max(p["sigma_s_prime"]) + max(p["sigma_a"]) > 0, p["name"]
+    for name in JENSEN:
+        assert table[name]["source"].startswith("Jensen")
+        assert table[name]["ior"] == pytest.approx(1.5 if name == "marble" else 1.3)
+    # Spot checks against the published numbers (mm^-1): Jensen et al. 2001's measured
+    # sigma_s' and sigma_a ...
+    assert table["skin1"]["sigma_s_prime"] == pytest.approx([0.74, 0.88, 1.01])
+    assert table["skin1"]["sigma_a"] == pytest.approx([0.032, 0.17, 0.48])
+    assert table["marble"]["sigma_s_prime"] == pytest.approx([2.19, 2.62, 3.00])
+    assert table["marble"]["sigma_a"] == pytest.approx([0.0021, 0.0041, 0.0071])
+    assert table["chicken1"]["sigma_a"] == pytest.approx([0.015, 0.077, 0.19])
+    assert table["ketchup"]["sigma_a"] == pytest.approx([0.061, 0.97, 1.45])
+    # ... and Narasimhan et al. 2006's sigma_s and g, reduced: sigma_s (1 - g).
+    for name, sigma_s, g in [("lowfat_milk", 13.1157, 0.932), ("regular_milk", 18.2052, 0.75),
+                             ("espresso", 7.78262, 0.907)]:
+        assert table[name]["sigma_s_prime"][0] == pytest.approx(sigma_s * (1 - g), rel=2e-3), name
+        assert table[name]["ior"] is None
+
+
+def test_cli_prints_the_presets(capsys):
+    from sssphere.cli import main
+
+    assert main(["presets"]) == 0
+    out = capsys.readouterr().out
+    for name in ["skin1", "marble", "regular_milk", "pacific_ocean_surface_water"]:
+        assert name in out
+    assert "mm^-1" in out
+
+
+@pytest.mark.parametrize("name", ["skin1", "marble", "ketchup", "regular_milk", "spectralon"])
+@pytest.mark.parametrize("g, scale", [(0.0, 1.0), (0.6, 25.0)])
+def test_preset_resolves_to_its_coefficients(name, g, scale):
+    p = next(p for p in sssphere.presets() if p["name"] == name)
+    sigma_s = np.array(p["sigma_s_prime"]) / (1 - g) * scale
+    sigma_a = np.array(p["sigma_a"]) * scale
+    sigma_t, albedo = coefficients({"preset": name, "g": g, "scale": scale})
+    assert sigma_t == pytest.approx(sigma_s + sigma_a, rel=1e-6)
+    assert albedo == pytest.approx(sigma_s / (sigma_s + sigma_a), rel=1e-6)
+
+
+def test_sigma_s_sigma_a_and_scale():
+    sigma_t, albedo = coefficients({"sigma_s": [3, 0, 1], "sigma_a": [1, 2, 0]})
+    assert sigma_t == pytest.approx([4, 2, 1])
+    assert albedo == pytest.approx([0.75, 0, 1])
+    sigma_t, albedo = coefficients({"sigma_s": [0, 1, 1], "sigma_a": [0, 1, 1]})
+    assert sigma_t[0] == 0 and albedo[0] == 0  # no medium in red: albedo 0, not NaN
+    sigma_t, albedo = coefficients({"sigma_t": [2, 4, 6], "albedo": [0.5, 0.9, 1], "scale": 10})
+    assert sigma_t == pytest.approx([20, 40, 60]) and albedo == pytest.approx([0.5, 0.9, 1])
+
+
+def _ball(medium: dict) -> dict:
+    return {"camera": {"origin": [0, 0, 4], "target": [0, 0, 0], "fov": 30, "width": 12,
+                       "height": 12},
+            "shapes": [{"sphere": {"center": [0, 0, 0], "radius": 1}, "medium": medium}],
+            "lights": [{"type": "point", "position": [2, 2, 3], "intensity": 10},
+                       {"type": "environment", "radiance": 0.2}]}
+
+
+def test_scene_renders_a_preset_as_its_resolved_coefficients():
+    """The scene parser goes through the same resolution: a preset medium and the
+    sigma_t + albedo it resolves to render the same image from the same seed, bit for bit."""
+    medium = {"preset": "skin2", "scale": 8, "g": 0.3}
+    c = _core.medium_coefficients(json.dumps(medium))
+    a = sssphere.render(_ball(medium), spp=8, seed=5)
+    b = sssphere.render(_ball({"sigma_t": c["sigma_t"], "albedo": c["albedo"], "g": 0.3}),
+                        spp=8, seed=5)
+    assert np.array_equal(a, b)
+    assert a.mean() > 0
+
+
+def test_mitsuba_export_uses_the_resolved_coefficients(tmp_path):
+    import mitsuba as mi
+
+    from sssphere.mitsuba import VARIANT, mitsuba_scene_dict
+
+    mi.set_variant(VARIANT)
+    scene = _ball({"preset": "marble", "scale": 4})
+    out = mitsuba_scene_dict(scene, sssphere.load_scene(scene), tmp_path, spp=4)
+    interior = next(v for v in out.values() if isinstance(v, dict) and "interior" in v)["interior"]
+    sigma_t, albedo = coefficients({"preset": "marble", "scale": 4})
+    got_t = [float(x) for x in interior["sigma_t"]["color"]]
+    got_albedo = [float(x) for x in interior["albedo"]["value"]]
+    assert got_t == pytest.approx(list(sigma_t), rel=1e-6)
+    assert got_albedo == pytest.approx(list(albedo), rel=1e-6)
+    assert math.isclose(got_t[0], (2.19 + 0.0021) * 4, rel_tol=1e-5)
