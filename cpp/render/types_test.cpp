@@ -185,6 +185,67 @@ double chi2_limit(int dof) {
     return dof * std::pow(1.0 - k + z * std::sqrt(k), 3.0);
 }
 
+// Directions binned by (cos theta, phi) about a frame's z, 40 x 16 bins of equal solid
+// angle, for chi-square tests of direction sampling against a pdf.
+constexpr int kCosBins = 40, kPhiBins = 16;
+
+int sphere_bin(const Frame& frame, Vec3 w) {
+    const Vec3 l = frame_to_local(frame, w);
+    const int c = std::clamp(int((l.z + 1.f) * 0.5f * kCosBins), 0, kCosBins - 1);
+    const float phi = std::atan2(l.y, l.x) + float(M_PI);
+    const int p = std::clamp(int(phi / (2.f * float(M_PI)) * kPhiBins), 0, kPhiBins - 1);
+    return c * kPhiBins + p;
+}
+
+// The counts n samples drawn with density pdf(w) (solid angle) put in each sphere_bin:
+// the pdf integrated over each bin by the midpoint rule on sub x sub cells.
+template <class Pdf>
+std::vector<double> expected_bin_counts(const Frame& frame, const Pdf& pdf, int n,
+                                        int sub) {
+    std::vector<double> expected(kCosBins * kPhiBins, 0.0);
+    const double d_omega = (2.0 / kCosBins) * (2.0 * M_PI / kPhiBins) / (sub * sub);
+    for (int c = 0; c < kCosBins; ++c)
+        for (int p = 0; p < kPhiBins; ++p)
+            for (int i = 0; i < sub; ++i)
+                for (int j = 0; j < sub; ++j) {
+                    const float z = -1.f + 2.f * (c + (i + 0.5f) / sub) / kCosBins;
+                    const float phi =
+                        2.f * float(M_PI) * (p + (j + 0.5f) / sub) / kPhiBins -
+                        float(M_PI);
+                    const float r = std::sqrt(std::max(0.f, 1.f - z * z));
+                    const Vec3 w = frame_to_world(
+                        frame, Vec3(r * std::cos(phi), r * std::sin(phi), z));
+                    expected[c * kPhiBins + p] += pdf(w) * d_omega * n;
+                }
+    return expected;
+}
+
+// Pearson's chi-square of observed against expected counts, the bins expecting fewer than
+// 5 pooled into one (whose expectation counts as at least 5, so that samples where the
+// pdf says almost none still raise it), and its degrees of freedom.
+struct ChiSquare {
+    double value = 0;
+    int dof = -1;
+};
+ChiSquare chi_square(const std::vector<double>& observed,
+                     const std::vector<double>& expected) {
+    ChiSquare x;
+    double pooled_o = 0, pooled_e = 0;
+    for (size_t k = 0; k < expected.size(); ++k) {
+        if (expected[k] < 5) {
+            pooled_o += observed[k];
+            pooled_e += expected[k];
+            continue;
+        }
+        x.value +=
+            (observed[k] - expected[k]) * (observed[k] - expected[k]) / expected[k];
+        ++x.dof;
+    }
+    x.value += (pooled_o - pooled_e) * (pooled_o - pooled_e) / std::max(pooled_e, 5.0);
+    ++x.dof;
+    return x;
+}
+
 // An environment map with structure in every direction and a small bright spot: written
 // as an EXR, read back through the installed reader, as a scene would.
 Light environment_map_light(std::vector<float>& floats, const char* extra = "") {
@@ -348,7 +409,6 @@ TEST(Registries, BoundariesObeyFresnelAndSnell) {
 TEST(Registries, RoughDielectricSamplesItsBsdf) {
     const Vec3 n = normalize(Vec3(-0.3f, 0.2f, 0.9f));
     const Frame frame = frame_from_z(n);
-    constexpr int kCos = 40, kPhi = 16, kSub = 16;
     for (const std::string& text : kRoughBoundaries) {
         const Boundary b = parse_boundary(text);
         ASSERT_TRUE(b.samples_lights()) << text;
@@ -357,60 +417,26 @@ TEST(Registries, RoughDielectricSamplesItsBsdf) {
             const float sin_d = std::sqrt(1.f - cos_d * cos_d);
             const Vec3 d = frame_to_world(frame, Vec3(sin_d, 0.f, cos_d));
             const std::string what = text + ", cos_d " + std::to_string(cos_d);
-            auto bin_of = [&](Vec3 w) {
-                const Vec3 l = frame_to_local(frame, w);
-                const int c = std::clamp(int((l.z + 1.f) * 0.5f * kCos), 0, kCos - 1);
-                const float phi = std::atan2(l.y, l.x) + float(M_PI);
-                const int p =
-                    std::clamp(int(phi / (2.f * float(M_PI)) * kPhi), 0, kPhi - 1);
-                return c * kPhi + p;
-            };
             const int n_samples = 200000;
-            std::vector<double> observed(kCos * kPhi, 0.0), expected(kCos * kPhi, 0.0);
+            std::vector<double> observed(kCosBins * kPhiBins, 0.0);
             for (int i = 0; i < n_samples; ++i) {
                 const BoundaryEvent e = boundary_cross(b, d, n, rng);
                 ASSERT_FALSE(e.specular);
                 if (!(e.weight > 0.f)) continue;
-                observed[bin_of(e.d)] += 1;
+                observed[sphere_bin(frame, e.d)] += 1;
                 ASSERT_EQ(e.crossed, dot(e.d, n) * dot(d, n) > 0.f) << what;
                 const BoundaryEval ev = boundary_eval(b, d, e.d, n);
                 ASSERT_NEAR(ev.pdf, e.pdf, 1e-3f * e.pdf + 1e-5f) << what;
                 ASSERT_NEAR(e.weight, ev.f / ev.pdf, 1e-3f) << what;
                 ASSERT_LE(e.weight, 1.f);
             }
-            for (int c = 0; c < kCos; ++c)
-                for (int p = 0; p < kPhi; ++p)
-                    for (int i = 0; i < kSub; ++i)
-                        for (int j = 0; j < kSub; ++j) {
-                            const float z = -1.f + 2.f * (c + (i + 0.5f) / kSub) / kCos;
-                            const float phi =
-                                2.f * float(M_PI) * (p + (j + 0.5f) / kSub) / kPhi -
-                                float(M_PI);
-                            const float r = std::sqrt(std::max(0.f, 1.f - z * z));
-                            const Vec3 w = frame_to_world(
-                                frame, Vec3(r * std::cos(phi), r * std::sin(phi), z));
-                            const double d_omega =
-                                (2.0 / kCos) * (2.0 * M_PI / kPhi) / (kSub * kSub);
-                            expected[c * kPhi + p] +=
-                                boundary_eval(b, d, w, n).pdf * d_omega * n_samples;
-                        }
-            double chi2 = 0, pooled_o = 0, pooled_e = 0;
-            int dof = -1;
-            for (size_t k = 0; k < expected.size(); ++k) {
-                if (expected[k] < 5) {
-                    pooled_o += observed[k];
-                    pooled_e += expected[k];
-                    continue;
-                }
-                chi2 += (observed[k] - expected[k]) * (observed[k] - expected[k]) /
-                        expected[k];
-                ++dof;
-            }
-            chi2 +=
-                (pooled_o - pooled_e) * (pooled_o - pooled_e) / std::max(pooled_e, 5.0);
-            ++dof;
-            ASSERT_GT(dof, 30) << what;
-            EXPECT_LT(chi2, chi2_limit(dof)) << what;
+            const ChiSquare x = chi_square(
+                observed,
+                expected_bin_counts(
+                    frame, [&](Vec3 w) { return boundary_eval(b, d, w, n).pdf; },
+                    n_samples, 16));
+            ASSERT_GT(x.dof, 30) << what;
+            EXPECT_LT(x.value, chi2_limit(x.dof)) << what;
 
             // Energy and reciprocity.
             const int n_dirs = 200000;
@@ -520,72 +546,33 @@ TEST(Registries, PhaseFunctionsAreSampledExactly) {
 TEST(Registries, SurfacesSampleTheirBsdfAndConserveEnergy) {
     const Vec3 n = normalize(Vec3(0.2f, 0.9f, -0.3f));
     const Frame frame = frame_from_z(n);
-    constexpr int kCos = 40, kPhi = 16;
     for (const auto& [name, text] : kSurfaceExamples) {
         const Surface s = parse_surface(text);
         Rng rng(17, s.type);
         for (const float cos_i : {0.95f, 0.4f, 0.05f, -0.6f}) {
             const float sin_i = std::sqrt(1.f - cos_i * cos_i);
             const Vec3 wi = frame_to_world(frame, Vec3(sin_i, 0.f, cos_i));
-            auto bin_of = [&](Vec3 w) {
-                const Vec3 l = frame_to_local(frame, w);
-                const int c = std::clamp(int((l.z + 1.f) * 0.5f * kCos), 0, kCos - 1);
-                const float phi = std::atan2(l.y, l.x) + float(M_PI);
-                const int p =
-                    std::clamp(int(phi / (2.f * float(M_PI)) * kPhi), 0, kPhi - 1);
-                return c * kPhi + p;
-            };
             // Sampled counts, with each sample checked against eval.
             const int n_samples = 200000;
-            std::vector<double> observed(kCos * kPhi, 0.0), expected(kCos * kPhi, 0.0);
+            std::vector<double> observed(kCosBins * kPhiBins, 0.0);
             for (int i = 0; i < n_samples; ++i) {
                 const float u1 = rng.uniform(), u2 = rng.uniform();
                 const SurfaceSample ss = surface_sample(s, wi, n, u1, u2);
                 if (!(ss.pdf > 0.f)) continue;
-                observed[bin_of(ss.wo)] += 1;
+                observed[sphere_bin(frame, ss.wo)] += 1;
                 const SurfaceEval e = surface_eval(s, wi, ss.wo, n);
                 ASSERT_NEAR(e.pdf, ss.pdf, 1e-4f * ss.pdf) << name;
                 for (int c = 0; c < 3; ++c)
                     ASSERT_NEAR(ss.weight[c], e.f[c] / e.pdf, 1e-4f) << name;
             }
             // Expected counts: eval's pdf integrated over each bin (8 x 8 midpoints).
-            for (int c = 0; c < kCos; ++c)
-                for (int p = 0; p < kPhi; ++p)
-                    for (int a = 0; a < 8; ++a)
-                        for (int b = 0; b < 8; ++b) {
-                            const float z = -1.f + 2.f * (c + (a + 0.5f) / 8.f) / kCos;
-                            const float phi =
-                                2.f * float(M_PI) * (p + (b + 0.5f) / 8.f) / kPhi -
-                                float(M_PI);
-                            const float r = std::sqrt(std::max(0.f, 1.f - z * z));
-                            const Vec3 w = frame_to_world(
-                                frame, Vec3(r * std::cos(phi), r * std::sin(phi), z));
-                            const double d_omega =
-                                (2.0 / kCos) * (2.0 * M_PI / kPhi) / 64.0;
-                            expected[c * kPhi + p] +=
-                                surface_eval(s, wi, w, n).pdf * d_omega * n_samples;
-                        }
-            double chi2 = 0, pooled_o = 0, pooled_e = 0;
-            int dof = -1;
-            for (size_t k = 0; k < expected.size(); ++k) {
-                if (expected[k] < 5) {
-                    pooled_o += observed[k];
-                    pooled_e += expected[k];
-                    continue;
-                }
-                chi2 += (observed[k] - expected[k]) * (observed[k] - expected[k]) /
-                        expected[k];
-                ++dof;
-            }
-            if (pooled_e >= 5) {
-                chi2 += (pooled_o - pooled_e) * (pooled_o - pooled_e) / pooled_e;
-                ++dof;
-            } else {
-                EXPECT_LT(pooled_o, 5 + 5 * std::sqrt(5.0)) << name << ": samples where "
-                                                            << "eval says almost none";
-            }
-            ASSERT_GT(dof, 50) << name;
-            EXPECT_LT(chi2, chi2_limit(dof)) << name << ", cos_i " << cos_i;
+            const ChiSquare x = chi_square(
+                observed,
+                expected_bin_counts(
+                    frame, [&](Vec3 w) { return surface_eval(s, wi, w, n).pdf; },
+                    n_samples, 8));
+            ASSERT_GT(x.dof, 50) << name;
+            EXPECT_LT(x.value, chi2_limit(x.dof)) << name << ", cos_i " << cos_i;
 
             // The pdf integrates to 1, the albedo to at most 1; reciprocity.
             const int n_dirs = 200000;

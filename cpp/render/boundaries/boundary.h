@@ -52,6 +52,17 @@ struct BoundaryEval {
     float pdf;
 };
 
+// No event: the photon is absorbed (weight 0 ends the path).
+SSS_FN BoundaryEvent no_boundary_event(Vec3 d) {
+    BoundaryEvent e;
+    e.d = d;
+    e.crossed = false;
+    e.specular = false;
+    e.weight = 0.f;
+    e.pdf = 0.f;
+    return e;
+}
+
 SSS_FN BoundaryEval no_boundary_eval() {
     BoundaryEval e;
     e.f = 0.f;

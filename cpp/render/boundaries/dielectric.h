@@ -67,12 +67,7 @@ SSS_FN Frame dielectric_side_frame(BoundaryData b, Vec3 d, Vec3 n, SSS_OUT(float
 
 SSS_FN BoundaryEvent rough_dielectric_cross(BoundaryData b, Vec3 d, Vec3 n,
                                             SSS_INOUT(RngState) rng) {
-    BoundaryEvent e;
-    e.d = d;
-    e.crossed = false;
-    e.specular = false;
-    e.weight = 0.f;
-    e.pdf = 0.f;
+    BoundaryEvent e = no_boundary_event(d);
     float eta;
     Frame f = dielectric_side_frame(b, d, n, eta);
     float alpha = max(b.y, kMinGgxAlpha);

@@ -27,13 +27,7 @@ SSS_FN BoundaryEvent boundary_cross(BoundaryData b, Vec3 d, Vec3 n,
     if (b.type == type_id) return name##_boundary_cross(b, d, n, rng);
     SSS_BOUNDARY_TYPES(SSS_BOUNDARY_CASE)
 #undef SSS_BOUNDARY_CASE
-    BoundaryEvent e;  // no such type: absorbed (cannot happen for a parsed scene)
-    e.d = d;
-    e.crossed = false;
-    e.specular = true;
-    e.weight = 0.f;
-    e.pdf = 0.f;
-    return e;
+    return no_boundary_event(d);  // no such type (cannot happen for a parsed scene)
 }
 
 // A rough boundary b's BSDF times |cos| and sampling pdf, for a photon that arrived along
