@@ -457,7 +457,8 @@ RENDER_CASES = {
     # The scene of scenes/bunny.json, less dense, at 24x16 pixels: dielectric, so the GPU's
     # estimator (no light sampling) is the CPU's with NEE (nee=True on both).
     "bunny_dielectric": (lambda: bunny_scene(sigma_t=50.0, g=0.9), True),
-    # Chromatic extinction: one channel per path, weight 3; many sphere steps (sigma*r ~ 20-40).
+    # Chromatic extinction: pt with spectral MIS, st one channel per path (weight 3); many
+    # sphere steps (sigma*r ~ 20-40).
     "sphere_dielectric_chromatic": (
         lambda: sphere_scene(sigma_t=[20.0, 30.0, 40.0], albedo=(0.99, 0.98, 0.97), g=0.5), True),
     # Index-matched, without and with light sampling (area light and environment, MIS).
@@ -466,7 +467,7 @@ RENDER_CASES = {
     "sphere_index_matched_nee": (
         lambda: sphere_scene(sigma_t=30.0, g=0.7, boundary=INDEX_MATCHED), True),
     # Shadow rays that leave and re-enter the medium (the ears and the body), chromatic
-    # extinction: one channel per path, shadow roulette by that channel's bound.
+    # extinction: pt with spectral MIS, its shadow roulette by the smallest sigma_t.
     "bunny_index_matched_nee": (
         lambda: bunny_scene(sigma_t=[60.0, 80.0, 100.0], boundary=INDEX_MATCHED), True),
     # An opaque diffuse floor (light sampling and MIS at its points, shadow rays it blocks)

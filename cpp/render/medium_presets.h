@@ -9,6 +9,7 @@
 // docs/scene-format.md for how they were checked.
 #pragma once
 
+#include <cmath>
 #include <vector>
 
 #include "core/vec.h"
@@ -78,6 +79,33 @@ inline const std::vector<MediumPreset>& medium_presets() {
     };
     // clang-format on
     return presets;
+}
+
+// Reduced coefficients per scene unit (sigma_s' = sigma_s (1 - g)).
+struct ReducedCoefficients {
+    Vec3 sigma_s_prime, sigma_a;
+};
+
+// A medium as a user sees it: "color", the multiple-scattering albedo A (what a thick
+// slab of it reflects), and "mean_free_path" d, per channel, inverted with the fit of
+// Chiang, Kutz and Burley, "Practical and Controllable Subsurface Scattering for
+// Production Path Tracing" (SIGGRAPH 2016 talk), made for isotropic scattering and
+// applied here to the reduced coefficients (docs/scene-format.md):
+//   alpha' = 1 - exp(-5.09406 A + 2.61188 A^2 - 4.31805 A^3),  s = 1.9 - A + 3.5 (A -
+//   0.8)^2, sigma_t' = 1 / (d s),  sigma_s' = alpha' sigma_t',  sigma_a = sigma_t' -
+//   sigma_s'.
+inline ReducedCoefficients invert_multiple_scattering_albedo(Vec3 color,
+                                                             Vec3 mean_free_path) {
+    ReducedCoefficients r;
+    for (int c = 0; c < 3; ++c) {
+        const double a = color[c];
+        const double alpha = 1.0 - std::exp(a * (-5.09406 + a * (2.61188 - a * 4.31805)));
+        const double s = 1.9 - a + 3.5 * (a - 0.8) * (a - 0.8);
+        const double sigma_t = 1.0 / (double(mean_free_path[c]) * s);
+        r.sigma_s_prime[c] = float(alpha * sigma_t);
+        r.sigma_a[c] = float((1.0 - alpha) * sigma_t);
+    }
+    return r;
 }
 
 }  // namespace sss

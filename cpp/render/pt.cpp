@@ -199,13 +199,17 @@ void PathTracer::start(PathState& ps, const Vec3& o, const Vec3& d,
     ps.rng = rng;
     ps.o = o;
     ps.d = d;
-    // RGB media with differing channels: each path transports one channel, chosen
-    // uniformly, with weight 3 (unbiased; docs/notation.md, "Colour"). Grey media: all
-    // three channels at once.
+    // RGB media with differing channels (docs/notation.md, "Colour"): a hero channel,
+    // chosen uniformly, samples the flights. "pt" carries all three channels with
+    // spectral MIS; "st", whose steps are sampled for one extinction, transports that
+    // channel alone with weight 3. Grey media: all three channels at once.
     if (!scene_.grey_media()) {
         ps.channel = std::min(2, int(ps.rng.uniform() * 3.f));
-        ps.beta = Vec3(0.f);
-        ps.beta[ps.channel] = 3.f;
+        ps.spectral = st_ == nullptr;
+        if (!ps.spectral) {
+            ps.beta = Vec3(0.f);
+            ps.beta[ps.channel] = 3.f;
+        }
     }
     ps.beta_start = max_component(ps.beta);
 }
@@ -271,6 +275,7 @@ bool PathTracer::take_step(PathState& ps, const WorldSphereStep& step) const {
 void PathTracer::request_step(PathState& ps, float r) const {
     const Medium& m = scene_.desc().shapes[ps.shape].medium;
     const float sigma_t = extinction(m, ps.channel);
+    SSS_CHECK(!ps.spectral);
     ++ps.out.sphere_steps;
     StepRequest& req = ps.step;
     req.p = ps.o;
@@ -302,9 +307,10 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
     const SceneDesc& desc = scene_.desc();
     // The path's state in locals for the loop (written back when it waits for a step).
     Rng rng = ps.rng;
-    Vec3 o = ps.o, d = ps.d, L = ps.L, beta = ps.beta;
+    Vec3 o = ps.o, d = ps.d, L = ps.L, beta = ps.beta, ratio = ps.ratio;
     const float beta_start = ps.beta_start;
     const int channel = ps.channel;
+    const bool spectral = ps.spectral;
     int shape = ps.shape;
     bool specular = ps.specular;
     float phase_pdf = ps.phase_pdf;
@@ -313,7 +319,7 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
     PathSample out = ps.out;
     auto suspend = [&]() {
         ps.rng = rng;
-        ps.o = o, ps.d = d, ps.L = L, ps.beta = beta;
+        ps.o = o, ps.d = d, ps.L = L, ps.beta = beta, ps.ratio = ratio;
         ps.shape = shape;
         ps.specular = specular;
         ps.phase_pdf = phase_pdf;
@@ -327,6 +333,18 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
         ps.out = out;
         return true;
     };
+    // What a vertex's light contributes is weighted by `weight()`: the throughput, over
+    // the channels' mean relative pdf with spectral MIS (the balance heuristic over the
+    // hero channel's choice; docs/notation.md, "Colour").
+    auto weight = [&]() {
+        return spectral ? beta * (3.f / (ratio.x + ratio.y + ratio.z)) : beta;
+    };
+    // Roulette on that weight: the start value scales by the same mean.
+    auto roulette = [&]() {
+        const float start =
+            spectral ? beta_start * (ratio.x + ratio.y + ratio.z) / 3.f : beta_start;
+        return survives_roulette(beta, start, rng);
+    };
     // NEE picks one light uniformly: the light-sampling pdfs in MIS weights carry 1/n.
     const float light_select_pdf =
         desc.lights.empty() ? 0.f : 1.f / float(desc.lights.size());
@@ -338,7 +356,8 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
         ++out.scatter_events;
         if (max_bounces_ >= 0 && int(out.scatter_events) > max_bounces_) return false;
         if (nee_ && !desc.lights.empty())
-            L += beta * sample_light(hit.p, SurfaceScatter{surface, hit, d, shape}, rng);
+            L += weight() *
+                 sample_light(hit.p, SurfaceScatter{surface, hit, d, shape}, rng);
         const float u1 = rng.uniform(), u2 = rng.uniform();
         const SurfaceSample ss = surface_sample(surface, -d, hit.normal, u1, u2);
         beta *= ss.weight;
@@ -349,14 +368,14 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
         d = ss.wo;
         o = leave(hit, d);
         r_at_o = -1.f;
-        return survives_roulette(beta, beta_start, rng);
+        return roulette();
     };
     // The photon meets the boundary of the shape of `hit`, from outside or from inside:
     // on a rough interface the meeting point is a path vertex that samples lights first;
     // then the boundary reflects or transmits it. False when the path ends there.
     auto cross = [&](const Hit& hit, const Boundary& boundary) {
         if (nee_ && !desc.lights.empty() && boundary.samples_lights())
-            L += beta * sample_light(hit.p, BoundaryScatter{boundary, hit, d}, rng);
+            L += weight() * sample_light(hit.p, BoundaryScatter{boundary, hit, d}, rng);
         const BoundaryEvent b = boundary_cross(boundary, d, hit.normal, rng.state());
         beta *= b.weight;
         if (is_black(beta)) return false;
@@ -386,7 +405,7 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
                         specular || !nee_
                             ? 1.f
                             : power_heuristic(phase_pdf, e.pdf * light_select_pdf);
-                    L += beta * e.L * w;
+                    L += weight() * e.L * w;
                 }
                 break;
             }
@@ -401,7 +420,7 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
                     specular || !nee_
                         ? 1.f
                         : power_heuristic(phase_pdf, e.pdf * light_select_pdf);
-                L += beta * e.L * w;
+                L += weight() * e.L * w;
                 break;  // emitters absorb
             }
             const Shape& s = desc.shapes[hit.mesh];
@@ -443,6 +462,12 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             shape = -1;
             continue;
         }
+        if (spectral) {
+            const Vec3 f = hero_flight_ratio(s.medium.sigma_t, channel,
+                                             at_boundary ? hit.t : t, !at_boundary);
+            ratio *= f;
+            beta *= f;
+        }
 
         if (!at_boundary) {
             o = end;
@@ -464,13 +489,14 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             beta *= s.medium.albedo;
             if (is_black(beta)) break;
             if (nee_ && !desc.lights.empty())
-                L += beta * direct_light(o, r, d, shape, channel, rng);
+                L +=
+                    weight() * direct_light(o, r, d, shape, spectral ? -1 : channel, rng);
             Vec3 d_new = phase_sample(s.medium.phase, d, rng.uniform(), rng.uniform());
             phase_pdf = phase_eval(s.medium.phase, dot(d, d_new));
             scatter_pos = o;
             d = d_new;
             specular = false;
-            if (!survives_roulette(beta, beta_start, rng)) break;
+            if (!roulette()) break;
             continue;
         }
 

@@ -34,8 +34,14 @@ struct PathState {
     Vec3 o, d;  // position and direction
     Vec3 L{0.f}, beta{1.f};
     float beta_start = 1.f;
-    int channel = -1;  // the channel carried (-1: all three; RGB media, docs/notation.md)
-    int shape = -1;    // the shape whose medium holds the photon; -1 = vacuum
+    // Chromatic media (docs/notation.md, "Colour"): "pt" samples flights with the hero
+    // channel's extinction and carries all three channels with spectral MIS (`ratio`:
+    // each channel's pdf of the path so far over the hero channel's, so that a vertex
+    // contributes beta / mean(ratio)); "st" carries the one channel (beta = 3 e_c).
+    int channel = -1;       // the hero or carried channel; -1: grey media, any channel
+    bool spectral = false;  // spectral MIS ("pt" on chromatic media)
+    Vec3 ratio{1.f};
+    int shape = -1;  // the shape whose medium holds the photon; -1 = vacuum
     // The last vertex did no light sampling that an emitter hit now must share with: the
     // camera, a specular interface, or a sphere step with StepNee::Hits (weight 1).
     bool specular = true;

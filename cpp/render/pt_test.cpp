@@ -64,9 +64,59 @@ TEST(PathTracer, FurnaceGreyIndexMatched) {
 }
 
 TEST(PathTracer, FurnaceChromaticIndexMatched) {
-    // Different extinction per channel: paths carry one channel each (weight 3).
+    // Different extinction per channel: flights sampled with a hero channel, all three
+    // carried with spectral MIS.
     expect_furnace(furnace_scene(Vec3(1.f, 4.f, 10.f), -0.3f, BoundaryType::IndexMatched),
                    128);
+}
+
+// Spectral MIS: a chromatic medium's channel c must equal, in expectation, channel c of
+// the same scene whose medium is grey with channel c's extinction (same albedo). Pixel by
+// pixel, per channel, a chi-square test with both renders' variances, and the image means
+// within 4 sigma. A camera ray that meets no medium carries all three channels at weight
+// 1: its pixel is the environment exactly.
+void expect_chromatic_matches_grey(BoundaryType boundary, int spp) {
+    const Vec3 sigma_t(2.f, 6.f, 14.f), albedo(0.95f, 0.8f, 0.6f);
+    RenderOptions opt;
+    opt.spp = spp;
+    opt.seed = 11;
+    const SceneDesc chromatic =
+        test::sphere_in_environment(sigma_t, albedo, 0.3f, boundary, true);
+    const RenderResult c = render(Scene(chromatic, 2), opt);
+    EXPECT_EQ(c.image[0], 1.f);  // the corner pixel sees the environment only
+    EXPECT_EQ(c.variance[0], 0.f);
+    for (int ch = 0; ch < 3; ++ch) {
+        SCOPED_TRACE("channel " + std::to_string(ch));
+        opt.seed = 100 + ch;
+        const RenderResult g =
+            render(Scene(test::sphere_in_environment(Vec3(sigma_t[ch]), albedo, 0.3f,
+                                                     boundary, true),
+                         2),
+                   opt);
+        double chi2 = 0, diff = 0, var = 0;
+        int n = 0;
+        for (size_t p = 0; p < c.image.size() / 3; ++p) {
+            const size_t i = 3 * p + ch;
+            ASSERT_TRUE(std::isfinite(c.image[i]));
+            diff += c.image[i] - g.image[i];
+            var += c.variance[i] + g.variance[i];
+            if (c.variance[i] + g.variance[i] == 0.f) continue;
+            chi2 += (c.image[i] - g.image[i]) * (c.image[i] - g.image[i]) /
+                    (c.variance[i] + g.variance[i]);
+            ++n;
+        }
+        EXPECT_NEAR(diff, 0.0, 4.0 * std::sqrt(var)) << "summed difference";
+        ASSERT_GT(n, 30);
+        EXPECT_LT(chi2, sss::test::chi2_critical(n)) << "chi2 " << chi2 << " over " << n;
+    }
+}
+
+TEST(PathTracer, ChromaticChannelsMatchGreyMediaIndexMatched) {
+    expect_chromatic_matches_grey(BoundaryType::IndexMatched, 64);
+}
+
+TEST(PathTracer, ChromaticChannelsMatchGreyMediaDielectric) {
+    expect_chromatic_matches_grey(BoundaryType::Dielectric, 64);
 }
 
 TEST(PathTracer, FurnaceDielectricIsExactPerPath) {

@@ -104,26 +104,28 @@ Phase parse_phase(const json& j, const Field& f) {
 // A medium is stated in exactly one of these ways (docs/scene-format.md, "Ways to state a
 // medium"), each coefficient then multiplied by "scale".
 Medium parse_medium(const json& j, const Field& f) {
-    check_keys(
-        j, f,
-        {"sigma_t", "albedo", "sigma_s", "sigma_a", "preset", "scale", "g", "phase"});
-    const char* forms[][2] = {
-        {"sigma_t", "albedo"}, {"sigma_s", "sigma_a"}, {"preset", ""}};
+    check_keys(j, f,
+               {"sigma_t", "albedo", "sigma_s", "sigma_a", "preset", "color",
+                "mean_free_path", "scale", "g", "phase"});
+    const char* forms[][2] = {{"sigma_t", "albedo"},
+                              {"sigma_s", "sigma_a"},
+                              {"preset", ""},
+                              {"color", "mean_free_path"}};
+    const char* all_forms =
+        "sigma_t + albedo, sigma_s + sigma_a, preset, or color + mean_free_path";
     std::string given;
     int form = -1;
-    for (int i = 0; i < 3; ++i) {
+    for (int i = 0; i < 4; ++i) {
         for (const char* key : forms[i]) {
             if (!*key || !j.contains(key)) continue;
             if (form >= 0 && form != i)
-                f.error(
-                    "give exactly one of sigma_t + albedo, sigma_s + sigma_a, preset ",
-                    "(got ", given, " and ", key, ")");
+                f.error("give exactly one of ", all_forms, " (got ", given, " and ", key,
+                        ")");
             if (form < 0) given = key;
             form = i;
         }
     }
-    if (form < 0)
-        f.error("missing a medium: give sigma_t + albedo, sigma_s + sigma_a, or preset");
+    if (form < 0) f.error("missing a medium: give ", all_forms);
     for (const char* key : forms[form])
         if (*key && !j.contains(key))
             f.error(given, " needs ", key, " (", forms[form][0], " + ", forms[form][1],
@@ -149,6 +151,15 @@ Medium parse_medium(const json& j, const Field& f) {
                          "per-channel scattering in [0, 1e7] per scene unit");
         sigma_a = rgb_in(j["sigma_a"], f.at("sigma_a"), 0.0, 1e7,
                          "per-channel absorption in [0, 1e7] per scene unit");
+    } else if (form == 3) {
+        const Vec3 color =
+            rgb_in(j["color"], f.at("color"), 0.0, 1.0, "each channel in [0, 1]");
+        const Vec3 mfp = rgb_in(j["mean_free_path"], f.at("mean_free_path"), 1e-7, 1e7,
+                                "per-channel distance in [1e-7, 1e7] scene units");
+        SSS_CHECK(std::string(m.phase.kind().name) == "hg");
+        const ReducedCoefficients r = invert_multiple_scattering_albedo(color, mfp);
+        sigma_s = r.sigma_s_prime / (1.f - m.phase.x);
+        sigma_a = r.sigma_a;
     } else {
         const json& name = j["preset"];
         const MediumPreset* preset = nullptr;

@@ -36,6 +36,21 @@ SSS_FN bool survives_roulette(SSS_INOUT(Vec3) beta, float beta_start,
     return true;
 }
 
+// Spectral MIS (docs/notation.md, "Colour"): a free flight of length dist sampled with
+// the hero channel's extinction changes each channel's pdf of the path, relative to the
+// hero's, and so the path's throughput, by exp(-(sigma_t - sigma_h) dist), times
+// sigma_t / sigma_h where the flight ends in a collision. The hero's factor is exactly 1.
+SSS_FN Vec3 hero_flight_ratio(Vec3 sigma_t, int hero, float dist, bool collision) {
+    float sigma_h = sigma_t[hero];
+    Vec3 f = Vec3(1.f, 1.f, 1.f);
+    for (int c = 0; c < 3; ++c) {
+        if (c == hero) continue;
+        f[c] = exp(-(sigma_t[c] - sigma_h) * dist);
+        if (collision) f[c] *= sigma_t[c] / sigma_h;
+    }
+    return f;
+}
+
 // Transmittance exp(-sigma_t d) per channel; a zero extinction gives 1 even for d = inf.
 SSS_FN Vec3 beer(Vec3 sigma_t, float d) {
     Vec3 tr = Vec3(1.f, 1.f, 1.f);

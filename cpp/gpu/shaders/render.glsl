@@ -182,7 +182,11 @@ struct Path {
     RngState rng;
     vec3 o, d, L, beta;
     float beta_start;
-    int channel;    // -1: all three (grey media)
+    int channel;    // the hero (pt) or carried (st) channel; -1: grey media
+    // Spectral MIS ("pt" on chromatic media, PathState): each channel's pdf of the path
+    // over the hero's; a vertex contributes beta / mean(ratio).
+    bool spectral;
+    vec3 ratio;
     int shape;      // the medium holding the photon; -1 = vacuum
     float r_at_o;   // the grid's bound at o when known, else < 0
     // NEE's MIS (PathState): whether the last vertex was specular (camera, dielectric
@@ -197,6 +201,18 @@ struct Path {
     float r_step;
 };
 
+// The throughput a vertex's light is weighted by, and the path's Russian roulette on it
+// (PathTracer::run's weight and roulette).
+vec3 path_weight(Path p) {
+    return p.spectral ? p.beta * (3.0 / (p.ratio.x + p.ratio.y + p.ratio.z)) : p.beta;
+}
+
+bool path_survives_roulette(inout Path p) {
+    float start = p.spectral ? p.beta_start * (p.ratio.x + p.ratio.y + p.ratio.z) / 3.0
+                             : p.beta_start;
+    return survives_roulette(p.beta, start, p.rng);
+}
+
 // An opaque surface at `hit` (PathTracer::run's reflect): light sampling, then a
 // reflected direction; it counts as a scattering event.
 void reflect_off(inout Path p, Hit hit) {
@@ -208,7 +224,7 @@ void reflect_off(inout Path p, Hit hit) {
     SurfaceData sf = surface_data(shapes[hit.mesh]);
     if (NEE) {
         PhaseData none;
-        p.L += p.beta *
+        p.L += path_weight(p) *
                sample_light(hit.p, p.d, p.shape, none, kSurfaceVertex, sf, hit, false, p.rng);
     }
     float u1 = rng_uniform(p.rng), u2 = rng_uniform(p.rng);
@@ -226,7 +242,7 @@ void reflect_off(inout Path p, Hit hit) {
     p.d = ss.wo;
     p.o = leave(hit, p.d);
     p.r_at_o = -1.0;
-    if (!survives_roulette(p.beta, p.beta_start, p.rng)) p.done = true;
+    if (!path_survives_roulette(p)) p.done = true;
 }
 
 // The photon meets the boundary of the shape of `hit`, from outside or inside
@@ -237,8 +253,8 @@ void cross(inout Path p, Hit hit) {
     if (NEE && boundary_samples_lights(bd)) {
         PhaseData none;
         SurfaceData no_surface;
-        p.L += p.beta * sample_light(hit.p, p.d, p.shape, none, kBoundaryVertex, no_surface,
-                                     hit, false, p.rng);
+        p.L += path_weight(p) * sample_light(hit.p, p.d, p.shape, none, kBoundaryVertex,
+                                             no_surface, hit, false, p.rng);
     }
     BoundaryEvent b = boundary_cross(bd, p.d, hit.normal, p.rng);
     p.beta *= b.weight;
@@ -276,7 +292,7 @@ void path_iterate(inout Path p) {
                 float w = NEE && !p.specular
                               ? power_heuristic(p.phase_pdf, e.pdf / float(lighting.x))
                               : 1.0;
-                p.L += p.beta * e.L * w;
+                p.L += path_weight(p) * e.L * w;
             }
             p.done = true;
             return;
@@ -288,7 +304,7 @@ void path_iterate(inout Path p) {
                                      p.scatter_pos, p.d, length(x - p.scatter_pos), hit.normal);
             float w = NEE && !p.specular ? power_heuristic(p.phase_pdf, e.pdf / float(lighting.x))
                                          : 1.0;
-            p.L += p.beta * e.L * w;
+            p.L += path_weight(p) * e.L * w;
             p.done = true;
             return;
         }
@@ -322,6 +338,12 @@ void path_iterate(inout Path p) {
         p.shape = -1;  // numerical leak out of the mesh
         return;
     }
+    if (p.spectral) {
+        vec3 f = hero_flight_ratio(s.sigma_t.xyz, p.channel, at_boundary ? hit.t : t,
+                                   !at_boundary);
+        p.ratio *= f;
+        p.beta *= f;
+    }
     if (!at_boundary) {
         p.o = end;
         float r = r_end >= 0.0 ? r_end : grid_query(p.shape, p.o);
@@ -344,7 +366,9 @@ void path_iterate(inout Path p) {
             p.done = true;
             return;
         }
-        if (NEE) p.L += p.beta * direct_light(p.o, r, p.d, p.shape, p.channel, false, p.rng);
+        if (NEE)
+            p.L += path_weight(p) * direct_light(p.o, r, p.d, p.shape,
+                                                 p.spectral ? -1 : p.channel, false, p.rng);
         vec3 d_new = phase_sample(phase_data(s), p.d, rng_uniform(p.rng), rng_uniform(p.rng));
         if (NEE) {  // for the MIS weight of a light this direction may hit
             p.phase_pdf = phase_eval(phase_data(s), dot(p.d, d_new));
@@ -352,7 +376,7 @@ void path_iterate(inout Path p) {
             p.specular = false;
         }
         p.d = d_new;
-        if (!survives_roulette(p.beta, p.beta_start, p.rng)) p.done = true;
+        if (!path_survives_roulette(p)) p.done = true;
         return;
     }
 
@@ -442,10 +466,16 @@ Path start_path(uint i) {
     p.L = vec3(0.0);
     p.beta = vec3(1.0);
     p.channel = -1;
-    if (params.w == 0.0) {  // RGB media: one channel per path, weight 3
+    p.spectral = false;
+    p.ratio = vec3(1.0);
+    if (params.w == 0.0) {  // chromatic media: a hero channel (PathTracer::start)
         p.channel = min(2, int(rng_uniform(p.rng) * 3.0));
-        p.beta = vec3(0.0);
+#if SSS_ST
+        p.beta = vec3(0.0);  // "st" carries that channel alone, weight 3
         p.beta[p.channel] = 3.0;
+#else
+        p.spectral = true;  // "pt": all three, with spectral MIS
+#endif
     }
     p.beta_start = max(p.beta.x, max(p.beta.y, p.beta.z));
     p.shape = -1;
