@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""Colour noise on a chromatic medium: our `pt` with spectral MIS, our `st` (one channel per
-path), Mitsuba 3's `volpathmis` and, optionally, an earlier build of ours (one channel per
-path, weight 3), side by side.
+"""Colour noise on a chromatic medium: our `pt` with spectral MIS, our `st` (the same until a
+path's first sphere step, one channel after it), Mitsuba 3's `volpathmis` and, optionally, an
+earlier build of ours (one channel per path, weight 3), side by side.
 
 The scene: the bunny (largest side 1) of a skin-like medium (the `skin1` preset of Jensen et
 al. 2001, `scale` mm per unit: sigma_t differs by about 2x between red and blue), an
@@ -131,14 +131,16 @@ def main(argv=None) -> int:
     results["ours"]["wall_seconds"] = ours_wall
     results["ours"]["mean_events_per_path"] = r.mean_events_per_path
     print(f"ours (spectral MIS): {r.seconds:.2f} s", flush=True)
-    # "st" carries one channel per path (docs/notation.md, "Colour"): its noise next to pt's.
+    # "st" carries one channel after a path's first step (docs/notation.md, "Colour"): its
+    # noise next to pt's.
     sssphere.render_full(scene, integrator="st", spp=1, seed=99, threads=threads)  # warm-up
     s = sssphere.render_full(scene, integrator="st", spp=args.spp, seed=args.seed,
                              threads=threads)
     results["ours_st"] = summary(s.image, s.variance, s.seconds, mask)
     results["ours_st"]["mean_sphere_steps_per_path"] = s.mean_sphere_steps_per_path
     results["ours_st"]["mean_events_per_path"] = s.mean_events_per_path
-    print(f"ours st (one channel per path): {s.seconds:.2f} s", flush=True)
+    print(f"ours st: {s.seconds:.2f} s, {s.mean_sphere_steps_per_path:.3f} steps per path",
+          flush=True)
 
     if args.before:
         img, var, sec = render_before(args.before, sd, args.spp, args.seed, threads, mask.shape)

@@ -200,16 +200,12 @@ void PathTracer::start(PathState& ps, const Vec3& o, const Vec3& d,
     ps.o = o;
     ps.d = d;
     // RGB media with differing channels (docs/notation.md, "Colour"): a hero channel,
-    // chosen uniformly, samples the flights. "pt" carries all three channels with
-    // spectral MIS; "st", whose steps are sampled for one extinction, transports that
-    // channel alone with weight 3. Grey media: all three channels at once.
+    // chosen uniformly, samples the flights, and the path carries all three channels with
+    // spectral MIS ("st" until its first sphere step). Grey media: all three channels at
+    // once.
     if (!scene_.grey_media()) {
         ps.channel = std::min(2, int(ps.rng.uniform() * 3.f));
-        ps.spectral = st_ == nullptr;
-        if (!ps.spectral) {
-            ps.beta = Vec3(0.f);
-            ps.beta[ps.channel] = 3.f;
-        }
+        ps.spectral = true;
     }
     ps.beta_start = max_component(ps.beta);
 }
@@ -308,9 +304,9 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
     // The path's state in locals for the loop (written back when it waits for a step).
     Rng rng = ps.rng;
     Vec3 o = ps.o, d = ps.d, L = ps.L, beta = ps.beta, ratio = ps.ratio;
-    const float beta_start = ps.beta_start;
-    const int channel = ps.channel;
-    const bool spectral = ps.spectral;
+    float beta_start = ps.beta_start;
+    int channel = ps.channel;
+    bool spectral = ps.spectral;
     int shape = ps.shape;
     bool specular = ps.specular;
     float phase_pdf = ps.phase_pdf;
@@ -320,6 +316,9 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
     auto suspend = [&]() {
         ps.rng = rng;
         ps.o = o, ps.d = d, ps.L = L, ps.beta = beta, ps.ratio = ratio;
+        ps.beta_start = beta_start;
+        ps.channel = channel;
+        ps.spectral = spectral;
         ps.shape = shape;
         ps.specular = specular;
         ps.phase_pdf = phase_pdf;
@@ -475,8 +474,23 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             if constexpr (kSphereTracing) {
                 // Sphere tracing: if the largest sphere around o inside the medium is
                 // optically thick enough, one step replaces every scattering event inside
-                // it (docs/sphere-tracing.md).
-                if (extinction(s.medium, channel) * r >= st_->threshold()) {
+                // it (docs/sphere-tracing.md). With spectral MIS the test takes the
+                // smallest extinction, so that where the path stops carrying all three
+                // channels depends on where it is, not on its hero channel: there it goes
+                // on in one channel, picked afresh, weight 3 (docs/notation.md,
+                // "Colour").
+                const float sigma_step = spectral ? min_component(s.medium.sigma_t)
+                                                  : extinction(s.medium, channel);
+                if (sigma_step * r >= st_->threshold()) {
+                    if (spectral) {
+                        const Vec3 w = weight();
+                        channel = std::min(2, int(rng.uniform() * 3.f));
+                        beta = Vec3(0.f);
+                        beta[channel] = 3.f * w[channel];
+                        ratio = Vec3(1.f);
+                        spectral = false;
+                        beta_start = 3.f;
+                    }
                     suspend();
                     request_step(ps, r);
                     return false;

@@ -37,9 +37,10 @@ struct PathState {
     // Chromatic media (docs/notation.md, "Colour"): "pt" samples flights with the hero
     // channel's extinction and carries all three channels with spectral MIS (`ratio`:
     // each channel's pdf of the path so far over the hero channel's, so that a vertex
-    // contributes beta / mean(ratio)); "st" carries the one channel (beta = 3 e_c).
+    // contributes beta / mean(ratio)); "st" does so until its first sphere step, and then
+    // carries one channel, picked afresh (beta = 3 e_c times the weight there).
     int channel = -1;       // the hero or carried channel; -1: grey media, any channel
-    bool spectral = false;  // spectral MIS ("pt" on chromatic media)
+    bool spectral = false;  // spectral MIS (chromatic media, until "st" steps)
     Vec3 ratio{1.f};
     int shape = -1;  // the shape whose medium holds the photon; -1 = vacuum
     // The last vertex did no light sampling that an emitter hit now must share with: the

@@ -36,9 +36,11 @@ SphereTracing::SphereTracing(const Scene& scene, float threshold, SphereSampler 
     if (!(threshold >= 0.f))
         fail("sphere_threshold must be a number >= 0 (inf: no sphere steps), got ",
              threshold);
+    // A path's first step needs the sphere thick enough in every channel (spectral MIS
+    // before it; docs/notation.md, "Colour"), so the smallest extinction decides.
     for (int i = 0; i < scene_.num_shapes(); ++i)
         if (!scene_.desc().shapes[i].is_surface() &&
-            max_component(scene_.desc().shapes[i].medium.sigma_t) *
+            min_component(scene_.desc().shapes[i].medium.sigma_t) *
                     scene_.grid(i).max_query() >=
                 threshold_)
             may_step_ = true;

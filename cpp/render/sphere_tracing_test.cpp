@@ -165,37 +165,43 @@ TEST(SphereTracer, ExactWalksUnderAllKindsOfLightMatchPt) {
     // area light and the environment only through the exit flights' hits (weight 1) and
     // connect to the point light alone. With exact walks st must agree with pt (NEE, MIS)
     // up to noise in both modes: 4x4 block means compared by chi-square, and the sum over
-    // the sphere (4 sigma), with both renders' variances, per channel.
-    SceneDesc d =
-        sphere_scene(Vec3(6.f), Vec3(0.95f), 0.7f, BoundaryType::IndexMatched, true);
-    // edge1 x edge2 points down, at the sphere
-    d.lights.push_back(parse_light(R"({"type": "area", "corner": [-1, 1.8, 1],
-        "edge1": [0, 0, -2], "edge2": [2, 0, 0], "radiance": 5})"));
-    d.camera.width = d.camera.height = 32;
-    Scene scene(d, 2);
-    RenderOptions pt;
-    pt.spp = 256;
-    pt.threads = 2;
-    pt.seed = 5;
-    const std::vector<BlockSum> sa = block_sums(render(scene, pt), false);
-    for (StepNee mode : {StepNee::Event, StepNee::Hits}) {
-        SCOPED_TRACE(mode == StepNee::Event ? "event" : "hits");
-        RenderOptions st = st_options("", 1.f);
-        st.sphere_sampler = SphereSampler::Walk;
-        st.step_nee = mode;
-        st.spp = 256;
-        st.seed = 6;
-        const RenderResult b = render(scene, st);
-        const std::vector<BlockSum> sb = block_sums(b, false);
-        // Blocks of background in both (the environment exactly) have variance 0.
-        expect_agreement(per_channel(sa.size(),
-                                     [&](size_t k) {
-                                         return std::pair(
-                                             sa[k].value - sb[k].value,
-                                             sa[k].variance + sb[k].variance);
-                                     }),
-                         20);
-        EXPECT_GT(b.total_sphere_steps, b.total_paths / 10);
+    // the sphere (4 sigma), with both renders' variances, per channel. A grey medium, and
+    // a chromatic one (spectral MIS until the first step, then one channel picked afresh:
+    // the background stays exact).
+    for (const Vec3& sigma_t : {Vec3(6.f), Vec3(4.f, 6.f, 10.f)}) {
+        SCOPED_TRACE("sigma_t " + std::to_string(sigma_t.z));
+        SceneDesc d =
+            sphere_scene(sigma_t, Vec3(0.95f), 0.7f, BoundaryType::IndexMatched, true);
+        // edge1 x edge2 points down, at the sphere
+        d.lights.push_back(parse_light(R"({"type": "area", "corner": [-1, 1.8, 1],
+            "edge1": [0, 0, -2], "edge2": [2, 0, 0], "radiance": 5})"));
+        d.camera.width = d.camera.height = 32;
+        Scene scene(d, 2);
+        RenderOptions pt;
+        pt.spp = 256;
+        pt.threads = 2;
+        pt.seed = 5;
+        const std::vector<BlockSum> sa = block_sums(render(scene, pt), false);
+        for (StepNee mode : {StepNee::Event, StepNee::Hits}) {
+            SCOPED_TRACE(mode == StepNee::Event ? "event" : "hits");
+            RenderOptions st = st_options("", 1.f);
+            st.sphere_sampler = SphereSampler::Walk;
+            st.step_nee = mode;
+            st.spp = 256;
+            st.seed = 6;
+            const RenderResult b = render(scene, st);
+            const std::vector<BlockSum> sb = block_sums(b, false);
+            // Blocks of background in both (the environment exactly) have variance 0.
+            expect_agreement(per_channel(sa.size(),
+                                         [&](size_t k) {
+                                             return std::pair(
+                                                 sa[k].value - sb[k].value,
+                                                 sa[k].variance + sb[k].variance);
+                                         }),
+                             20);
+            EXPECT_GT(b.total_sphere_steps, b.total_paths / 10);
+            EXPECT_EQ(b.variance[0], 0.f);  // the corner pixel sees the environment only
+        }
     }
 }
 
@@ -222,15 +228,22 @@ TEST(SphereTracer, InfiniteThresholdGivesPtBitForBit) {
 TEST(SphereTracer, WhereNoStepFitsItIsPt) {
     // A sphere of radius 1 with sigma_t 3 (the largest optical radius is 3) and tau = 6:
     // no step fits anywhere, so may_step() is false and the renderer traces st as pt
-    // (the image would be pt's either way; the flag is what this test pins down). With
-    // sigma_t 9 in one channel the centre fits a step.
+    // (the image would be pt's either way; the flag is what this test pins down). A
+    // path's first step needs the sphere thick enough in every channel: sigma_t 9 in one
+    // channel is not enough, (7, 9, 12) fits one at the centre.
     test::ModelDir models;
     models.write_random(2);
     Scene thin(
         sphere_scene(Vec3(3.f), Vec3(0.9f), 0.4f, BoundaryType::IndexMatched, true), 2);
-    Scene deep(sphere_scene(Vec3(3.f, 3.f, 9.f), Vec3(0.9f), 0.4f,
+    Scene one_channel(sphere_scene(Vec3(3.f, 3.f, 9.f), Vec3(0.9f), 0.4f,
+                                   BoundaryType::IndexMatched, true),
+                      2);
+    Scene deep(sphere_scene(Vec3(7.f, 9.f, 12.f), Vec3(0.9f), 0.4f,
                             BoundaryType::IndexMatched, true),
                2);
+    EXPECT_FALSE(
+        SphereTracing(one_channel, 6.f, SphereSampler::Model, models.path(), true)
+            .may_step());
     RenderOptions st = st_options(models.path(), 6.f);
     EXPECT_FALSE(
         SphereTracing(thin, 6.f, SphereSampler::Model, models.path(), true).may_step());

@@ -348,7 +348,21 @@ void path_iterate(inout Path p) {
         p.o = end;
         float r = r_end >= 0.0 ? r_end : grid_query(p.shape, p.o);
 #if SSS_ST
-        if (sigma_t * r >= params.y) {
+        // The smallest extinction with spectral MIS; the path then goes on in one channel,
+        // picked afresh (PathTracer::run).
+        float sigma_step =
+            p.spectral ? min(s.sigma_t.x, min(s.sigma_t.y, s.sigma_t.z)) : sigma_t;
+        if (sigma_step * r >= params.y) {
+            if (p.spectral) {
+                vec3 w = path_weight(p);
+                p.channel = min(2, int(rng_uniform(p.rng) * 3.0));
+                float wc = w[p.channel];
+                p.beta = vec3(0.0);
+                p.beta[p.channel] = 3.0 * wc;
+                p.ratio = vec3(1.0);
+                p.spectral = false;
+                p.beta_start = 3.0;
+            }
             p.pending = true;  // one sphere step replaces the events inside the sphere
             p.r_step = r;
             return;
@@ -468,14 +482,9 @@ Path start_path(uint i) {
     p.channel = -1;
     p.spectral = false;
     p.ratio = vec3(1.0);
-    if (params.w == 0.0) {  // chromatic media: a hero channel (PathTracer::start)
+    if (params.w == 0.0) {  // chromatic media: a hero channel, spectral MIS
         p.channel = min(2, int(rng_uniform(p.rng) * 3.0));
-#if SSS_ST
-        p.beta = vec3(0.0);  // "st" carries that channel alone, weight 3
-        p.beta[p.channel] = 3.0;
-#else
-        p.spectral = true;  // "pt": all three, with spectral MIS
-#endif
+        p.spectral = true;
     }
     p.beta_start = max(p.beta.x, max(p.beta.y, p.beta.z));
     p.shape = -1;
