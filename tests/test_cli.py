@@ -48,6 +48,12 @@ def test_render_scene_file_to_exr_and_png(tmp_path, small_scene):
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--sphere-threshold", "-1"], "must be a number >= 0"),
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--step-nee", "paper"],
          "step_nee 'paper' is not allowed (allowed: 'hits', 'event')"),
+        (["render", "{scene}", "-o", "{tmp}/x.exr", "--set", "shapes[2].medium.sigma_t=1"],
+         "--set shapes[2].medium.sigma_t: shapes has 1 entries, no [2]"),
+        (["render", "{scene}", "-o", "{tmp}/x.exr", "--set", "shapes[0].medium.albedo=[1,2,3]"],
+         "s.json: shapes[0].medium.albedo: value [1,2,3] is not allowed"),
+        (["render", "{scene}", "-o", "{tmp}/x.exr", "--set", "spp"], "expected PATH=VALUE"),
+        (["render", "{scene}", "-o", "{tmp}/x.exr", "--width", "0"], "--width: must be >= 1"),
     ],
 )
 def test_cli_errors_are_clear(tmp_path, small_scene, args, expected):
@@ -244,3 +250,25 @@ def test_time_limit_option_stops_the_render_and_reports_the_spp(tmp_path, slow_s
     assert 1 <= spp < 1 << 16
     expected = sssphere.render(sssphere.load_scene(slow_scene), spp=spp, seed=4)
     np.testing.assert_allclose(sssphere.read_image(out), expected, rtol=1e-5, atol=1e-7)
+
+
+@pytest.mark.parametrize("cli", ["python", "cpp"])
+def test_set_and_image_size_change_the_scene(tmp_path, small_scene, cli):
+    """--set PATH=VALUE (JSON, or a bare string) and --width (the height follows the aspect
+    ratio, 24x16 -> 36x24) render what the edited scene renders, bit for bit, in both command
+    lines (one implementation: render/scene.h, edit_scene_json)."""
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    args = [tmp_path / "s.json", "-o", tmp_path / "x.exr", "--spp", 2, "--quiet",
+            "--set", "shapes[0].medium.sigma_t=[3, 4, 5]", "--set", "render.integrator=pt",
+            "--set", "shapes[0].medium.scale=2", "--width", 36]
+    r = (run_cli("render", *args) if cli == "python"
+         else subprocess.run([_cpp_cli(), *map(str, args)], capture_output=True, text=True))
+    assert r.returncode == 0, r.stderr
+    edited = json.loads(json.dumps(small_scene))
+    edited["shapes"][0]["medium"].update(sigma_t=[3, 4, 5], scale=2)
+    edited.setdefault("render", {})["integrator"] = "pt"
+    edited["camera"].update(width=36, height=24)
+    expected = sssphere.render(sssphere.load_scene(edited), spp=2)
+    img = sssphere.read_image(tmp_path / "x.exr")
+    assert img.shape == (24, 36, 3)
+    np.testing.assert_array_equal(img, expected)

@@ -59,3 +59,24 @@ def test_showcase_sun_lights_the_medium_through_its_rough_boundary():
     without, se_without = bunny_mean(sky_only, 2)
     z = (with_sun - without) / np.hypot(se_with, se_without)
     assert z > 5, f"sun adds {with_sun - without:.4f} (z {z:.1f}) to the bunny's pixels"
+
+
+@pytest.mark.parametrize("name, check", [
+    ("skin.json", lambda c: c[0] > c[1] > c[2]),          # skin is red-brown
+    ("ketchup.json", lambda c: c[0] > 2 * c[1] and c[0] > 2 * c[2]),  # deep red
+    ("marble.json", lambda c: min(c) > 0.8 * max(c)),     # nearly white
+    ("milk.json", lambda c: min(c) > 0.8 * max(c)),
+])
+def test_material_scenes_have_their_colour(name, check):
+    """The material scenes' bunny (the pixels whose paths scattered in it), alone under a
+    white uniform sky, has the colour of its preset: a mix-up of the table's channels or
+    entries shows."""
+    d = json.loads((SCENES / name).read_text())
+    d["shapes"] = d["shapes"][:1]
+    d["lights"] = [{"type": "environment", "radiance": 1}]
+    d["camera"].update(width=48, height=36)
+    r = sssphere.render_full(sssphere.load_scene(d, base_dir=SCENES), integrator="pt", spp=16,
+                             seed=2)
+    mask = r.events.reshape(r.image.shape[:2]) > 0
+    colour = r.image[mask].mean(axis=0)
+    assert mask.sum() > 100 and check(colour), (name, colour)

@@ -85,6 +85,21 @@ int main(int argc, char** argv) {
         "--aovs", aovs,
         "also write OUT_variance.exr, OUT_events.exr (scattering events per path) "
         "and, for st, OUT_sphere_steps.exr");
+    std::vector<std::string> assignments;
+    int width = 0, height = 0;
+    app.add_option("--set", assignments,
+                   "change a scene field before loading, e.g. --set "
+                   "shapes[0].medium.sigma_t=1000 or --set 'camera.origin=[0, 1, 3]' "
+                   "(VALUE is JSON, else a string; repeatable)")
+        ->type_name("PATH=VALUE")
+        ->expected(1)
+        ->take_all();
+    app.add_option("--width", width,
+                   "image width (alone: the height follows the scene's aspect ratio)")
+        ->check(CLI::Range(1, 16384));
+    app.add_option("--height", height,
+                   "image height (alone: the width follows the scene's aspect ratio)")
+        ->check(CLI::Range(1, 16384));
     app.add_flag("--quiet", quiet, "no progress bar");
     app.set_version_flag("--version", std::string("sssphere-render ") + SSSPHERE_VERSION);
     try {
@@ -99,7 +114,8 @@ int main(int argc, char** argv) {
 
     try {
         sss::check_output_image(out_path);
-        sss::SceneDesc desc = sss::load_scene_file(scene_path);
+        sss::SceneDesc desc =
+            sss::load_scene_file(scene_path, assignments, width, height);
         for (const std::string& w : desc.warnings)
             std::cerr << "sssphere-render: warning: " << w << "\n";
         sss::RenderOverrides overrides;

@@ -204,6 +204,12 @@ PYBIND11_MODULE(_core, m) {
         "text).");
 
     m.def(
+        "edit_scene_json", &edit_scene_json, py::arg("json_text"), py::arg("source"),
+        py::arg("assignments"), py::arg("width") = 0, py::arg("height") = 0,
+        "A scene's JSON text with the command lines' --set PATH=VALUE changes and image "
+        "size (render/scene.h).");
+
+    m.def(
         "medium_coefficients",
         [](const std::string& medium_json) {
             const Medium med = parse_medium(medium_json, "<medium>");

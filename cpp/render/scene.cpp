@@ -1,12 +1,14 @@
 #include "render/scene.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
+#include <variant>
 
 #include "core/check.h"
 #include "core/files.h"
@@ -482,7 +484,109 @@ Surface parse_surface(const std::string& json_text, const std::string& source) {
     return parse_surface(parse_json(json_text, source), Field{source, ""});
 }
 
-SceneDesc load_scene_file(const std::string& path) {
+namespace {
+
+// One --set PATH=VALUE on a scene's JSON: PATH as the parser's messages name fields
+// (shapes[0].medium.sigma_t); every part but the last must exist, the last may be new.
+// VALUE is JSON, or else a string.
+void set_scene_field(json& root, const std::string& assignment) {
+    const size_t eq = assignment.find('=');
+    if (eq == std::string::npos)
+        fail("--set ", assignment,
+             ": expected PATH=VALUE, e.g. shapes[0].medium.sigma_t=1000");
+    auto trim = [](std::string t) {
+        const size_t a = t.find_first_not_of(" \t"), b = t.find_last_not_of(" \t");
+        return a == std::string::npos ? std::string() : t.substr(a, b - a + 1);
+    };
+    const std::string path = trim(assignment.substr(0, eq));
+    const std::string text = trim(assignment.substr(eq + 1));
+    json value = json::parse(text, nullptr, false);
+    if (value.is_discarded()) value = text;
+    // Tokens: names, and [index] after a name.
+    std::vector<std::variant<std::string, size_t>> tokens;
+    size_t i = 0;
+    while (i < path.size()) {
+        size_t j = i;
+        while (j < path.size() &&
+               (std::isalnum((unsigned char)path[j]) || path[j] == '_'))
+            ++j;
+        if (j == i)
+            fail("--set ", path, ": expected a field name at '", path.substr(i),
+                 "' (e.g. shapes[0].medium.sigma_t)");
+        tokens.emplace_back(path.substr(i, j - i));
+        while (j < path.size() && path[j] == '[') {
+            const size_t close = path.find(']', j);
+            const std::string digits =
+                close == std::string::npos ? "" : path.substr(j + 1, close - j - 1);
+            if (digits.empty() ||
+                digits.find_first_not_of("0123456789") != std::string::npos ||
+                digits.size() > 9)
+                fail("--set ", path, ": expected [index] with a number at '",
+                     path.substr(j), "'");
+            tokens.emplace_back(size_t(std::stoul(digits)));
+            j = close + 1;
+        }
+        if (j < path.size() && path[j] != '.')
+            fail("--set ", path, ": unexpected '", path.substr(j), "'");
+        i = j + 1;
+        if (j + 1 == path.size()) fail("--set ", path, ": ends with '.'");
+    }
+    json* node = &root;
+    std::string where;
+    for (size_t k = 0; k < tokens.size(); ++k) {
+        const bool last = k + 1 == tokens.size();
+        if (const size_t* index = std::get_if<size_t>(&tokens[k])) {
+            if (!node->is_array()) fail("--set ", path, ": ", where, " is not a list");
+            if (*index >= node->size())
+                fail("--set ", path, ": ", where, " has ", node->size(), " entries, no [",
+                     *index, "]");
+            node = &(*node)[*index];
+            where += "[" + std::to_string(*index) + "]";
+        } else {
+            const std::string& key = std::get<std::string>(tokens[k]);
+            if (!node->is_object())
+                fail("--set ", path, ": ", where.empty() ? "the scene" : where,
+                     " is not an object");
+            const std::string name = where.empty() ? key : where + "." + key;
+            if (!last && !node->contains(key))
+                fail("--set ", path, ": ", name, " is not in the scene");
+            node = &(*node)[key];
+            where = name;
+        }
+        if (last) *node = value;
+    }
+}
+
+}  // namespace
+
+std::string edit_scene_json(const std::string& json_text, const std::string& source,
+                            const std::vector<std::string>& assignments, int width,
+                            int height) {
+    json root = parse_json(json_text, source);
+    if (!root.is_object()) return json_text;  // parse_scene says what is wrong
+    for (const std::string& a : assignments) set_scene_field(root, a);
+    if (width > 0 || height > 0) {
+        json& camera = root["camera"];
+        if (!camera.is_object()) return root.dump();
+        // One of them alone keeps the camera's aspect ratio.
+        const json w = camera.value("width", json()), h = camera.value("height", json());
+        if (width > 0 && height <= 0 && w.is_number_integer() && h.is_number_integer() &&
+            w.get<int64_t>() > 0)
+            height = std::max<int64_t>(
+                1, std::llround(double(h.get<int64_t>()) * width / w.get<int64_t>()));
+        if (height > 0 && width <= 0 && w.is_number_integer() && h.is_number_integer() &&
+            h.get<int64_t>() > 0)
+            width = std::max<int64_t>(
+                1, std::llround(double(w.get<int64_t>()) * height / h.get<int64_t>()));
+        if (width > 0) camera["width"] = width;
+        if (height > 0) camera["height"] = height;
+    }
+    return root.dump();
+}
+
+SceneDesc load_scene_file(const std::string& path,
+                          const std::vector<std::string>& assignments, int width,
+                          int height) {
     namespace fs = std::filesystem;
     check_input_file(path, "scene file");
     std::ifstream in(path);
@@ -490,7 +594,10 @@ SceneDesc load_scene_file(const std::string& path) {
     std::stringstream ss;
     ss << in.rdbuf();
     std::string base = fs::path(path).parent_path().string();
-    return parse_scene(ss.str(), base.empty() ? "." : base, path);
+    std::string text = ss.str();
+    if (!assignments.empty() || width > 0 || height > 0)
+        text = edit_scene_json(text, path, assignments, width, height);
+    return parse_scene(text, base.empty() ? "." : base, path);
 }
 
 Scene::Scene(SceneDesc desc, int threads)

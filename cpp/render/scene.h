@@ -101,7 +101,19 @@ struct SceneDesc {
 // `source`, the field (e.g. shapes[0].medium.albedo), the value and what is allowed.
 SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
                       const std::string& source);
-SceneDesc load_scene_file(const std::string& path);
+// A scene file, with the command lines' changes: `assignments` ("--set PATH=VALUE",
+// edit_scene_json) and the image size (> 0: given).
+SceneDesc load_scene_file(const std::string& path,
+                          const std::vector<std::string>& assignments = {}, int width = 0,
+                          int height = 0);
+// A scene's JSON text with the command lines' changes: each "PATH=VALUE" sets the field
+// PATH (named as the parser's messages name fields, e.g. shapes[0].medium.sigma_t; every
+// part but the last must exist) to VALUE (JSON, else a string); width and height (> 0:
+// given; one alone keeps the camera's aspect ratio) set the camera's. The parser then
+// checks the result as it checks any file.
+std::string edit_scene_json(const std::string& json_text, const std::string& source,
+                            const std::vector<std::string>& assignments, int width = 0,
+                            int height = 0);
 // One light from its JSON object, as in a scene file whose render frame has its origin
 // at `frame` (relative file names from base_dir). A light that keeps a table appends it
 // to *floats (required for such a light: an environment map).

@@ -15,7 +15,7 @@ from sssphere._progress import Progress
 from sssphere._version import __version__
 from sssphere import rendering
 from sssphere.rendering import RENDER_OPTIONS, write_image
-from sssphere.scene import SceneError, SceneWarning, load_scene
+from sssphere.scene import SceneError, SceneWarning, load_scene_with
 
 IMAGE_SUFFIXES = (".exr", ".png")
 
@@ -55,7 +55,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
     t0 = time.monotonic()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", SceneWarning)
-        scene = load_scene(args.scene, threads=threads)
+        scene = load_scene_with(args.scene, args.set, args.width, args.height, threads=threads)
     for w in caught:
         print(f"sssphere: warning: {w.message}", file=sys.stderr)
     load_s = time.monotonic() - t0
@@ -225,6 +225,14 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--aovs", action="store_true",
                    help="also write OUT_variance.exr, OUT_events.exr (scattering events per path) "
                         "and, for st, OUT_sphere_steps.exr")
+    r.add_argument("--set", action="append", metavar="PATH=VALUE",
+                   help="change a scene field before loading, e.g. --set "
+                        "shapes[0].medium.sigma_t=1000 or --set 'camera.origin=[0, 1, 3]' "
+                        "(VALUE is JSON, else a string; repeatable)")
+    r.add_argument("--width", type=_positive_int,
+                   help="image width (alone: the height follows the scene's aspect ratio)")
+    r.add_argument("--height", type=_positive_int,
+                   help="image height (alone: the width follows the scene's aspect ratio)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     r.set_defaults(func=_cmd_render)
 

@@ -108,3 +108,26 @@ def presets() -> list[dict]:
     None) and ``source``. A preset medium gets sigma_s = sigma_s_prime / (1 - g) for its own
     ``g``, times its ``scale`` (scene units per mm)."""
     return [dict(p) for p in _core.medium_presets()]
+
+
+def load_scene_with(path: Union[str, os.PathLike], assignments: list[str] | None = None,
+                    width: int | None = None, height: int | None = None,
+                    threads: int | None = None) -> Scene:
+    """A scene file with the command line's changes: ``--set PATH=VALUE`` assignments (PATH
+    as the parser's messages name fields, e.g. ``shapes[0].medium.sigma_t``; VALUE is JSON,
+    else a string), then the image size (one of width and height alone keeps the camera's
+    aspect ratio). The same code as `sssphere-render`'s (render/scene.h, edit_scene_json);
+    errors name the file, as for the file itself."""
+    if not assignments and width is None and height is None:
+        return load_scene(path, threads=threads)
+    path = Path(path)
+    if not path.is_file():
+        return load_scene(path, threads=threads)  # says what is wrong with the path
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return load_scene(path, threads=threads)
+    text = _core.edit_scene_json(text, str(path), list(assignments or []), width or 0,
+                                 height or 0)
+    threads = 0 if threads is None else int(threads)
+    return _warned(_core.Scene(text, str(path.parent), str(path), threads))
