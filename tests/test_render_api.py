@@ -1,6 +1,7 @@
 """The Python API: shapes, dtypes, determinism, partial renders, image files."""
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -218,3 +219,29 @@ def test_time_limit_is_checked(small_scene):
     small_scene["render"]["time_limit"] = -2
     with pytest.raises(sssphere.SceneError, match=r"render\.time_limit.*0 \(no limit\) to 1e9"):
         sssphere.load_scene(small_scene)
+
+
+def test_images_show_and_save_themselves(tmp_path, small_scene):
+    """Notebooks: render() returns an Image (a numpy array) and render_full() a RenderResult,
+    both with _repr_png_ (what Jupyter displays: the PNG the .png output writes) and save()
+    (.exr exact, .png sRGB; a result's AOVs beside it)."""
+    scene = sssphere.load_scene(small_scene)
+    img = sssphere.render(scene, spp=2, seed=4)
+    assert isinstance(img, np.ndarray) and isinstance(img, sssphere.Image)
+    png = img._repr_png_()
+    assert png.startswith(b"\x89PNG\r\n\x1a\n")
+    (tmp_path / "shown.png").write_bytes(png)
+    sssphere.write_image(tmp_path / "written.png", np.asarray(img))
+    np.testing.assert_array_equal(sssphere.read_image(tmp_path / "shown.png"),
+                                  sssphere.read_image(tmp_path / "written.png"))
+    img.save(tmp_path / "img.exr")
+    np.testing.assert_array_equal(sssphere.read_image(tmp_path / "img.exr"), img)
+
+    r = sssphere.render_full(scene, spp=2, seed=4)
+    assert r._repr_png_() == png
+    written = r.save(tmp_path / "r.exr", aovs=True)
+    assert [os.path.basename(p) for p in written] == ["r.exr", "r_variance.exr", "r_events.exr"]
+    np.testing.assert_array_equal(sssphere.read_image(tmp_path / "r.exr"), r.image)
+    np.testing.assert_array_equal(sssphere.read_image(tmp_path / "r_variance.exr"), r.variance)
+    np.testing.assert_array_equal(sssphere.read_image(tmp_path / "r_events.exr")[..., 0],
+                                  r.events)

@@ -23,6 +23,7 @@ from sssphere._version import __version__
 
 # public name -> the module that defines it
 _EXPORTS = {
+    "Image": "sssphere.rendering",
     "RenderResult": "sssphere.rendering",
     "ScatteringModel": "sssphere.model",
     "Scene": "sssphere.scene",
@@ -39,6 +40,7 @@ _EXPORTS = {
 }
 
 __all__ = [
+    "Image",
     "RenderResult",
     "ScatteringModel",
     "Scene",
@@ -58,7 +60,8 @@ __all__ = [
 if TYPE_CHECKING:
     from sssphere._core import SceneError
     from sssphere.model import ScatteringModel
-    from sssphere.rendering import RenderResult, read_image, render, render_full, write_image
+    from sssphere.rendering import (Image, RenderResult, read_image, render, render_full,
+                                    write_image)
     from sssphere.scene import Scene, SceneWarning, load_mesh, load_scene, presets
     from sssphere.walks import sphere_walks
 

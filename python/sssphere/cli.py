@@ -14,7 +14,7 @@ import numpy as np
 from sssphere._progress import Progress
 from sssphere._version import __version__
 from sssphere import rendering
-from sssphere.rendering import RENDER_OPTIONS, write_image
+from sssphere.rendering import RENDER_OPTIONS
 from sssphere.scene import SceneError, SceneWarning, load_scene_with
 
 IMAGE_SUFFIXES = (".exr", ".png")
@@ -64,13 +64,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
         result = rendering._result(rendering._render(scene, bar, {}, text))
     finally:
         bar.close()
-    write_image(out, result.image)
-    if args.aovs:
-        stem = out.with_suffix("")
-        write_image(f"{stem}_variance.exr", result.variance)
-        write_image(f"{stem}_events.exr", result.events[:, :, None])
-        if result.mean_sphere_steps_per_path > 0:
-            write_image(f"{stem}_sphere_steps.exr", result.sphere_steps[:, :, None])
+    result.save(out, aovs=args.aovs)
     what = ("interrupted: wrote the partial image" if result.interrupted
             else "time limit reached: wrote" if result.time_limit_reached else "wrote")
     steps = ""

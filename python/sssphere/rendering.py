@@ -22,6 +22,29 @@ BACKENDS = tuple(_SPECS["backend"]["choices"])
 DEFAULT_SPHERE_THRESHOLD = float(_core.DEFAULT_SPHERE_THRESHOLD)
 
 
+class Image(np.ndarray):
+    """A rendered image: a (height, width, 3) float32 numpy array of linear radiance that
+    shows itself in Jupyter (``_repr_png_``: sRGB, 8 bits, values clamped to [0, 1], as the
+    .png output) and saves itself (``save("x.exr")``; .exr linear, .png sRGB). Everything
+    else is numpy's."""
+
+    def save(self, path: Union[str, os.PathLike]) -> None:
+        write_image(path, self)
+
+    def _repr_png_(self) -> bytes:
+        return _png_bytes(self)
+
+
+def _png_bytes(image: np.ndarray) -> bytes:
+    import tempfile
+
+    with tempfile.TemporaryDirectory(prefix="sssphere-") as tmp:
+        path = os.path.join(tmp, "image.png")
+        write_image(path, image)
+        with open(path, "rb") as f:
+            return f.read()
+
+
 @dataclass
 class RenderResult:
     """Everything a render produces.
@@ -70,6 +93,27 @@ class RenderResult:
     options: Optional[dict] = None
     gpu_seconds: Optional[float] = None
     device: Optional[str] = None
+
+    def save(self, path: Union[str, os.PathLike], aovs: bool = False) -> list[str]:
+        """Write the image to ``path`` (.exr linear, .png sRGB); with ``aovs``, also
+        ``STEM_variance.exr``, ``STEM_events.exr`` and, if the render took sphere steps,
+        ``STEM_sphere_steps.exr`` (as ``sssphere render --aovs``). Returns the paths
+        written."""
+        write_image(path, self.image)
+        written = [str(path)]
+        if aovs:
+            stem = os.path.splitext(str(path))[0]
+            layers = [("variance", self.variance), ("events", self.events[:, :, None])]
+            if self.mean_sphere_steps_per_path > 0:
+                layers.append(("sphere_steps", self.sphere_steps[:, :, None]))
+            for name, data in layers:
+                write_image(f"{stem}_{name}.exr", data)
+                written.append(f"{stem}_{name}.exr")
+        return written
+
+    def _repr_png_(self) -> bytes:
+        """Jupyter shows a result as its image (sRGB, clamped)."""
+        return _png_bytes(self.image)
 
 
 def _render(scene: Scene, progress, options: dict, text: Optional[dict] = None) -> dict:
@@ -143,7 +187,7 @@ def render_full(
 def _result(r: dict) -> RenderResult:
     paths = max(1, int(r["total_paths"]))
     return RenderResult(
-        image=r["image"],
+        image=r["image"].view(Image),
         variance=r["variance"],
         events=r["events"],
         sphere_steps=r["sphere_steps"],
@@ -176,8 +220,9 @@ def render(
     step_nee: Optional[str] = None,
     backend: Optional[str] = None,
     time_limit: Optional[float] = None,
-) -> np.ndarray:
-    """Render a scene to a (height, width, 3) float32 array of linear radiance.
+) -> Image:
+    """Render a scene to a (height, width, 3) float32 array of linear radiance (an Image:
+    a numpy array that shows itself in Jupyter and has ``save(path)``).
 
     ``integrator="st"`` renders with sphere tracing; ``sphere_threshold``, ``models`` and
     ``step_nee`` are described in render_full, and so is ``backend`` (``"vulkan"``: the GPU
