@@ -143,6 +143,26 @@ def _cmd_export(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_export_mitsuba(args: argparse.Namespace) -> int:
+    from sssphere.mitsuba import export_mitsuba
+
+    out = Path(args.output)
+    if out.suffix.lower() != ".xml":
+        raise SceneError(f"{out}: the Mitsuba scene is written as .xml, got {out.suffix!r}")
+    if out.parent != Path("") and not out.parent.is_dir():
+        raise SceneError(f"{out}: output directory {str(out.parent)!r} does not exist")
+    try:
+        import mitsuba  # noqa: F401
+    except ImportError:
+        raise SceneError("export-mitsuba needs the mitsuba package (pip install mitsuba, or "
+                         "the test extra: pip install 'sssphere[test]')") from None
+    written = export_mitsuba(args.scene, out, spp=args.spp, seed=args.seed,
+                             integrator=args.integrator)
+    print(f"wrote {written[0]} and {len(written) - 1} mesh file(s) in "
+          f"{Path(written[-1]).parent if len(written) > 1 else out.parent}", file=sys.stderr)
+    return 0
+
+
 def _cmd_presets(args: argparse.Namespace) -> int:
     from sssphere.scene import presets
 
@@ -258,6 +278,16 @@ def build_parser() -> argparse.ArgumentParser:
     x.add_argument("checkpoint", help="cvae_checkpoint.pt written by `sssphere train`")
     x.add_argument("-o", "--output", required=True, help="output directory (created if missing)")
     x.set_defaults(func=_cmd_export)
+
+    m = sub.add_parser("export-mitsuba", help="write the equivalent Mitsuba 3 scene (.xml and "
+                                              "PLY meshes) of a scene file, to compare the two")
+    m.add_argument("scene", help="scene file (JSON, docs/scene-format.md)")
+    m.add_argument("output", help="Mitsuba scene (.xml); meshes go to OUTPUT_STEM_meshes/")
+    m.add_argument("--spp", type=_positive_int, default=64, help="samples per pixel (default 64)")
+    m.add_argument("--seed", type=_non_negative_int, default=0, help="sampler seed (default 0)")
+    m.add_argument("--integrator", choices=["volpath", "volpathmis"], default="volpath",
+                   help="Mitsuba's integrator (default volpath; volpathmis: spectral MIS)")
+    m.set_defaults(func=_cmd_export_mitsuba)
 
     e = sub.add_parser("eval", help="compare the learned models with ground-truth walks")
     e.add_argument("--models", default="models", help="directory of the model files")
