@@ -106,6 +106,16 @@ RenderOptions st_options(const std::string& models, float threshold) {
     return opt;
 }
 
+// st with exact sphere walks in place of the networks (unbiased), tau = 1.
+RenderOptions exact_walks(StepNee mode, int spp, uint64_t seed) {
+    RenderOptions opt = st_options("", 1.f);
+    opt.sphere_sampler = SphereSampler::Walk;
+    opt.step_nee = mode;
+    opt.spp = spp;
+    opt.seed = seed;
+    return opt;
+}
+
 }  // namespace
 
 TEST(SphereTracer, FurnaceWithoutNeeIsExactPerPathForAnyModel) {
@@ -138,12 +148,7 @@ TEST(SphereTracer, FurnaceWithNeeAndExactWalksIsUnbiased) {
             SCOPED_TRACE(mode == StepNee::Event ? "event" : "hits");
             Scene scene(
                 sphere_scene(sigma_t, Vec3(1.f), 0.5f, BoundaryType::IndexMatched), 2);
-            RenderOptions opt = st_options("", 1.f);
-            opt.step_nee = mode;
-            opt.sphere_sampler = SphereSampler::Walk;
-            opt.spp = 128;
-            opt.seed = 4;
-            const RenderResult r = render(scene, opt);
+            const RenderResult r = render(scene, exact_walks(mode, 128, 4));
             const std::vector<BlockSum> b = block_sums(r, true);
             // Background-only blocks (no pixel left) are exactly 1 and left out.
             expect_agreement(per_channel(b.size(),
@@ -184,12 +189,7 @@ TEST(SphereTracer, ExactWalksUnderAllKindsOfLightMatchPt) {
         const std::vector<BlockSum> sa = block_sums(render(scene, pt), false);
         for (StepNee mode : {StepNee::Event, StepNee::Hits}) {
             SCOPED_TRACE(mode == StepNee::Event ? "event" : "hits");
-            RenderOptions st = st_options("", 1.f);
-            st.sphere_sampler = SphereSampler::Walk;
-            st.step_nee = mode;
-            st.spp = 256;
-            st.seed = 6;
-            const RenderResult b = render(scene, st);
+            const RenderResult b = render(scene, exact_walks(mode, 256, 6));
             const std::vector<BlockSum> sb = block_sums(b, false);
             // Blocks of background in both (the environment exactly) have variance 0.
             expect_agreement(per_channel(sa.size(),
