@@ -151,6 +151,32 @@ def test_bad_meshes_are_refused_with_the_file_named(tmp_path, small_scene, faces
     assert "shapes[0].mesh" in msg and "m.off" in msg and expected in msg, msg
 
 
+def _mesh_error(small_scene, vertices, faces):
+    del small_scene["shapes"][0]["sphere"]
+    small_scene["shapes"][0].update(vertices=vertices, faces=faces)
+    small_scene["camera"]["origin"] = [0.5, 0.5, 9]
+    return error_of(small_scene)
+
+
+def test_mesh_errors_say_where_the_defects_are_and_how_to_repair_them(small_scene):
+    import copy
+
+    # A cube without its last face: 4 open edges, named by their corners.
+    msg = _mesh_error(copy.deepcopy(small_scene), CUBE_V, CUBE_F[:-1])
+    assert "shapes[0]" in msg and "not closed: 4 edges belong to one triangle only" in msg, msg
+    assert "(0, 0, 0)-(0, 1, 0)" in msg and "pymeshfix" in msg and "'surface'" in msg, msg
+    # Two cubes sharing the edge x = y = 1: it has four triangles.
+    shifted = [(x + 1, y + 1, z) for x, y, z in CUBE_V]
+    faces = CUBE_F + [tuple(i + 8 for i in f) for f in CUBE_F]
+    msg = _mesh_error(copy.deepcopy(small_scene), CUBE_V + shifted, faces)
+    assert "not manifold: 1 edges are shared by more than two triangles" in msg, msg
+    assert "(1, 1, 0)-(1, 1, 1) (4 triangles)" in msg, msg
+    # Two cubes touching at the corner (1, 1, 1) only: a vertex joining two sheets.
+    shifted = [(x + 1, y + 1, z + 1) for x, y, z in CUBE_V]
+    msg = _mesh_error(copy.deepcopy(small_scene), CUBE_V + shifted, faces)
+    assert "1 vertices join separate sheets" in msg and "(1, 1, 1) (2 fans)" in msg, msg
+
+
 def test_open_meshes_make_surfaces_but_not_media(tmp_path, small_scene):
     """A floor of two triangles is an opaque surface; the same open mesh cannot hold a
     medium (the error says it is not closed)."""

@@ -17,7 +17,11 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <map>
+#include <set>
 #include <sstream>
+#include <utility>
 
 #include "core/check.h"
 #include "core/files.h"
@@ -182,27 +186,115 @@ TriangleMesh make_open_mesh(std::vector<Vec3> positions,
     return soup_to_mesh(points, tris);
 }
 
+namespace {
+
+// What to do about a mesh that is not closed and manifold, said after its defects.
+constexpr const char* kRepairAdvice =
+    "; repair it with a mesh tool (e.g. MeshLab's Filters > Cleaning and Repairing, or "
+    "in Python pymeshfix: MeshFix(v, f).repair()), or make the shape an opaque "
+    "'surface', which may be open";
+
+std::string at(const Point& p) {
+    std::ostringstream os;
+    os << "(" << p.x() << ", " << p.y() << ", " << p.z() << ")";
+    return os.str();
+}
+
+// The edges (vertex pairs, smaller index first) of a triangle soup with the number of
+// triangles that share each.
+std::map<std::pair<size_t, size_t>, int> edge_counts(
+    const std::vector<std::vector<std::size_t>>& tris) {
+    std::map<std::pair<size_t, size_t>, int> count;
+    for (const auto& t : tris)
+        for (int k = 0; k < 3; ++k) {
+            const size_t a = t[k], b = t[(k + 1) % 3];
+            ++count[{std::min(a, b), std::max(a, b)}];
+        }
+    return count;
+}
+
+// "N edges ..., the first: (x, y, z)-(x, y, z), ...": the edges shared by `wanted`
+// triangles (or, wanted < 0, by more than two), up to three of them with coordinates.
+std::string list_edges(const std::vector<Point>& points,
+                       const std::map<std::pair<size_t, size_t>, int>& count, int wanted,
+                       size_t* found) {
+    std::string first;
+    *found = 0;
+    for (const auto& [edge, n] : count) {
+        if (wanted >= 0 ? n != wanted : n <= 2) continue;
+        if (++*found <= 3)
+            first += (*found > 1 ? ", " : "") + at(points[edge.first]) + "-" +
+                     at(points[edge.second]) +
+                     (wanted < 0 ? " (" + std::to_string(n) + " triangles)" : "");
+    }
+    return first;
+}
+
+// Vertices whose triangles do not form one fan (they join separate sheets): the edges
+// opposite a vertex in its triangles fall into more than one connected chain.
+std::string list_nonmanifold_vertices(const std::vector<Point>& points,
+                                      const std::vector<std::vector<std::size_t>>& tris,
+                                      size_t* found) {
+    std::vector<std::vector<std::pair<size_t, size_t>>> link(points.size());
+    for (const auto& t : tris)
+        for (int k = 0; k < 3; ++k)
+            link[t[k]].push_back({t[(k + 1) % 3], t[(k + 2) % 3]});
+    std::string first;
+    *found = 0;
+    for (size_t v = 0; v < points.size(); ++v) {
+        std::map<size_t, size_t> parent;  // union-find over the link's vertices
+        std::function<size_t(size_t)> root = [&](size_t x) {
+            while (parent[x] != x) x = parent[x] = parent[parent[x]];
+            return x;
+        };
+        for (const auto& [a, b] : link[v]) {
+            parent.emplace(a, a);
+            parent.emplace(b, b);
+            parent[root(a)] = root(b);
+        }
+        std::set<size_t> roots;
+        for (const auto& entry : parent) roots.insert(root(entry.first));
+        if (roots.size() <= 1) continue;
+        if (++*found <= 3)
+            first += (*found > 1 ? ", " : "") + at(points[v]) + " (" +
+                     std::to_string(roots.size()) + " fans)";
+    }
+    return first;
+}
+
+}  // namespace
+
 TriangleMesh make_closed_mesh(std::vector<Vec3> positions,
                               std::vector<std::vector<uint32_t>> polygons,
                               const std::string& what) {
     std::vector<Point> points;
     std::vector<std::vector<std::size_t>> tris;
     clean_soup(positions, polygons, what, points, tris);
-    if (!PMP::orient_polygon_soup(points, tris))
-        fail(what,
-             ": mesh is not manifold (some edges are shared by more than two triangles, "
-             "or "
-             "vertices join separate sheets); a closed, manifold triangle mesh is "
-             "required");
+    const auto edges = edge_counts(tris);
+    size_t found = 0;
+    const std::string shared = list_edges(points, edges, -1, &found);
+    if (found > 0)
+        fail(what, ": mesh is not manifold: ", found,
+             " edges are shared by more than two triangles, the first: ", shared,
+             "; a closed, manifold triangle mesh is required", kRepairAdvice);
+    const std::string open = list_edges(points, edges, 1, &found);
+    if (found > 0)
+        fail(what, ": mesh is not closed: ", found,
+             " edges belong to one triangle only (holes), the first: ", open,
+             "; a closed (watertight) triangle mesh is required", kRepairAdvice);
+    if (!PMP::orient_polygon_soup(points, tris)) {
+        const std::string joints = list_nonmanifold_vertices(points, tris, &found);
+        fail(what, ": mesh is not manifold: ", found,
+             " vertices join separate sheets of triangles, the first: ", joints,
+             "; a closed, manifold triangle mesh is required", kRepairAdvice);
+    }
     SurfaceMesh sm;
     PMP::polygon_soup_to_polygon_mesh(points, tris, sm);
-    if (!CGAL::is_closed(sm)) {
-        size_t border = 0;
-        for (auto h : sm.halfedges())
-            if (sm.is_border(h)) ++border;
-        fail(what, ": mesh is not closed (", border,
-             " boundary edges); a closed (watertight) triangle mesh is required");
-    }
+    if (!CGAL::is_closed(sm))  // orient_polygon_soup may have split a vertex
+        fail(what,
+             ": mesh is not closed after orienting it; a closed (watertight) "
+             "triangle mesh is required",
+             kRepairAdvice);
     PMP::orient_to_bound_a_volume(sm);
 
     TriangleMesh mesh;
