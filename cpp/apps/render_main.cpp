@@ -3,6 +3,8 @@
 // are built from) and the same renderers. Ctrl-C stops early and writes the image
 // rendered so far.
 #include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cctype>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -13,6 +15,7 @@
 #include "core/check.h"
 #include "gpu/backends.h"
 #include "io/image_io.h"
+#include "render/aovs.h"
 #include "render/options.h"
 #include "render/scene.h"
 
@@ -53,6 +56,35 @@ std::string flag_of(const std::string& name) {
 
 }  // namespace
 
+// The image and its AOVs as `sssphere render --aovs` writes them (RenderResult.layers,
+// python/sssphere/rendering.py): one multilayer .exr, or OUT_NAME.exr files beside a
+// .png.
+static void write_with_aovs(const std::string& out_path, const sss::Scene& scene,
+                            const sss::RenderOptions& opt, const sss::RenderResult& r) {
+    const sss::FirstHitAovs a = sss::first_hit_aovs(
+        scene, opt.seed, std::clamp(r.spp, 1, sss::kDefaultAovSamples), opt.threads);
+    const std::vector<std::string> rgb{"R", "G", "B"}, xyz{"X", "Y", "Z"};
+    std::vector<sss::ImageLayer> layers{{"variance", rgb, r.variance},
+                                        {"events", {"Y"}, r.events}};
+    if (r.total_sphere_steps > 0)
+        layers.push_back({"sphere_steps", {"Y"}, r.sphere_steps});
+    layers.push_back({"albedo", rgb, a.albedo});
+    layers.push_back({"normal", xyz, a.normal});
+    layers.push_back({"depth", {"Z"}, a.depth});
+    std::string ext = std::filesystem::path(out_path).extension().string();
+    for (char& c : ext) c = char(std::tolower((unsigned char)c));
+    if (ext == ".exr") {
+        layers.insert(layers.begin(), {"", rgb, r.image});
+        sss::write_exr_layers(out_path, r.width, r.height, layers);
+        return;
+    }
+    sss::write_image(out_path, r.image, r.width, r.height);
+    const std::string stem = std::filesystem::path(out_path).replace_extension();
+    for (const sss::ImageLayer& l : layers)
+        sss::write_image(stem + "_" + l.name + ".exr", l.data, r.width, r.height,
+                         int(l.channels.size()));
+}
+
 int main(int argc, char** argv) {
     CLI::App app{
         "Render a scene file (docs/scene-format.md) to an image: .exr (linear) or "
@@ -83,8 +115,9 @@ int main(int argc, char** argv) {
     }
     app.add_flag(
         "--aovs", aovs,
-        "also write OUT_variance.exr, OUT_events.exr (scattering events per path) "
-        "and, for st, OUT_sphere_steps.exr");
+        "also write the variance, scattering events per path, sphere steps (st), "
+        "first-hit albedo, normal and depth: as layers of OUT for an .exr, as "
+        "OUT_NAME.exr files beside a .png");
     std::vector<std::string> assignments;
     int width = 0, height = 0;
     app.add_option("--set", assignments,
@@ -136,15 +169,10 @@ int main(int argc, char** argv) {
             return g_signal == 0;
         });
         if (!quiet) std::fprintf(stderr, "\n");
-        sss::write_image(out_path, r.image, r.width, r.height);
-        if (aovs) {
-            const std::string stem = std::filesystem::path(out_path).replace_extension();
-            sss::write_image(stem + "_variance.exr", r.variance, r.width, r.height);
-            sss::write_image(stem + "_events.exr", r.events, r.width, r.height, 1);
-            if (r.total_sphere_steps > 0)
-                sss::write_image(stem + "_sphere_steps.exr", r.sphere_steps, r.width,
-                                 r.height, 1);
-        }
+        if (aovs)
+            write_with_aovs(out_path, scene, opt, r);
+        else
+            sss::write_image(out_path, r.image, r.width, r.height);
         double paths = double(r.total_paths);
         std::string steps;
         if (r.total_sphere_steps > 0) {

@@ -42,16 +42,14 @@ void check_output_image(const std::string& path) {
         fail(path, ": output directory '", parent.string(), "' does not exist");
 }
 
-void write_image(const std::string& path, const std::vector<float>& pixels, int width,
-                 int height, int channels) {
-    namespace fs = std::filesystem;
-    check_output_image(path);
-    const std::string ext = lower_extension(path);
-    SSS_CHECK(pixels.size() == size_t(width) * height * channels);
+namespace {
 
-    // Written to a temporary file beside it (same extension: it picks the format), then
-    // renamed into place: an interrupted or failed write never leaves a truncated image
-    // where the previous one was.
+// Writes through `out` to a temporary file beside `path` (same extension: it picks the
+// format), then renames it into place: an interrupted or failed write never leaves a
+// truncated image where the previous one was.
+void write_atomically(const std::string& path, const OIIO::ImageSpec& spec,
+                      OIIO::TypeDesc type, const void* data) {
+    namespace fs = std::filesystem;
     const fs::path target(path);
     const std::string tmp = (target.parent_path() /
                              ("." + target.stem().string() + ".tmp-" +
@@ -63,22 +61,7 @@ void write_image(const std::string& path, const std::vector<float>& pixels, int 
     };
     auto out = OIIO::ImageOutput::create(path);
     if (!out) fail(path, ": cannot create an image writer: ", OIIO::geterror());
-    bool ok;
-    if (ext == ".exr") {
-        OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::FLOAT);
-        spec.attribute("compression", "zip");
-        ok = out->open(tmp, spec) &&
-             out->write_image(OIIO::TypeDesc::FLOAT, pixels.data());
-    } else {
-        std::vector<unsigned char> bytes(pixels.size());
-        for (size_t i = 0; i < pixels.size(); ++i)
-            bytes[i] = (unsigned char)std::lround(255.f * linear_to_srgb(pixels[i]));
-        OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::UINT8);
-        spec.attribute("oiio:ColorSpace", "sRGB");
-        ok =
-            out->open(tmp, spec) && out->write_image(OIIO::TypeDesc::UINT8, bytes.data());
-    }
-    if (!ok) {
+    if (!(out->open(tmp, spec) && out->write_image(type, data))) {
         const std::string why = out->geterror();
         cleanup();
         fail(path, ": cannot write image: ", why);
@@ -96,6 +79,56 @@ void write_image(const std::string& path, const std::vector<float>& pixels, int 
     }
 }
 
+}  // namespace
+
+void write_image(const std::string& path, const std::vector<float>& pixels, int width,
+                 int height, int channels) {
+    check_output_image(path);
+    SSS_CHECK(pixels.size() == size_t(width) * height * channels);
+    if (lower_extension(path) == ".exr") {
+        OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::FLOAT);
+        spec.attribute("compression", "zip");
+        write_atomically(path, spec, OIIO::TypeDesc::FLOAT, pixels.data());
+        return;
+    }
+    std::vector<unsigned char> bytes(pixels.size());
+    for (size_t i = 0; i < pixels.size(); ++i)
+        bytes[i] = (unsigned char)std::lround(255.f * linear_to_srgb(pixels[i]));
+    OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::UINT8);
+    spec.attribute("oiio:ColorSpace", "sRGB");
+    write_atomically(path, spec, OIIO::TypeDesc::UINT8, bytes.data());
+}
+
+void write_exr_layers(const std::string& path, int width, int height,
+                      const std::vector<ImageLayer>& layers) {
+    check_output_image(path);
+    if (lower_extension(path) != ".exr")
+        fail(path, ": image layers need an .exr file (a .png holds one RGB image)");
+    std::vector<std::string> names;
+    for (const ImageLayer& layer : layers) {
+        SSS_CHECK(layer.data.size() == size_t(width) * height * layer.channels.size());
+        for (const std::string& c : layer.channels)
+            names.push_back(layer.name.empty() ? c : layer.name + "." + c);
+    }
+    if (names.size() > size_t(kMaxLayeredChannels))
+        fail(path, ": ", names.size(), " channels (allowed: at most ",
+             kMaxLayeredChannels, ")");
+    const size_t pixels = size_t(width) * height, n = names.size();
+    std::vector<float> interleaved(pixels * n);
+    size_t first = 0;
+    for (const ImageLayer& layer : layers) {
+        const size_t k = layer.channels.size();
+        for (size_t p = 0; p < pixels; ++p)
+            for (size_t c = 0; c < k; ++c)
+                interleaved[p * n + first + c] = layer.data[p * k + c];
+        first += k;
+    }
+    OIIO::ImageSpec spec(width, height, int(n), OIIO::TypeDesc::FLOAT);
+    spec.channelnames = names;
+    spec.attribute("compression", "zip");
+    write_atomically(path, spec, OIIO::TypeDesc::FLOAT, interleaved.data());
+}
+
 namespace {
 
 // Limits on what read_image accepts: no image of ours needs more, and a header of a few
@@ -110,7 +143,7 @@ constexpr int64_t kMaxChunkPixels = int64_t(1) << 22;
 // allocates the declared size first), a data window beyond the pixel limit, or a chunk
 // offset table longer than the file. Multi-part and deep files are refused (not
 // supported). Found by fuzzing (docs/fuzzing.md).
-void check_exr_header(const std::string& path) {
+void check_exr_header(const std::string& path, int max_channels) {
     std::ifstream in(path, std::ios::binary);
     in.seekg(0, std::ios::end);
     const int64_t file_size = in.tellg();
@@ -177,9 +210,13 @@ void check_exr_header(const std::string& path) {
             for (;;) {
                 const std::string channel = read_string(max_name);
                 if (channel.empty()) break;
-                if (++channels > kMaxImageChannels)
-                    fail(path, ": more than ", kMaxImageChannels,
-                         " channels is not allowed (allowed: 1 to 4)");
+                if (++channels > max_channels)
+                    fail(path, ": more than ", max_channels,
+                         " channels is not allowed (allowed: 1 to ", max_channels, ")",
+                         max_channels < kMaxLayeredChannels
+                             ? "; a multilayer EXR's layers are read by "
+                               "sssphere.read_layers"
+                             : "");
                 const uint32_t pixel_type = read_u32();
                 read_u32();
                 const uint32_t x_sampling = read_u32(), y_sampling = read_u32();
@@ -277,14 +314,18 @@ bool starts_with(const std::string& path, const std::string& magic) {
 
 }  // namespace
 
-std::vector<float> read_image(const std::string& path, int* width, int* height,
-                              int* channels) {
+namespace {
+
+// read_image and read_exr_layers: files of 1 to max_channels channels.
+std::vector<float> read_checked(const std::string& path, int max_channels, int* width,
+                                int* height, int* channels,
+                                std::vector<std::string>* channel_names) {
     check_input_file(path, "image file");
     const std::string ext = lower_extension(path);
     if (ext == ".exr") {
         if (!starts_with(path, std::string("\x76\x2f\x31\x01", 4)))
             fail(path, ": is not an OpenEXR file (wrong signature)");
-        check_exr_header(path);
+        check_exr_header(path, max_channels);
     } else if (ext == ".png") {
         if (!starts_with(path, "\x89PNG\r\n\x1a\n"))
             fail(path, ": is not a PNG file (wrong signature)");
@@ -304,15 +345,34 @@ std::vector<float> read_image(const std::string& path, int* width, int* height,
     // (found by fuzzing: an EXR of a few bytes asked for gigabytes).
     const int64_t pixels = int64_t(spec.width) * int64_t(spec.height);
     if (spec.width < 1 || spec.height < 1 || spec.nchannels < 1 ||
-        spec.nchannels > kMaxImageChannels || pixels > kMaxImagePixels || spec.depth > 1)
+        spec.nchannels > max_channels || pixels > kMaxImagePixels || spec.depth > 1)
         fail(path, ": image of ", spec.width, " x ", spec.height, " pixels and ",
-             spec.nchannels,
-             " channels is not allowed (allowed: 1 to 4 channels, at most 2^26 pixels, "
-             "2D)");
+             spec.nchannels, " channels is not allowed (allowed: 1 to ", max_channels,
+             " channels, at most 2^26 pixels, 2D)",
+             max_channels < kMaxLayeredChannels && spec.nchannels > max_channels
+                 ? "; a multilayer EXR's layers are read by sssphere.read_layers"
+                 : "");
     std::vector<float> px(size_t(pixels) * size_t(spec.nchannels));
     if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, px.data()))
         fail(path, ": cannot read image: ", in->geterror());
+    if (channel_names) *channel_names = spec.channelnames;
     return px;
+}
+
+}  // namespace
+
+std::vector<float> read_image(const std::string& path, int* width, int* height,
+                              int* channels) {
+    return read_checked(path, kMaxImageChannels, width, height, channels, nullptr);
+}
+
+std::vector<float> read_exr_layers(const std::string& path, int* width, int* height,
+                                   std::vector<std::string>* channel_names) {
+    if (lower_extension(path) != ".exr")
+        fail(path, ": image layers are read from .exr files only");
+    int channels;
+    return read_checked(path, kMaxLayeredChannels, width, height, &channels,
+                        channel_names);
 }
 
 void install_image_reader() {

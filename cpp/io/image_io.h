@@ -15,6 +15,25 @@ void check_output_image(const std::string& path);
 void write_image(const std::string& path, const std::vector<float>& pixels, int width,
                  int height, int channels = 3);
 
+// A multilayer EXR holds at most this many channels (our AOVs need 15).
+constexpr int kMaxLayeredChannels = 32;
+
+// One layer of a multilayer EXR: its channels are named LAYER.CHANNEL (CHANNEL alone for
+// the unnamed layer, which viewers show); `data` holds height * width * channels floats.
+struct ImageLayer {
+    std::string name;
+    std::vector<std::string> channels;
+    std::vector<float> data;
+};
+
+// One .exr file of all the layers, float, channels in the order given.
+void write_exr_layers(const std::string& path, int width, int height,
+                      const std::vector<ImageLayer>& layers);
+
+// Every channel of an .exr file (1 to kMaxLayeredChannels), interleaved, and their names.
+std::vector<float> read_exr_layers(const std::string& path, int* width, int* height,
+                                   std::vector<std::string>* channel_names);
+
 // Reads an image as float (height * width * channels, row 0 at the top); 8-bit files give
 // their stored values / 255 (no colour conversion).
 std::vector<float> read_image(const std::string& path, int* width, int* height,

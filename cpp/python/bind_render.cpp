@@ -12,6 +12,8 @@
 #include "core/check.h"
 #include "gpu/backends.h"
 #include "python/render_progress.h"
+#include "render/aovs.h"
+#include "render/medium_presets.h"
 #include "render/options.h"
 #include "render/scene.h"
 
@@ -168,4 +170,33 @@ void bind_render(py::module_& m) {
         py::arg("gpu_batch") = 0, py::arg("gpu_lanes") = 0,
         "Render with the resolved options (see resolve_render_options) on their "
         "backend.");
+    m.attr("DEFAULT_AOV_SAMPLES") = kDefaultAovSamples;
+    m.def(
+        "multiple_scattering_albedo", &multiple_scattering_albedo,
+        py::arg("reduced_albedo"),
+        "The multiple-scattering albedo (a thick slab's diffuse reflectance) of a medium "
+        "of reduced single-scattering albedo sigma_s' / (sigma_s' + sigma_a): the "
+        "forward direction of Chiang et al.'s fit (render/medium_presets.h).");
+    m.def(
+        "first_hit_aovs",
+        [](const Scene& scene, uint64_t seed, int samples, int threads) {
+            if (samples < 1) fail("aov samples must be at least 1, got ", samples);
+            FirstHitAovs a;
+            {
+                py::gil_scoped_release release;
+                a = first_hit_aovs(scene, seed, samples, threads);
+            }
+            const py::ssize_t H = a.height, W = a.width;
+            py::dict d;
+            d["albedo"] = to_array(a.albedo, {H, W, 3});
+            d["normal"] = to_array(a.normal, {H, W, 3});
+            d["depth"] = to_array(a.depth, {H, W});
+            d["shape"] = to_array(a.shape, {H, W});
+            return d;
+        },
+        py::arg("scene"), py::arg("seed") = 0, py::arg("samples") = kDefaultAovSamples,
+        py::arg("threads") = 0,
+        "First-hit albedo (H, W, 3), normal (H, W, 3) and depth (H, W) from the render's "
+        "first `samples` camera rays of each pixel, and the shape index (H, W) the first "
+        "ray hits (-1: a light or nothing) (render/aovs.h).");
 }

@@ -4,7 +4,10 @@
 // _core.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
 
+#include <string>
+#include <tuple>
 #include <vector>
 
 #include "core/check.h"
@@ -51,6 +54,53 @@ PYBIND11_MODULE(_image, m) {
             py::array_t<float> a({py::ssize_t(h), py::ssize_t(w), py::ssize_t(c)});
             std::copy(px.begin(), px.end(), a.mutable_data());
             return a;
+        },
+        py::arg("path"));
+
+    m.def(
+        "write_exr_layers",
+        [](const std::string& path, const py::list& layers) {
+            std::vector<sss::ImageLayer> out;
+            int width = -1, height = -1;
+            for (const py::handle& item : layers) {
+                auto [name, channels, data] = item.cast<std::tuple<
+                    std::string, std::vector<std::string>,
+                    py::array_t<float, py::array::c_style | py::array::forcecast>>>();
+                const size_t k = channels.size();
+                if (data.ndim() != 3 || size_t(data.shape(2)) != k)
+                    sss::fail(path, ": layer '", name,
+                              "' must have shape (height, width, ", k, ")");
+                if (width < 0) {
+                    width = int(data.shape(1));
+                    height = int(data.shape(0));
+                } else if (data.shape(1) != width || data.shape(0) != height) {
+                    sss::fail(path, ": layer '", name, "' is ", data.shape(1), " x ",
+                              data.shape(0), ", the first one ", width, " x ", height);
+                }
+                out.push_back(
+                    {name, channels,
+                     std::vector<float>(data.data(), data.data() + data.size())});
+            }
+            if (out.empty()) sss::fail(path, ": no layers to write");
+            py::gil_scoped_release release;
+            sss::write_exr_layers(path, width, height, out);
+        },
+        py::arg("path"), py::arg("layers"));
+
+    m.def(
+        "read_exr_layers",
+        [](const std::string& path) {
+            int w, h;
+            std::vector<std::string> names;
+            std::vector<float> px;
+            {
+                py::gil_scoped_release release;
+                px = sss::read_exr_layers(path, &w, &h, &names);
+            }
+            const size_t n = names.size();
+            py::array_t<float> a({py::ssize_t(h), py::ssize_t(w), py::ssize_t(n)});
+            std::copy(px.begin(), px.end(), a.mutable_data());
+            return py::make_tuple(names, a);
         },
         py::arg("path"));
 }

@@ -73,15 +73,43 @@ PYBIND11_MODULE(_core, m) {
     bind_gpu(m);
     bind_render(m);
 
+    py::class_<MeshCache, std::shared_ptr<MeshCache>>(
+        m, "MeshCache",
+        "Meshes read from files, kept for parsing an edited scene again "
+        "(render/scene.h).")
+        .def(py::init<>());
+
     py::class_<Scene, std::shared_ptr<Scene>>(m, "Scene")
         .def(py::init([](const std::string& text, const std::string& base_dir,
-                         const std::string& source, int threads) {
-                 SceneDesc desc = parse_scene(text, base_dir, source);
+                         const std::string& source, int threads,
+                         std::shared_ptr<MeshCache> meshes) {
+                 SceneDesc desc = parse_scene(text, base_dir, source, meshes.get());
                  py::gil_scoped_release release;
                  return std::make_shared<Scene>(std::move(desc), threads);
              }),
              py::arg("json_text"), py::arg("base_dir"), py::arg("source"),
-             py::arg("threads") = 0)
+             py::arg("threads") = 0, py::arg("meshes") = nullptr)
+        .def(
+            "_rebuild",
+            [](Scene& s, const std::string& text, const std::string& base_dir,
+               const std::string& source, int threads,
+               std::shared_ptr<MeshCache> meshes) {
+                SceneDesc desc = parse_scene(text, base_dir, source, meshes.get());
+                py::gil_scoped_release release;
+                Scene next(std::move(desc), threads, s);
+                s = std::move(next);
+            },
+            py::arg("json_text"), py::arg("base_dir"), py::arg("source"),
+            py::arg("threads") = 0, py::arg("meshes") = nullptr,
+            "Replaces this scene by the one `json_text` describes, keeping the BVH and "
+            "distance grids it can (Scene's reusing constructor, render/scene.h); on an "
+            "error the scene is unchanged.")
+        .def_property_readonly("rebuilt", &Scene::rebuilt,
+                               "What the last build made anew (render/scene.h).")
+        .def_property_readonly(
+            "grid_resolutions", &Scene::grid_resolutions,
+            "Distance grid cells along each shape's largest side (0: a "
+            "surface).")
         .def_property_readonly("width",
                                [](const Scene& s) { return s.desc().camera.width; })
         .def_property_readonly("height",
@@ -130,6 +158,42 @@ PYBIND11_MODULE(_core, m) {
             },
             "(vertices (n, 3) float32 in the scene file's coordinates, triangles (m, 3) "
             "uint32) of shape i.")
+        .def(
+            "shape_info",
+            [](const Scene& s, int i) {
+                const Shape& shape = shape_at(s, i);
+                py::dict d;
+                d["name"] = shape.name;
+                d["triangles"] = shape.mesh.triangles.size();
+                d["vertices"] = shape.mesh.positions.size();
+                d["area"] = shape.mesh.area();
+                d["volume"] = shape.is_surface() ? 0.0 : shape.mesh.volume();
+                if (shape.is_surface()) {
+                    d["kind"] = "surface";
+                    d["surface"] = shape.surface.kind().name;
+                    d["color"] =
+                        std::vector<float>{shape.surface.color.x, shape.surface.color.y,
+                                           shape.surface.color.z};
+                    return d;
+                }
+                const Medium& m = shape.medium;
+                d["kind"] = "medium";
+                d["sigma_t"] = std::vector<float>{m.sigma_t.x, m.sigma_t.y, m.sigma_t.z};
+                d["albedo"] = std::vector<float>{m.albedo.x, m.albedo.y, m.albedo.z};
+                d["phase"] = m.phase.kind().name;
+                d["g"] = m.phase.kind().mean_cosine(m.phase);
+                d["boundary"] = shape.boundary.kind().name;
+                // The relative index of refraction (a dielectric keeps it in x).
+                d["ior"] = std::string(shape.boundary.kind().name) == "dielectric"
+                               ? shape.boundary.x
+                               : 1.f;
+                d["grid_resolution"] = s.grid_resolutions()[i];
+                return d;
+            },
+            "Shape i in brief: name, kind ('medium' or 'surface'), triangles, vertices, "
+            "area and volume (render units = scene units); a medium's sigma_t, albedo, "
+            "phase, g (mean cosine), boundary, ior and grid_resolution; a surface's type "
+            "and color.")
         .def("distance_lower_bound",
              [](const Scene& s, int i,
                 py::array_t<double, py::array::c_style | py::array::forcecast> p) {
@@ -139,6 +203,21 @@ PYBIND11_MODULE(_core, m) {
                  for (size_t k = 0; k < pts.size(); ++k) r[k] = s.grid(i).query(pts[k]);
                  return to_array(r, {py::ssize_t(r.size())});
              })
+        .def(
+            "grid_inside",
+            [](const Scene& s, int i,
+               py::array_t<double, py::array::c_style | py::array::forcecast> p) {
+                shape_at(s, i);
+                std::vector<Vec3> pts = points_from(s, p);
+                py::array_t<bool> out(py::ssize_t(pts.size()));
+                auto o = out.mutable_unchecked<1>();
+                for (size_t k = 0; k < pts.size(); ++k)
+                    o(py::ssize_t(k)) = s.grid(i).inside(pts[k]);
+                return out;
+            },
+            "Whether each point (scene coordinates) is inside shape i's medium, by its "
+            "distance grid's sign: exact where distance_lower_bound > 0, a guess within "
+            "one cell of the surface.")
         .def("exact_distance",
              [](const Scene& s, int i,
                 py::array_t<double, py::array::c_style | py::array::forcecast> p) {

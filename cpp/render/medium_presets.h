@@ -108,4 +108,23 @@ inline ReducedCoefficients invert_multiple_scattering_albedo(Vec3 color,
     return r;
 }
 
+// The forward direction of the same fit: the multiple-scattering albedo (the diffuse
+// reflectance of a thick slab, `color`) of a medium whose reduced single-scattering
+// albedo is alpha' = sigma_s' / (sigma_s' + sigma_a), found by bisection (alpha' grows
+// with A); 1 where alpha' is beyond the fit's value at A = 1. The first-hit albedo AOV
+// (render/aovs.h) reports a medium by it.
+inline float multiple_scattering_albedo(float reduced_albedo) {
+    auto fit = [](double a) {
+        return 1.0 - std::exp(a * (-5.09406 + a * (2.61188 - a * 4.31805)));
+    };
+    if (!(reduced_albedo > 0.f)) return 0.f;
+    if (reduced_albedo >= fit(1.0)) return 1.f;
+    double lo = 0.0, hi = 1.0;
+    for (int i = 0; i < 40; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (fit(mid) < reduced_albedo ? lo : hi) = mid;
+    }
+    return float(0.5 * (lo + hi));
+}
+
 }  // namespace sss

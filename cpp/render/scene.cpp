@@ -214,10 +214,49 @@ Surface parse_surface(const json& j, const Field& f) {
     return s;
 }
 
-ParsedShape parse_shape(const json& j, const Field& f, const std::string& base_dir) {
+// An inline mesh: "vertices" [[x, y, z], ...] and "faces" [[i, j, k, ...], ...] (polygons
+// of vertex indices), as the Python API passes numpy arrays.
+TriangleMesh parse_inline_mesh(const json& j, const Field& f, MeshKind kind) {
+    constexpr size_t kMaxElements = size_t(1) << 24;
+    const json& vj = j["vertices"];
+    const json& fj = require(j, "faces", f);
+    const Field fv = f.at("vertices"), ff = f.at("faces");
+    if (!vj.is_array() || vj.empty() || vj.size() > kMaxElements)
+        fv.error("expected an array of 1 to 2^24 [x, y, z] points, got ", show(vj));
+    if (!fj.is_array() || fj.empty() || fj.size() > kMaxElements)
+        ff.error("expected an array of 1 to 2^24 faces (arrays of vertex indices), got ",
+                 show(fj));
+    std::vector<Vec3> positions;
+    positions.reserve(vj.size());
+    for (size_t i = 0; i < vj.size(); ++i) {
+        const Vec3d p = point3(vj[i], fv.at(i));
+        if (!is_finite(p.to_float())) fv.at(i).error("is out of single-precision range");
+        positions.push_back(p.to_float());
+    }
+    std::vector<std::vector<uint32_t>> polygons(fj.size());
+    for (size_t i = 0; i < fj.size(); ++i) {
+        const json& face = fj[i];
+        if (!face.is_array() || face.size() < 3 || face.size() > 64)
+            ff.at(i).error("expected 3 to 64 vertex indices, got ", show(face));
+        for (size_t k = 0; k < face.size(); ++k)
+            polygons[i].push_back(uint32_t(integer_in(face[k], ff.at(i).at(k), 0,
+                                                      int64_t(positions.size()) - 1,
+                                                      "an index into 'vertices'")));
+    }
+    try {
+        return kind == MeshKind::Open
+                   ? make_open_mesh(std::move(positions), std::move(polygons), f.path)
+                   : make_closed_mesh(std::move(positions), std::move(polygons), f.path);
+    } catch (const Error& e) {
+        f.error(e.what());
+    }
+}
+
+ParsedShape parse_shape(const json& j, const Field& f, const std::string& base_dir,
+                        MeshCache* meshes) {
     check_keys(j, f,
-               {"name", "mesh", "sphere", "normalize", "transform", "medium", "boundary",
-                "surface"});
+               {"name", "mesh", "sphere", "vertices", "faces", "normalize", "transform",
+                "medium", "boundary", "surface"});
     Shape s;
     // A medium or an opaque surface, decided first: a surface's mesh may be open.
     if (j.contains("medium") == j.contains("surface"))
@@ -237,9 +276,14 @@ ParsedShape parse_shape(const json& j, const Field& f, const std::string& base_d
     } else {
         s.name = f.path;
     }
-    bool has_mesh = j.contains("mesh"), has_sphere = j.contains("sphere");
-    if (has_mesh == has_sphere)
-        f.error("give exactly one of 'mesh' (a file) or 'sphere'");
+    const bool has_mesh = j.contains("mesh"), has_sphere = j.contains("sphere"),
+               has_inline = j.contains("vertices");
+    if (int(has_mesh) + int(has_sphere) + int(has_inline) != 1)
+        f.error(
+            "give exactly one of 'mesh' (a file), 'sphere' or 'vertices' with 'faces'");
+    if (j.contains("faces") && !has_inline)
+        f.at("faces").error("'faces' needs 'vertices' beside it");
+    const MeshKind mesh_kind = s.is_surface() ? MeshKind::Open : MeshKind::Closed;
     // The sphere's centre joins the transform (in double): the mesh is built about 0.
     Vec3d center;
     if (has_mesh) {
@@ -249,11 +293,13 @@ ParsedShape parse_shape(const json& j, const Field& f, const std::string& base_d
         std::filesystem::path p(m.get<std::string>());
         if (p.is_relative()) p = std::filesystem::path(base_dir) / p;
         try {
-            s.mesh =
-                load_mesh(p.string(), s.is_surface() ? MeshKind::Open : MeshKind::Closed);
+            s.mesh = meshes ? meshes->load(p.string(), mesh_kind)
+                            : load_mesh(p.string(), mesh_kind);
         } catch (const Error& e) {
             f.at("mesh").error(e.what());
         }
+    } else if (has_inline) {
+        s.mesh = parse_inline_mesh(j, f, mesh_kind);
     } else {
         const json& sp = j["sphere"];
         Field fs = f.at("sphere");
@@ -399,8 +445,21 @@ void warn_past_limits(SceneDesc& d, double extent) {
 
 }  // namespace
 
+TriangleMesh MeshCache::load(const std::string& path, MeshKind kind) {
+    std::error_code ec;
+    const auto size = std::filesystem::file_size(path, ec);
+    const auto time = std::filesystem::last_write_time(path, ec);
+    if (ec) return load_mesh(path, kind);  // says what is wrong with the file
+    const std::string key = path + '\n' + std::to_string(int(kind)) + '\n' +
+                            std::to_string(size) + '\n' +
+                            std::to_string(time.time_since_epoch().count());
+    auto it = meshes_.find(key);
+    if (it == meshes_.end()) it = meshes_.emplace(key, load_mesh(path, kind)).first;
+    return it->second;
+}
+
 SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
-                      const std::string& source) {
+                      const std::string& source, MeshCache* meshes) {
     json root = parse_json(json_text, source);
     SceneDesc d;
     d.source = source;
@@ -416,7 +475,7 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
         f.at("shapes").error("expected a non-empty array of shapes, got ", show(shapes));
     std::vector<ParsedShape> parsed;
     for (size_t i = 0; i < shapes.size(); ++i)
-        parsed.push_back(parse_shape(shapes[i], f.at("shapes").at(i), base_dir));
+        parsed.push_back(parse_shape(shapes[i], f.at("shapes").at(i), base_dir, meshes));
     // The render frame: the file's coordinates less the centre of the shapes' bounds, in
     // double, then rounded to float. Moving the whole scene moves this centre alike, so
     // the float numbers the renderer sees, and its image, stay the same
@@ -600,35 +659,104 @@ SceneDesc load_scene_file(const std::string& path,
     return parse_scene(text, base.empty() ? "." : base, path);
 }
 
-Scene::Scene(SceneDesc desc, int threads)
-    : desc_(std::move(desc)), tracer_(std::make_unique<RayTracer>()) {
+Scene::Scene(SceneDesc desc, int threads) : desc_(std::move(desc)) {
+    build(threads, nullptr);
+}
+
+Scene::Scene(SceneDesc desc, int threads, const Scene& previous)
+    : desc_(std::move(desc)) {
+    build(threads, &previous);
+}
+
+namespace {
+
+bool same_mesh(const TriangleMesh& a, const TriangleMesh& b) {
+    return a.positions == b.positions && a.triangles == b.triangles;
+}
+
+}  // namespace
+
+void Scene::build(int threads, const Scene* previous) {
+    std::vector<TriangleMesh> quads;
+    for (size_t i = 0; i < desc_.lights.size(); ++i) {
+        const Light& l = desc_.lights[i];
+        if (l.kind().environment) environment_ = int(i);
+        if (!l.kind().quad) continue;
+        quads.push_back(l.quad_mesh());
+        area_lights_.push_back(int(i));
+    }
     for (const Shape& s : desc_.shapes) {
-        tracer_->add_mesh(s.mesh);
         has_surfaces_ = has_surfaces_ || s.is_surface();
         if (s.is_surface()) continue;
         grey_ = grey_ && s.medium.sigma_t.x == s.medium.sigma_t.y &&
                 s.medium.sigma_t.x == s.medium.sigma_t.z;
     }
-    for (size_t i = 0; i < desc_.lights.size(); ++i) {
-        const Light& l = desc_.lights[i];
-        if (l.kind().environment) environment_ = int(i);
-        if (!l.kind().quad) continue;
-        tracer_->add_mesh(l.quad_mesh());
-        area_lights_.push_back(int(i));
+
+    // The BVH: kept when every mesh it holds (shapes, then area lights' quads) is the
+    // same.
+    bool same_meshes = previous && previous->num_shapes() == num_shapes() &&
+                       previous->area_lights_.size() == area_lights_.size();
+    for (int i = 0; same_meshes && i < num_shapes(); ++i)
+        same_meshes = same_mesh(desc_.shapes[i].mesh, previous->desc_.shapes[i].mesh);
+    for (size_t k = 0; same_meshes && k < quads.size(); ++k)
+        same_meshes = same_mesh(
+            quads[k], previous->desc_.lights[previous->area_lights_[k]].quad_mesh());
+    if (same_meshes) {
+        tracer_ = previous->tracer_;
+    } else {
+        auto tracer = std::make_shared<RayTracer>();
+        for (const Shape& s : desc_.shapes) tracer->add_mesh(s.mesh);
+        for (const TriangleMesh& q : quads) tracer->add_mesh(q);
+        tracer->commit();
+        tracer_ = std::move(tracer);
+        rebuilt_.push_back("BVH");
     }
-    tracer_->commit();
-    for (const Shape& s : desc_.shapes) {
+
+    // A distance grid per medium: kept when its shape's mesh and resolution are the same.
+    for (int i = 0; i < num_shapes(); ++i) {
+        const Shape& s = desc_.shapes[i];
         if (s.is_surface()) {  // no medium to step through
-            grids_.emplace_back();
+            grids_.push_back(std::make_shared<DistanceGrid>());
+            grid_resolutions_.push_back(0);
             continue;
         }
         const int res = desc_.render.grid_resolution > 0 ? desc_.render.grid_resolution
                                                          : auto_grid_resolution(s);
-        grids_.push_back(DistanceGrid::build(s.mesh, res, threads));
+        grid_resolutions_.push_back(res);
+        const bool had = previous && i < previous->num_shapes() &&
+                         !previous->desc_.shapes[i].is_surface();
+        if (had && previous->grid_resolutions_[i] == res &&
+            same_mesh(s.mesh, previous->desc_.shapes[i].mesh)) {
+            grids_.push_back(previous->grids_[i]);
+            continue;
+        }
+        grids_.push_back(
+            std::make_shared<DistanceGrid>(DistanceGrid::build(s.mesh, res, threads)));
+        if (previous) {
+            std::string why = "distance grid of shape '" + s.name + "' (";
+            if (!had)
+                why += "new";
+            else if (!same_mesh(s.mesh, previous->desc_.shapes[i].mesh))
+                why += "its mesh changed";
+            else
+                why += std::to_string(previous->grid_resolutions_[i]) + " -> " +
+                       std::to_string(res) + " cells: the resolution follows sigma_t" +
+                       " unless render.grid_resolution sets it";
+            rebuilt_.push_back(why + ")");
+        }
     }
+    if (!previous) rebuilt_ = {"everything"};
+    // The camera must be outside every medium: the exact test (an AABB tree) only where
+    // the bounds and the grid's sign cannot tell, so that a camera edit stays cheap.
+    const Vec3 eye = desc_.camera.origin;
     for (size_t i = 0; i < desc_.shapes.size(); ++i) {
-        if (desc_.shapes[i].is_surface()) continue;
-        if (point_inside_mesh(desc_.shapes[i].mesh, desc_.camera.origin)) {
+        const Shape& s = desc_.shapes[i];
+        if (s.is_surface()) continue;
+        if (!s.mesh.bounds().contains(eye)) continue;
+        const DistanceGrid& g = *grids_[i];
+        const bool inside =
+            g.query(eye) > 0.f ? g.inside(eye) : point_inside_mesh(s.mesh, eye);
+        if (inside) {
             const Vec3d o = to_scene(desc_.camera.origin);
             fail(desc_.source, ": camera.origin: [", o.x, ", ", o.y, ", ", o.z,
                  "] lies inside shape '", desc_.shapes[i].name,

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -97,10 +98,23 @@ struct SceneDesc {
     std::vector<std::string> warnings;
 };
 
+// Meshes read from files, kept so that parsing an edited scene again does not read and
+// check them again: by the file's path, kind, size and modification time (a file changed
+// on disk is read again).
+class MeshCache {
+public:
+    // The mesh of file `path` as load_mesh reads it, from the cache when it has it.
+    TriangleMesh load(const std::string& path, MeshKind kind);
+
+private:
+    std::map<std::string, TriangleMesh> meshes_;
+};
+
 // Parses and validates a scene; mesh paths are relative to `base_dir`. Every error names
 // `source`, the field (e.g. shapes[0].medium.albedo), the value and what is allowed.
+// With a cache, mesh files are read through it.
 SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
-                      const std::string& source);
+                      const std::string& source, MeshCache* meshes = nullptr);
 // A scene file, with the command lines' changes: `assignments` ("--set PATH=VALUE",
 // edit_scene_json) and the image size (> 0: given).
 SceneDesc load_scene_file(const std::string& path,
@@ -138,11 +152,16 @@ Surface parse_surface(const std::string& json_text,
 class Scene {
 public:
     explicit Scene(SceneDesc desc, int threads = 0);
+    // The scene `desc` (an edit of `previous`'s), built with what of `previous` it can
+    // keep: the BVH when no shape's mesh and no area light's quad changed; a shape's
+    // distance grid when its mesh and its grid resolution did not. rebuilt() says what
+    // was built anew. Both scenes may be used afterwards (the parts are shared).
+    Scene(SceneDesc desc, int threads, const Scene& previous);
 
     const SceneDesc& desc() const { return desc_; }
     const RayTracer& tracer() const { return *tracer_; }
     // The distance grid of a medium's shape (a surface's is empty).
-    const DistanceGrid& grid(int shape) const { return grids_[shape]; }
+    const DistanceGrid& grid(int shape) const { return *grids_[shape]; }
     // The lights' table of floats, for light_sample and light_eval.
     const float* light_floats() const { return desc_.light_floats.data(); }
     int num_shapes() const { return int(desc_.shapes.size()); }
@@ -168,10 +187,20 @@ public:
     static int auto_grid_resolution(const Shape& shape);
     static constexpr float kGridCellMeanFreePaths = 10.f;
 
+    // The distance grid resolution of each shape (0 for a surface).
+    const std::vector<int>& grid_resolutions() const { return grid_resolutions_; }
+    // What construction built rather than took from a previous scene, one line each
+    // (e.g. "BVH", "distance grid of shape 'bunny' (64 -> 128 cells)").
+    const std::vector<std::string>& rebuilt() const { return rebuilt_; }
+
 private:
+    void build(int threads, const Scene* previous);
+
     SceneDesc desc_;
-    std::unique_ptr<RayTracer> tracer_;
-    std::vector<DistanceGrid> grids_;
+    std::shared_ptr<const RayTracer> tracer_;
+    std::vector<std::shared_ptr<const DistanceGrid>> grids_;
+    std::vector<int> grid_resolutions_;
+    std::vector<std::string> rebuilt_;
     std::vector<int> area_lights_;  // light index per extra Embree mesh
     int environment_ = -1;
     bool grey_ = true;

@@ -37,6 +37,13 @@ _EXPORTS = {
     "render_full": "sssphere.rendering",
     "sphere_walks": "sssphere.walks",
     "write_image": "sssphere.rendering",
+    "denoise": "sssphere.rendering",
+    "first_hit_aovs": "sssphere.rendering",
+    "orbit_cameras": "sssphere.rendering",
+    "render_frames": "sssphere.rendering",
+    "SceneNode": "sssphere.scene",
+    "read_layers": "sssphere.rendering",
+    "write_layers": "sssphere.rendering",
 }
 
 __all__ = [
@@ -45,24 +52,32 @@ __all__ = [
     "ScatteringModel",
     "Scene",
     "SceneError",
+    "SceneNode",
     "SceneWarning",
     "__version__",
+    "denoise",
+    "first_hit_aovs",
     "load_mesh",
     "load_scene",
+    "orbit_cameras",
     "presets",
     "read_image",
+    "read_layers",
     "render",
+    "render_frames",
     "render_full",
     "sphere_walks",
     "write_image",
+    "write_layers",
 ]
 
 if TYPE_CHECKING:
     from sssphere._core import SceneError
     from sssphere.model import ScatteringModel
-    from sssphere.rendering import (Image, RenderResult, read_image, render, render_full,
-                                    write_image)
-    from sssphere.scene import Scene, SceneWarning, load_mesh, load_scene, presets
+    from sssphere.rendering import (Image, RenderResult, denoise, first_hit_aovs, orbit_cameras,
+                                    read_image, read_layers, render, render_frames, render_full,
+                                    write_image, write_layers)
+    from sssphere.scene import Scene, SceneNode, SceneWarning, load_mesh, load_scene, presets
     from sssphere.walks import sphere_walks
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import re
 import signal
 import sys
 import time
@@ -47,6 +48,8 @@ def _cmd_render(args: argparse.Namespace) -> int:
         raise SceneError(f"{out}: unsupported image format {out.suffix!r} (allowed: .exr, .png)")
     if out.parent != Path("") and not out.parent.is_dir():
         raise SceneError(f"{out}: output directory {str(out.parent)!r} does not exist")
+    if args.turntable:
+        _frame_pattern(args.output, args.turntable)
     # The render options as typed, checked and resolved in C++ with the scene's (one table
     # for both command lines and the API: render/options.h)
     text = {spec["name"]: getattr(args, spec["name"]) for spec in RENDER_OPTIONS
@@ -59,11 +62,19 @@ def _cmd_render(args: argparse.Namespace) -> int:
     for w in caught:
         print(f"sssphere: warning: {w.message}", file=sys.stderr)
     load_s = time.monotonic() - t0
+    if args.denoise:  # a missing extra is said before the render, not after it
+        try:
+            rendering._denoiser()
+        except ImportError as e:
+            raise SystemExit(f"sssphere: error: --denoise: {e}") from None
+    if args.turntable:
+        return _render_turntable(args, scene, text, load_s)
     bar = Progress(f"rendering {Path(args.scene).name}", enabled=not args.quiet)
     try:
         result = rendering._result(rendering._render(scene, bar, {}, text))
     finally:
         bar.close()
+    result = rendering.with_aovs(scene, result, args.aovs, args.denoise)
     result.save(out, aovs=args.aovs)
     what = ("interrupted: wrote the partial image" if result.interrupted
             else "time limit reached: wrote" if result.time_limit_reached else "wrote")
@@ -82,6 +93,43 @@ def _cmd_render(args: argparse.Namespace) -> int:
     if not np.all(np.isfinite(result.image)):
         print("warning: the image has non-finite pixels", file=sys.stderr)
     return _interrupted_status() if result.interrupted else 0
+
+
+_FRAME_NUMBER = re.compile(r"%0?\d*d")
+
+
+def _frame_pattern(output: str, frames: int) -> str:
+    """The -o of --turntable: one printf-style frame number (%d, %03d)."""
+    if len(_FRAME_NUMBER.findall(output)) != 1 or output.count("%") != 1:
+        raise SceneError(f"{output}: --turntable {frames} writes one image per frame: give -o "
+                         "a frame number pattern with one %d or %03d, e.g. frames/%03d.png")
+    return output
+
+
+def _render_turntable(args: argparse.Namespace, scene, text: dict, load_s: float) -> int:
+    pattern = _frame_pattern(args.output, args.turntable)
+    written = []
+
+    def save(k: int, result) -> None:
+        out = pattern % k
+        result.save(out, aovs=args.aovs)
+        written.append(out)
+
+    bar = Progress(f"rendering {args.turntable} frames of {Path(args.scene).name}",
+                   enabled=not args.quiet)
+    t0 = time.monotonic()
+    try:
+        results = rendering.render_frames(scene, rendering.orbit_cameras(scene, args.turntable),
+                                          progress=bar, on_frame=save, aovs=args.aovs,
+                                          denoise=args.denoise, _text=text)
+    finally:
+        bar.close()
+    interrupted = bool(results) and results[-1].interrupted
+    shown = written[0] + (f" ... {written[-1]}" if len(written) > 1 else "") if written else ""
+    print(f"{'interrupted: wrote' if interrupted else 'wrote'} {len(written)} of "
+          f"{args.turntable} frames {shown} ({scene.width}x{scene.height}; scene built in "
+          f"{load_s:.2f}s, rendered in {time.monotonic() - t0:.2f}s)", file=sys.stderr)
+    return _interrupted_status() if interrupted else 0
 
 
 def _cmd_datagen(args: argparse.Namespace) -> int:
@@ -163,6 +211,24 @@ def _cmd_export_mitsuba(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_info(args: argparse.Namespace) -> int:
+    from sssphere.info import format_info, scene_info
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", SceneWarning)
+        scene = load_scene_with(args.scene, args.set, args.width, args.height)
+    for w in caught:
+        print(f"sssphere: warning: {w.message}", file=sys.stderr)
+    info = scene_info(scene)
+    if args.json:
+        import json
+
+        print(json.dumps(info, indent=2))
+    else:
+        print(format_info(info))
+    return 0
+
+
 def _cmd_presets(args: argparse.Namespace) -> int:
     from sssphere.scene import presets
 
@@ -237,8 +303,16 @@ def build_parser() -> argparse.ArgumentParser:
         else:
             r.add_argument(f"--{flag}", dest=spec["name"], metavar=spec["metavar"], help=spec["help"])
     r.add_argument("--aovs", action="store_true",
-                   help="also write OUT_variance.exr, OUT_events.exr (scattering events per path) "
-                        "and, for st, OUT_sphere_steps.exr")
+                   help="also write the variance, scattering events per path, sphere steps "
+                        "(st), first-hit albedo, normal and depth: as layers of OUT for an "
+                        ".exr, as OUT_NAME.exr files beside a .png")
+    r.add_argument("--denoise", action="store_true",
+                   help="write the image denoised by Intel Open Image Denoise with the albedo "
+                        "and normal AOVs (needs pip install 'sssphere[denoise]'); with --aovs "
+                        "the estimate is kept as the layer 'noisy'")
+    r.add_argument("--turntable", type=_positive_int, metavar="N",
+                   help="render N frames on a circle about the camera's target (about its up "
+                        "axis); -o is then a frame number pattern such as frames/%%03d.png")
     r.add_argument("--set", action="append", metavar="PATH=VALUE",
                    help="change a scene field before loading, e.g. --set "
                         "shapes[0].medium.sigma_t=1000 or --set 'camera.origin=[0, 1, 3]' "
@@ -278,6 +352,16 @@ def build_parser() -> argparse.ArgumentParser:
     x.add_argument("checkpoint", help="cvae_checkpoint.pt written by `sssphere train`")
     x.add_argument("-o", "--output", required=True, help="output directory (created if missing)")
     x.set_defaults(func=_cmd_export)
+
+    i = sub.add_parser("info", help="a scene in brief: shapes, grids, media, and the scattering "
+                                     "events and sphere steps to expect per path")
+    i.add_argument("scene", help="scene file (JSON, docs/scene-format.md)")
+    i.add_argument("--set", action="append", metavar="PATH=VALUE",
+                   help="change a scene field first, as for render (repeatable)")
+    i.add_argument("--width", type=_positive_int, help="image width, as for render")
+    i.add_argument("--height", type=_positive_int, help="image height, as for render")
+    i.add_argument("--json", action="store_true", help="print the figures as JSON")
+    i.set_defaults(func=_cmd_info)
 
     m = sub.add_parser("export-mitsuba", help="write the equivalent Mitsuba 3 scene (.xml and "
                                               "PLY meshes) of a scene file, to compare the two")

@@ -20,6 +20,7 @@ SPHERE_SAMPLERS = tuple(_SPECS["sphere_sampler"]["choices"])
 STEP_NEE = tuple(_SPECS["step_nee"]["choices"])
 BACKENDS = tuple(_SPECS["backend"]["choices"])
 DEFAULT_SPHERE_THRESHOLD = float(_core.DEFAULT_SPHERE_THRESHOLD)
+DEFAULT_AOV_SAMPLES = int(_core.DEFAULT_AOV_SAMPLES)
 
 
 class Image(np.ndarray):
@@ -70,6 +71,16 @@ class RenderResult:
     gpu_seconds : ``backend="vulkan"``: the GPU time of the render's dispatches (timestamps);
         else None.
     device : the Vulkan device that rendered (``backend="vulkan"``), else None.
+    albedo, normal : with ``aovs=True`` (or ``denoise=True``), (height, width, 3) float32
+        first-hit AOVs: the albedo of what each pixel's camera rays meet first (a medium's
+        multiple-scattering albedo, a surface's colour, 1 for a light, 0 for the
+        background) and its unit normal turned to the camera (0: background); else None.
+    depth : with ``aovs=True`` (or ``denoise=True``), (height, width) float32, the distance to that first hit
+        along the ray (0: background); else None. The AOVs average the render's first
+        min(spp, DEFAULT_AOV_SAMPLES) camera rays of each pixel (first_hit_aovs).
+    denoised : with ``denoise=True``, ``image`` denoised by Intel Open Image Denoise with
+        the albedo and normal AOVs (an Image); else None. ``image`` stays the unbiased
+        estimate that ``variance`` describes.
     options : the options the render used, resolved (defaults < the scene's render block <
         the arguments): integrator, spp, seed, threads, max_bounces, nee, sphere_threshold,
         models, sphere_sampler, step_nee, record_paths, backend, time_limit.
@@ -93,27 +104,59 @@ class RenderResult:
     options: Optional[dict] = None
     gpu_seconds: Optional[float] = None
     device: Optional[str] = None
+    albedo: Optional[np.ndarray] = None
+    normal: Optional[np.ndarray] = None
+    depth: Optional[np.ndarray] = None
+    denoised: Optional[np.ndarray] = None
+
+    @property
+    def picture(self) -> np.ndarray:
+        """What the result shows and saves: ``denoised`` if there is one, else ``image``."""
+        return self.image if self.denoised is None else self.denoised
+
+    def layers(self) -> list[tuple[str, tuple[str, ...], np.ndarray]]:
+        """The AOVs as (name, channel names, (height, width, channels) array), in the
+        order ``save(..., aovs=True)`` writes them: ``noisy`` (the estimate, when the
+        picture is denoised), ``variance``, ``events``, ``sphere_steps`` (if the render
+        took sphere steps), ``albedo``, ``normal``, ``depth`` (those computed)."""
+        rgb, xyz = ("R", "G", "B"), ("X", "Y", "Z")
+        out = []
+        if self.denoised is not None:
+            out.append(("noisy", rgb, self.image))
+        out += [("variance", rgb, self.variance), ("events", ("Y",), self.events[:, :, None])]
+        if self.mean_sphere_steps_per_path > 0:
+            out.append(("sphere_steps", ("Y",), self.sphere_steps[:, :, None]))
+        for name, channels, data in (("albedo", rgb, self.albedo),
+                                     ("normal", xyz, self.normal),
+                                     ("depth", ("Z",), self.depth)):
+            if data is not None:
+                out.append((name, channels, data if data.ndim == 3 else data[:, :, None]))
+        return out
 
     def save(self, path: Union[str, os.PathLike], aovs: bool = False) -> list[str]:
-        """Write the image to ``path`` (.exr linear, .png sRGB); with ``aovs``, also
-        ``STEM_variance.exr``, ``STEM_events.exr`` and, if the render took sphere steps,
-        ``STEM_sphere_steps.exr`` (as ``sssphere render --aovs``). Returns the paths
-        written."""
-        write_image(path, self.image)
-        written = [str(path)]
-        if aovs:
-            stem = os.path.splitext(str(path))[0]
-            layers = [("variance", self.variance), ("events", self.events[:, :, None])]
-            if self.mean_sphere_steps_per_path > 0:
-                layers.append(("sphere_steps", self.sphere_steps[:, :, None]))
-            for name, data in layers:
-                write_image(f"{stem}_{name}.exr", data)
-                written.append(f"{stem}_{name}.exr")
+        """Write the picture (``denoised`` if there is one, else ``image``) to ``path``
+        (.exr linear, .png sRGB). With ``aovs``, also the layers(): into the same file for
+        an .exr (one multilayer EXR: the picture as R, G, B, each AOV as NAME.CHANNEL,
+        e.g. ``albedo.R``, ``depth.Z``; read them with read_layers), as ``STEM_NAME.exr``
+        files beside a .png. As ``sssphere render --aovs``. Returns the paths written."""
+        path = str(path)
+        if not aovs:
+            write_image(path, self.picture)
+            return [path]
+        if path.lower().endswith(".exr"):
+            write_layers(path, [("", ("R", "G", "B"), self.picture)] + self.layers())
+            return [path]
+        write_image(path, self.picture)
+        written = [path]
+        stem = os.path.splitext(path)[0]
+        for name, _, data in self.layers():
+            write_image(f"{stem}_{name}.exr", data)
+            written.append(f"{stem}_{name}.exr")
         return written
 
     def _repr_png_(self) -> bytes:
-        """Jupyter shows a result as its image (sRGB, clamped)."""
-        return _png_bytes(self.image)
+        """Jupyter shows a result as its picture (sRGB, clamped)."""
+        return _png_bytes(self.picture)
 
 
 def _render(scene: Scene, progress, options: dict, text: Optional[dict] = None) -> dict:
@@ -139,6 +182,8 @@ def render_full(
     record_paths: Optional[bool] = None,
     backend: Optional[str] = None,
     time_limit: Optional[float] = None,
+    aovs: bool = False,
+    denoise: bool = False,
 ) -> RenderResult:
     """Render and return the image with its variance and complexity (see RenderResult).
 
@@ -166,6 +211,11 @@ def render_full(
     sample per pixel: ``spp`` is then the most it takes, and unlimited unless given.
     The result's ``spp`` and ``time_limit_reached`` say where it stopped.
 
+    ``aovs=True`` adds the first-hit ``albedo``, ``normal`` and ``depth`` to the result
+    (first_hit_aovs; they do not depend on the integrator or backend). ``denoise=True``
+    adds ``denoised``: the image denoised by Intel Open Image Denoise with the albedo and
+    normal AOVs (the optional extra ``pip install 'sssphere[denoise]'``; see denoise()).
+
     ``record_paths=True`` also returns every path's event and step counts (``path_events``,
     ``path_steps``; 8 bytes per path, at most 2**27 paths): the distribution of path
     lengths, not only their means.
@@ -181,7 +231,145 @@ def render_full(
                    max_bounces=max_bounces, nee=nee, sphere_threshold=sphere_threshold,
                    models=models, sphere_sampler=sphere_sampler, step_nee=step_nee,
                    record_paths=record_paths, backend=backend, time_limit=time_limit)
-    return _result(_render(scene, progress, options))
+    if denoise:
+        _denoiser()  # before the render: a missing extra should not cost one
+    return with_aovs(scene, _result(_render(scene, progress, options)), aovs, denoise)
+
+
+def with_aovs(scene: Scene, result: RenderResult, aovs: bool, denoise: bool) -> RenderResult:
+    """``result`` with its first-hit AOVs (``aovs`` or ``denoise``) and its denoised image
+    (``denoise``)."""
+    if not (aovs or denoise):
+        return result
+    a = first_hit_aovs(scene, seed=int(result.options["seed"]),
+                       samples=max(1, min(result.spp, DEFAULT_AOV_SAMPLES)),
+                       threads=int(result.options["threads"]))
+    result.albedo, result.normal, result.depth = a["albedo"], a["normal"], a["depth"]
+    if denoise:
+        result.denoised = _denoise(result.image, result.albedo, result.normal)
+    return result
+
+
+def orbit_cameras(scene: Scene, frames: int) -> list[dict]:
+    """``frames`` cameras on a full circle about the scene camera's target: its origin
+    turned by 360/frames degrees per frame about the axis through the target along the
+    camera's ``up`` (frame 0 is the scene's camera). Each is a camera block as in the
+    scene file; render them with render_frames."""
+    if not (isinstance(frames, int) and frames >= 1):
+        raise ValueError(f"frames must be an integer >= 1, got {frames!r}")
+    camera = scene.camera.to_python()
+    origin = np.asarray(camera["origin"], np.float64)
+    target = np.asarray(camera["target"], np.float64)
+    up = np.asarray(camera.get("up", [0.0, 1.0, 0.0]), np.float64)
+    axis = up / np.linalg.norm(up)
+    v = origin - target
+    cameras = []
+    for k in range(frames):
+        a = 2.0 * np.pi * k / frames
+        # Rodrigues' rotation of v about the axis by a
+        w = (v * np.cos(a) + np.cross(axis, v) * np.sin(a)
+             + axis * np.dot(axis, v) * (1.0 - np.cos(a)))
+        cameras.append({**camera, "origin": (target + w).tolist()})
+    return cameras
+
+
+def render_frames(scene: Union[Scene, str, os.PathLike, dict], cameras: list[dict],
+                  progress: Optional[Callable[[float], Optional[bool]]] = None,
+                  on_frame: Optional[Callable[[int, RenderResult], None]] = None,
+                  aovs: bool = False, denoise: bool = False, _text: Optional[dict] = None,
+                  **options) -> list[RenderResult]:
+    """Render the scene from each camera in turn: an animation without rebuilding
+    anything (a camera change keeps the BVH and distance grids; see Scene). A camera is a
+    dict of camera fields (docs/scene-format.md) that replace the scene camera's, e.g.
+    ``{"origin": [0, 1, 4]}``; orbit_cameras makes a turntable. ``options`` are
+    render_full's; ``progress(fraction)`` sees the whole animation (returning False
+    stops it); ``on_frame(k, result)`` is called as each frame finishes (to save it, say).
+    Ctrl-C stops the animation: the results so far are returned, the last one
+    ``interrupted``. The scene's camera is restored afterwards."""
+    unknown = set(options) - set(_SPECS)
+    if unknown:
+        raise TypeError(f"render_frames: unknown options {sorted(unknown)} (allowed: "
+                        f"{', '.join(_SPECS)})")
+    if not isinstance(scene, Scene):
+        scene = load_scene(scene)
+    cameras = list(cameras)
+    for k, camera in enumerate(cameras):
+        if not isinstance(camera, dict):
+            raise ValueError(f"cameras[{k}] must be a dict of camera fields, got {camera!r}")
+    if denoise:
+        _denoiser()
+    original = scene.camera.to_python()
+    results: list[RenderResult] = []
+    try:
+        for k, camera in enumerate(cameras):
+            scene.camera = {**original, **camera}
+
+            def frame_progress(fraction: float, k: int = k):
+                return None if progress is None else progress((k + fraction) / len(cameras))
+
+            result = with_aovs(scene, _result(_render(scene, frame_progress, options, _text)),
+                               aovs, denoise)
+            results.append(result)
+            if on_frame is not None:
+                on_frame(k, result)
+            if result.interrupted:
+                break
+    finally:
+        scene.camera = original
+    return results
+
+
+def first_hit_aovs(scene: Union[Scene, str, os.PathLike, dict], seed: int = 0,
+                   samples: int = DEFAULT_AOV_SAMPLES, threads: int = 0) -> dict:
+    """The first-hit AOVs of the scene's camera: ``albedo`` (H, W, 3), ``normal`` (H, W, 3)
+    and ``depth`` (H, W), each the mean over the first ``samples`` camera rays of a pixel
+    (the render's own rays under ``seed``). What a ray meets first gives: a medium, its
+    multiple-scattering albedo (the colour a thick slab of it reflects, whatever its
+    boundary); a surface, its colour; an area light, 1; nothing, 0 (normal and depth 0
+    too). Normals are unit triangle normals turned to face the camera; depth is the
+    distance along the ray. ``shape`` (H, W) int32 is the index of the shape that a
+    pixel's first ray hits (-1: a light or nothing), an object-ID mask. They depend on the
+    scene, camera and seed alone."""
+    if not isinstance(scene, Scene):
+        scene = load_scene(scene)
+    return _core.first_hit_aovs(scene, seed=seed, samples=samples, threads=threads)
+
+
+def _denoiser():
+    try:
+        import pyoidn
+    except ImportError:
+        raise ImportError("denoising needs Intel Open Image Denoise, an optional extra: "
+                          "pip install 'sssphere[denoise]' (the PyPI package pyoidn)") from None
+    return pyoidn
+
+
+def _denoise(image: np.ndarray, albedo: Optional[np.ndarray],
+             normal: Optional[np.ndarray]) -> "Image":
+    c = np.ascontiguousarray(image, dtype=np.float32)
+    aux = {}
+    if albedo is not None and normal is not None:
+        aux = dict(albedo=np.ascontiguousarray(albedo, dtype=np.float32),
+                   normal=np.ascontiguousarray(normal, dtype=np.float32), clean_aux=True)
+    return np.asarray(_denoiser().denoise(c, hdr=True, **aux), dtype=np.float32).view(Image)
+
+
+def denoise(image: np.ndarray, albedo: Optional[np.ndarray] = None,
+            normal: Optional[np.ndarray] = None) -> "Image":
+    """Denoise a (height, width, 3) linear radiance image with Intel Open Image Denoise
+    (its "RT" filter, HDR), guided by the first-hit albedo and normal AOVs when given
+    (both or neither; render_full(aovs=True) or first_hit_aovs give them; they are noise
+    free). Needs the optional extra ``pip install 'sssphere[denoise]'``."""
+    if (albedo is None) != (normal is None):
+        raise ValueError("denoise takes albedo and normal together (or neither)")
+    for name, a in (("image", image), ("albedo", albedo), ("normal", normal)):
+        if a is not None and (np.ndim(a) != 3 or np.shape(a)[2] != 3
+                              or np.shape(a) != np.shape(image)):
+            raise ValueError(f"denoise: {name} must have shape (height, width, 3) like the "
+                             f"image {np.shape(image)}, got {np.shape(a)}")
+    if not np.all(np.isfinite(image)):
+        raise ValueError("denoise: the image has non-finite pixels")
+    return _denoise(image, albedo, normal)
 
 
 def _result(r: dict) -> RenderResult:
@@ -220,21 +408,23 @@ def render(
     step_nee: Optional[str] = None,
     backend: Optional[str] = None,
     time_limit: Optional[float] = None,
+    denoise: bool = False,
 ) -> Image:
     """Render a scene to a (height, width, 3) float32 array of linear radiance (an Image:
     a numpy array that shows itself in Jupyter and has ``save(path)``).
 
     ``integrator="st"`` renders with sphere tracing; ``sphere_threshold``, ``models`` and
     ``step_nee`` are described in render_full, and so is ``backend`` (``"vulkan"``: the GPU
-    path) and ``time_limit`` (seconds). Ctrl-C raises KeyboardInterrupt (use render_full to keep a
-    partial image).
+    path) and ``time_limit`` (seconds). ``denoise=True`` returns the image denoised with
+    its albedo and normal AOVs (render_full). Ctrl-C raises KeyboardInterrupt (use
+    render_full to keep a partial image).
     """
     result = render_full(scene, integrator=integrator, spp=spp, seed=seed, threads=threads, nee=nee,
                          sphere_threshold=sphere_threshold, models=models, step_nee=step_nee,
-                         backend=backend, time_limit=time_limit)
+                         backend=backend, time_limit=time_limit, denoise=denoise)
     if result.interrupted:
         raise KeyboardInterrupt
-    return result.image
+    return result.picture
 
 
 def read_image(path: Union[str, os.PathLike]) -> np.ndarray:
@@ -242,6 +432,34 @@ def read_image(path: Union[str, os.PathLike]) -> np.ndarray:
     from sssphere import _image  # OpenImageIO is loaded on first use, not by `import sssphere`
 
     return _image.read_image(str(path))
+
+
+def write_layers(path: Union[str, os.PathLike],
+                 layers: list[tuple[str, tuple[str, ...], np.ndarray]]) -> None:
+    """Write one multilayer .exr: ``layers`` are (name, channel names, (height, width,
+    channels) array); a channel is stored as NAME.CHANNEL (CHANNEL alone for the name
+    "", the layer viewers show)."""
+    from sssphere import _image
+
+    _image.write_exr_layers(str(path), [(name, list(channels), np.asarray(data, np.float32))
+                                        for name, channels, data in layers])
+
+
+def read_layers(path: Union[str, os.PathLike]) -> dict[str, np.ndarray]:
+    """The layers of an .exr file as {name: (height, width, channels) float32} ("" for the
+    channels without a layer name, e.g. R, G, B). OpenEXR keeps channels sorted by name,
+    so a layer's channels come back in the order R, G, B, A, X, Y, Z, then the others by
+    name."""
+    from sssphere import _image
+
+    names, data = _image.read_exr_layers(str(path))
+    rank = {c: i for i, c in enumerate("RGBAXYZ")}
+    groups: dict[str, list[tuple]] = {}
+    for i, name in enumerate(names):
+        layer, _, channel = name.rpartition(".")
+        groups.setdefault(layer, []).append((rank.get(channel, len(rank)), channel, i))
+    return {layer: np.ascontiguousarray(data[:, :, [i for *_, i in sorted(channels)]])
+            for layer, channels in groups.items()}
 
 
 def write_image(path: Union[str, os.PathLike], image: np.ndarray) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import json
 import math
 import os
@@ -14,17 +15,229 @@ import numpy as np
 from sssphere import _core
 from sssphere._core import SceneError
 
-Scene = _core.Scene
-
 
 class SceneWarning(UserWarning):
     """A scene past the limits of docs/robustness.md: it renders, but float precision may
     make it differ from the exact answer by more than 1 %."""
 
 
-def _warned(scene: Scene) -> Scene:
+_DELETE = object()  # _assign's value that removes a field
+
+
+def _jsonable(value: Any) -> Any:
+    """``value`` with numpy arrays and scalars and scene nodes as plain lists and numbers."""
+    if isinstance(value, SceneNode):
+        return value.to_python()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, (str, os.PathLike)) and not isinstance(value, str):
+        return os.fspath(value)
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    return value
+
+
+def _field_name(path: tuple) -> str:
+    """A path as the parser's messages name fields: shapes[0].medium.sigma_t."""
+    out = ""
+    for key in path:
+        out += f"[{key}]" if isinstance(key, int) else (f".{key}" if out else key)
+    return out
+
+
+class Scene(_core.Scene):
+    """A loaded scene, built (BVH, distance grids) and ready to render; load_scene makes
+    one. Its fields can be changed in place, as in the scene file (docs/scene-format.md)::
+
+        scene.shapes[0].medium.sigma_t = 800
+        scene.camera.origin = [0, 1, 4]
+        scene.lights[0] = {"type": "point", "position": [1, 2, 3], "intensity": 10}
+        scene.render.spp = 64
+
+    Each assignment is checked at once, with the scene file's messages (a SceneError; the
+    scene is then unchanged), and rebuilds only what it must: the BVH when a shape's or an
+    area light's geometry changed, a shape's distance grid when its mesh or its grid
+    resolution did (``rebuilt`` says what the last change built; materials, lights other
+    than area lights' quads, the camera and render settings build nothing). Mesh files are
+    not read again unless they changed on disk. Do not edit a scene while another thread
+    renders it.
+    """
+
+    def __init__(self, text: str, base_dir: str, source: str, threads: int = 0):
+        meshes = _core.MeshCache()
+        super().__init__(text, base_dir, source, threads, meshes)
+        self._meshes = meshes
+        self._doc = json.loads(text)
+        self._base_dir, self._source, self._threads = base_dir, source, threads
+
+    def __repr__(self) -> str:
+        # A traceback shows the frame of an __init__ whose C++ half raised: not built.
+        return super().__repr__() if "_doc" in self.__dict__ else "<sssphere.Scene (not built)>"
+
+    # The scene file's top-level blocks, as editable nodes.
+    @property
+    def camera(self) -> "SceneNode":
+        return SceneNode(self, ("camera",))
+
+    @camera.setter
+    def camera(self, value: Any) -> None:
+        self._assign(("camera",), value)
+
+    @property
+    def shapes(self) -> "SceneNode":
+        return SceneNode(self, ("shapes",))
+
+    @shapes.setter
+    def shapes(self, value: Any) -> None:
+        self._assign(("shapes",), value)
+
+    @property
+    def lights(self) -> "SceneNode":
+        return SceneNode(self, ("lights",))
+
+    @lights.setter
+    def lights(self, value: Any) -> None:
+        self._assign(("lights",), value)
+
+    @property
+    def render(self) -> "SceneNode":
+        return SceneNode(self, ("render",))
+
+    @render.setter
+    def render(self, value: Any) -> None:
+        self._assign(("render",), value)
+
+    def to_dict(self) -> dict:
+        """The scene as a dict of the scene file's structure (a copy): load_scene(d,
+        base_dir=scene.base_dir) builds the same scene."""
+        return copy.deepcopy(self._doc)
+
+    def _value(self, path: tuple, missing: type = AttributeError) -> Any:
+        """The field at ``path``; raises ``missing`` (AttributeError for attributes,
+        IndexError or KeyError for items) naming the field if it is not there."""
+        value = self._doc
+        for i, key in enumerate(path):
+            try:
+                value = value[key]
+            except (KeyError, IndexError, TypeError):
+                where = _field_name(path[:i + 1])
+                raise missing(f"{self._source}: {where}: no such field in the scene"
+                              + ("" if i else " (the default applies)")) from None
+        return value
+
+    def _assign(self, path: tuple, value: Any) -> None:
+        """Sets (or, with _DELETE, removes) the field at ``path`` and rebuilds what the
+        change needs; on an error the scene is unchanged."""
+        value = value if value is _DELETE else _jsonable(value)
+        bad = None if value is _DELETE else _find_non_finite(value, _field_name(path))
+        if bad:
+            raise SceneError(f"{self._source}: {bad}: value is not a finite number")
+        doc = copy.deepcopy(self._doc)
+        node = doc
+        for i, key in enumerate(path[:-1]):
+            if isinstance(node, dict) and isinstance(key, str) and key not in node:
+                node[key] = [] if isinstance(path[i + 1], int) else {}
+            try:
+                node = node[key]
+            except (KeyError, IndexError, TypeError):
+                raise SceneError(f"{self._source}: {_field_name(path[:i + 1])}: no such "
+                                 "field in the scene") from None
+        key = path[-1]
+        try:
+            if value is _DELETE:
+                del node[key]
+            elif isinstance(node, list) and key == len(node):
+                node.append(value)  # one past the end appends
+            else:
+                node[key] = value
+        except (KeyError, IndexError, TypeError):
+            raise SceneError(f"{self._source}: {_field_name(path)}: no such field in the "
+                             "scene (a list grows by assigning at its length)") from None
+        self._rebuild(json.dumps(doc), self._base_dir, self._source, self._threads,
+                      self._meshes)
+        self._doc = doc
+        _warned(self, stacklevel=4)
+
+
+class SceneNode:
+    """A block of an editable Scene (a dict or list of the scene file): fields read as
+    attributes or items (nested blocks as nodes, numbers and strings as they are) and
+    assigned the same way; ``to_python()`` gives a copy of the block; numpy reads a node
+    of numbers (``np.asarray(scene.camera.origin)``)."""
+
+    __slots__ = ("_scene", "_path")
+
+    def __init__(self, scene: Scene, path: tuple):
+        object.__setattr__(self, "_scene", scene)
+        object.__setattr__(self, "_path", path)
+
+    def _child(self, key, missing: type = AttributeError):
+        value = self._scene._value(self._path + (key,), missing)
+        return SceneNode(self._scene, self._path + (key,)) if isinstance(
+            value, (dict, list)) else value
+
+    def to_python(self) -> Any:
+        return copy.deepcopy(self._scene._value(self._path))
+
+    def __getattr__(self, name: str):
+        if name.startswith("_"):  # ours are slots; no scene field starts with "_"
+            raise AttributeError(name)
+        return self._child(name)
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        self._scene._assign(self._path + (name,), value)
+
+    def __delattr__(self, name: str) -> None:
+        self._scene._assign(self._path + (name,), _DELETE)
+
+    def __getitem__(self, key):
+        if isinstance(key, int) and key < 0:
+            key += len(self)
+        return self._child(key, IndexError if isinstance(key, int) else KeyError)
+
+    def __setitem__(self, key, value: Any) -> None:
+        if isinstance(key, int) and key < 0:
+            key += len(self)
+        self._scene._assign(self._path + (key,), value)
+
+    def __delitem__(self, key) -> None:
+        if isinstance(key, int) and key < 0:
+            key += len(self)
+        self._scene._assign(self._path + (key,), _DELETE)
+
+    def __len__(self) -> int:
+        return len(self._scene._value(self._path))
+
+    def __iter__(self):
+        value = self._scene._value(self._path)
+        keys = range(len(value)) if isinstance(value, list) else list(value)
+        return (self._child(k) if isinstance(value, list) else k for k in keys)
+
+    def __contains__(self, key) -> bool:
+        return key in self._scene._value(self._path)
+
+    def keys(self):
+        return list(self._scene._value(self._path))
+
+    def __eq__(self, other: Any) -> bool:
+        return self.to_python() == _jsonable(other)
+
+    __hash__ = None
+
+    def __array__(self, dtype=None, copy=None):
+        return np.asarray(self._scene._value(self._path), dtype=dtype)
+
+    def __repr__(self) -> str:
+        return f"{_field_name(self._path)} = {json.dumps(self._scene._value(self._path))}"
+
+
+def _warned(scene: Scene, stacklevel: int = 3) -> Scene:
     for message in scene.warnings:
-        warnings.warn(message, SceneWarning, stacklevel=3)
+        warnings.warn(message, SceneWarning, stacklevel=stacklevel)
     return scene
 
 
@@ -54,7 +267,8 @@ def load_scene(
     Parameters
     ----------
     scene : path to a JSON scene file, or a dict with the same structure
-        (docs/scene-format.md).
+        (docs/scene-format.md); in a dict, numpy arrays stand for lists (a shape's
+        ``vertices`` and ``faces``, say).
     base_dir : directory that relative mesh paths in a dict are resolved against
         (default: the current directory). Ignored for files (their own directory is used).
     threads : worker threads for building distance grids (default: all cores).
@@ -67,10 +281,13 @@ def load_scene(
     -----
     SceneWarning where the scene goes past the precision limits of docs/robustness.md
     (also in ``Scene.warnings``).
+
+    The Scene returned can be edited in place and rendered again (see Scene).
     """
     threads = 0 if threads is None else int(threads)
     if isinstance(scene, dict):
         try:
+            scene = _jsonable(scene)  # numpy arrays (e.g. a shape's vertices and faces)
             bad = _find_non_finite(scene, "")
             text = json.dumps(scene)
         except RecursionError:
@@ -79,7 +296,7 @@ def load_scene(
         if bad:
             raise SceneError(f"<dict>: {bad}: value is not a finite number")
         base = str(base_dir) if base_dir is not None else os.getcwd()
-        return _warned(_core.Scene(text, base, "<dict>", threads))
+        return _warned(Scene(text, base, "<dict>", threads))
     path = Path(scene)
     if not path.exists():
         raise SceneError(f"{path}: scene file does not exist")
@@ -92,7 +309,7 @@ def load_scene(
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as e:
         raise SceneError(f"{path}: scene file cannot be read: {e}") from None
-    return _warned(_core.Scene(text, str(path.parent), str(path), threads))
+    return _warned(Scene(text, str(path.parent), str(path), threads))
 
 
 def load_mesh(path: Union[str, os.PathLike]) -> tuple[np.ndarray, np.ndarray]:
@@ -130,4 +347,4 @@ def load_scene_with(path: Union[str, os.PathLike], assignments: list[str] | None
     text = _core.edit_scene_json(text, str(path), list(assignments or []), width or 0,
                                  height or 0)
     threads = 0 if threads is None else int(threads)
-    return _warned(_core.Scene(text, str(path.parent), str(path), threads))
+    return _warned(Scene(text, str(path.parent), str(path), threads))

@@ -39,6 +39,7 @@ inline PhaseKind hg_phase_kind() {
         }
         return p;
     };
+    k.mean_cosine = [](const PhaseData& p) { return p.x; };
     k.mitsuba = [](const json& j) {
         return json{{"type", "hg"}, {"g", j.value("g", 0.0)}};
     };

@@ -41,6 +41,10 @@ struct PhaseKind {
         parse;
     // The phase function as Mitsuba 3's load_dict entry, from the scene file's object.
     std::function<json_fields::json(const json_fields::json& j)> mitsuba;
+    // The mean cosine of the scattering angle (Henyey-Greenstein's g): what the
+    // similarity relation reduces sigma_s by, sigma_s' = (1 - g) sigma_s (the first-hit
+    // albedo AOV, render/aovs.h).
+    std::function<float(const PhaseData&)> mean_cosine;
     // Whether the sphere step's models take it: they are trained for Henyey-Greenstein
     // phase functions, conditioned on g, which such a type keeps in x.
     bool sphere_steps = false;
