@@ -282,8 +282,9 @@ TriangleMesh make_closed_mesh(std::vector<Vec3> positions,
         fail(what, ": mesh is not closed: ", found,
              " edges belong to one triangle only (holes), the first: ", open,
              "; a closed (watertight) triangle mesh is required", kRepairAdvice);
-    if (!PMP::orient_polygon_soup(points, tris)) {
-        const std::string joints = list_nonmanifold_vertices(points, tris, &found);
+    const std::vector<std::vector<std::size_t>> unoriented = tris;  // orienting splits
+    if (!PMP::orient_polygon_soup(points, tris)) {  // the vertices it could not orient
+        const std::string joints = list_nonmanifold_vertices(points, unoriented, &found);
         fail(what, ": mesh is not manifold: ", found,
              " vertices join separate sheets of triangles, the first: ", joints,
              "; a closed, manifold triangle mesh is required", kRepairAdvice);

@@ -53,4 +53,21 @@ bool DistanceGrid::inside(const Vec3& p) const {
     return inside_[index(i, j, k)] != 0;
 }
 
+int DistanceGrid::side(const Vec3& p) const {
+    if (dist_.empty()) return 0;
+    const Vec3 g = (p - origin_) * inv_cell_;
+    if (!(g.x >= 0.f && g.y >= 0.f && g.z >= 0.f)) return 0;
+    const int i = int(g.x), j = int(g.y), k = int(g.z);
+    if (i >= n_[0] - 1 || j >= n_[1] - 1 || k >= n_[2] - 1) return 0;
+    for (int c = 0; c < 8; ++c) {
+        const int a = i + (c & 1), b = j + ((c >> 1) & 1), e = k + ((c >> 2) & 1);
+        const size_t n = index(a, b, e);
+        // The node's distance is rounded down and p - node rounded: keep the guard's
+        // margin.
+        if (dist_[n] - length(p - node_position(a, b, e)) > guard_)
+            return inside_[n] ? 1 : -1;
+    }
+    return 0;
+}
+
 }  // namespace sss

@@ -24,9 +24,15 @@ public:
     float query(const Vec3& p) const;
     // An upper bound on query(p) over all p (the largest node distance).
     float max_query() const;
-    // Whether p is inside the closed mesh, by the sign stored at the nearest node: exact
-    // when query(p) > 0, a guess within one cell of the surface.
+    // Whether p is inside the closed mesh, by the sign stored at the nearest node: a
+    // guess (wrong for some points within a cell of the surface); side() tells when it is
+    // sure.
     bool inside(const Vec3& p) const;
+    // Which side of the mesh p is on where the grid can tell exactly: +1 inside, -1
+    // outside, 0 unknown. It can when a corner node of p's cell is farther from the
+    // surface than from p (the ball about that node reaches p without crossing the
+    // surface, so p is on the node's side); 0 for points outside the grid.
+    int side(const Vec3& p) const;
 
     // Unsigned distance at node (i, j, k), rounded down to a float: exact for nodes
     // inside the mesh and for those within a cell diagonal of the surface; a node outside

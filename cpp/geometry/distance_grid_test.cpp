@@ -97,3 +97,33 @@ TEST(DistanceGrid, InsideOutsideAndOutOfGrid) {
     EXPECT_GT(g.query({0, 0, 0}), 0.8f);  // true distance ~0.99
     EXPECT_LE(g.query({0, 0, 0}), 1.f);
 }
+
+// side() is exact where it answers, and answers for all but the points close to the
+// surface (within about a cell): checked against the exact predicate on points drawn
+// in the grid's box, many of them near the surface.
+TEST(DistanceGrid, SideIsExactWhereItAnswers) {
+    for (int res : {8, 32}) {
+        const TriangleMesh m = lumpy_mesh();
+        const DistanceGrid g = DistanceGrid::build(m, res, 1);
+        Rng rng(7, uint64_t(res));
+        std::vector<Vec3> pts;
+        const Bounds3 b = m.bounds();
+        for (int i = 0; i < 20000; ++i)
+            pts.push_back(b.lo + (b.hi - b.lo) *
+                                     Vec3(rng.uniform(), rng.uniform(), rng.uniform()));
+        const std::vector<bool> inside = points_inside_mesh(m, pts);
+        const std::vector<double> exact = exact_distances(m, pts);
+        int answered_far = 0, far = 0;
+        for (size_t i = 0; i < pts.size(); ++i) {
+            const int side = g.side(pts[i]);
+            if (side != 0) {
+                EXPECT_EQ(side > 0, bool(inside[i])) << "resolution " << res;
+            }
+            if (exact[i] > 2.0 * std::sqrt(3.0) * g.cell_size()) {
+                ++far;
+                answered_far += side != 0;
+            }
+        }
+        EXPECT_EQ(answered_far, far) << "resolution " << res;
+    }
+}

@@ -216,8 +216,8 @@ PYBIND11_MODULE(_core, m) {
                 return out;
             },
             "Whether each point (scene coordinates) is inside shape i's medium, by its "
-            "distance grid's sign: exact where distance_lower_bound > 0, a guess within "
-            "one cell of the surface.")
+            "distance grid's sign at the nearest node: a guess within a cell of the "
+            "surface (for statistics over a volume).")
         .def("exact_distance",
              [](const Scene& s, int i,
                 py::array_t<double, py::array::c_style | py::array::forcecast> p) {

@@ -245,8 +245,10 @@ TriangleMesh parse_inline_mesh(const json& j, const Field& f, MeshKind kind) {
     }
     try {
         return kind == MeshKind::Open
-                   ? make_open_mesh(std::move(positions), std::move(polygons), f.path)
-                   : make_closed_mesh(std::move(positions), std::move(polygons), f.path);
+                   ? make_open_mesh(std::move(positions), std::move(polygons),
+                                    "inline mesh")
+                   : make_closed_mesh(std::move(positions), std::move(polygons),
+                                      "inline mesh");
     } catch (const Error& e) {
         f.error(e.what());
     }
@@ -753,9 +755,8 @@ void Scene::build(int threads, const Scene* previous) {
         const Shape& s = desc_.shapes[i];
         if (s.is_surface()) continue;
         if (!s.mesh.bounds().contains(eye)) continue;
-        const DistanceGrid& g = *grids_[i];
-        const bool inside =
-            g.query(eye) > 0.f ? g.inside(eye) : point_inside_mesh(s.mesh, eye);
+        const int side = grids_[i]->side(eye);
+        const bool inside = side != 0 ? side > 0 : point_inside_mesh(s.mesh, eye);
         if (inside) {
             const Vec3d o = to_scene(desc_.camera.origin);
             fail(desc_.source, ": camera.origin: [", o.x, ", ", o.y, ", ", o.z,

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "core/check.h"
+#include "render/medium_presets.h"
 #include "testing/scenes.h"
 
 using namespace sss;
@@ -113,4 +114,61 @@ TEST(Scene, GridResolutionFollowsTheDensestChannelWhenUnset) {
                                               BoundaryType::IndexMatched);
     d.render.grid_resolution = 16;  // set: kept
     EXPECT_NEAR(Scene(d, 2).grid(0).cell_size(), side / 16.f, 1e-4f);
+}
+
+// The camera check takes the bounds and the grid's sign before the exact test: a camera
+// inside the bounds but outside the mesh (a corner of the sphere's box), and one just
+// inside the surface (within a grid cell, where only the exact test can tell).
+// kGood with a coarser sphere (1,280 triangles): quick to build grids for.
+std::string coarse_good() {
+    std::string text = kGood;
+    text.replace(text.find("\"radius\": 1}"), 12, "\"radius\": 1, \"subdivisions\": 3}");
+    return text;
+}
+
+TEST(SceneBuild, CameraCheckIsExactNearTheSurface) {
+    for (const char* origin : {"[0.7, 0.7, 0.2]", "[0, 0, 0.99]"}) {
+        std::string text = coarse_good();
+        text.replace(text.find("[0, 0, 4]"), 9, origin);
+        text.replace(text.find("\"target\": [0, 0, 0]"), 19, "\"target\": [0, 0, 5]");
+        const bool inside = std::string(origin) == "[0, 0, 0.99]";
+        try {
+            Scene s(parse_scene(text, ".", "test.json"), 2);
+            EXPECT_FALSE(inside) << origin << " is inside the sphere";
+        } catch (const Error& e) {
+            EXPECT_TRUE(inside) << origin << ": " << e.what();
+        }
+    }
+}
+
+// An edited scene keeps the BVH and the grids whose meshes did not change.
+TEST(SceneBuild, AnEditKeepsWhatItDidNotChange) {
+    const Scene first(parse_scene(coarse_good(), ".", "test.json"), 2);
+    SceneDesc edited = parse_scene(coarse_good(), ".", "test.json");
+    edited.shapes[0].medium.albedo = Vec3(0.5f);
+    edited.camera.fov = 20.f;
+    const Scene second(std::move(edited), 2, first);
+    EXPECT_EQ(&second.tracer(), &first.tracer());
+    EXPECT_EQ(&second.grid(0), &first.grid(0));
+    EXPECT_TRUE(second.rebuilt().empty());
+    SceneDesc moved = parse_scene(coarse_good(), ".", "test.json");
+    for (Vec3& p : moved.shapes[0].mesh.positions) p = p * 0.5f;
+    const Scene third(std::move(moved), 2, second);
+    EXPECT_NE(&third.tracer(), &second.tracer());
+    EXPECT_NE(&third.grid(0), &second.grid(0));
+    ASSERT_EQ(third.rebuilt().size(), 2u);
+    EXPECT_EQ(third.rebuilt()[0], "BVH");
+}
+
+// The albedo AOV's forward fit undoes the `color` inversion (Chiang et al. 2016).
+TEST(MediumPresets, MultipleScatteringAlbedoInvertsTheColorFit) {
+    for (float color = 0.02f; color < 0.995f; color += 0.0313f) {
+        const ReducedCoefficients r =
+            invert_multiple_scattering_albedo(Vec3(color), Vec3(1.f));
+        const float reduced_albedo =
+            r.sigma_s_prime.x / (r.sigma_s_prime.x + r.sigma_a.x);
+        EXPECT_NEAR(multiple_scattering_albedo(reduced_albedo), color, 2e-5f) << color;
+    }
+    EXPECT_EQ(multiple_scattering_albedo(0.f), 0.f);
+    EXPECT_EQ(multiple_scattering_albedo(1.f), 1.f);
 }

@@ -78,38 +78,15 @@ class Scene(_core.Scene):
         # A traceback shows the frame of an __init__ whose C++ half raised: not built.
         return super().__repr__() if "_doc" in self.__dict__ else "<sssphere.Scene (not built)>"
 
-    # The scene file's top-level blocks, as editable nodes.
-    @property
-    def camera(self) -> "SceneNode":
-        return SceneNode(self, ("camera",))
-
-    @camera.setter
-    def camera(self, value: Any) -> None:
-        self._assign(("camera",), value)
-
-    @property
-    def shapes(self) -> "SceneNode":
-        return SceneNode(self, ("shapes",))
-
-    @shapes.setter
-    def shapes(self, value: Any) -> None:
-        self._assign(("shapes",), value)
-
-    @property
-    def lights(self) -> "SceneNode":
-        return SceneNode(self, ("lights",))
-
-    @lights.setter
-    def lights(self, value: Any) -> None:
-        self._assign(("lights",), value)
-
-    @property
-    def render(self) -> "SceneNode":
-        return SceneNode(self, ("render",))
-
-    @render.setter
-    def render(self, value: Any) -> None:
-        self._assign(("render",), value)
+    # The scene file's top-level blocks, as editable nodes (assigning one replaces it).
+    camera = property(lambda self: SceneNode(self, ("camera",)),
+                      lambda self, value: self._assign(("camera",), value))
+    shapes = property(lambda self: SceneNode(self, ("shapes",)),
+                      lambda self, value: self._assign(("shapes",), value))
+    lights = property(lambda self: SceneNode(self, ("lights",)),
+                      lambda self, value: self._assign(("lights",), value))
+    render = property(lambda self: SceneNode(self, ("render",)),
+                      lambda self, value: self._assign(("render",), value))
 
     def to_dict(self) -> dict:
         """The scene as a dict of the scene file's structure (a copy): load_scene(d,
