@@ -262,6 +262,38 @@ std::string list_nonmanifold_vertices(const std::vector<Point>& points,
     return first;
 }
 
+// Why a soup is not a closed 2-manifold, with the first defects by coordinates: edges
+// shared by more than two triangles, else edges of one triangle (holes), else vertices
+// joining separate sheets. Only on the error path: it maps every edge.
+std::string closed_manifold_defects(const std::vector<Point>& points,
+                                    const std::vector<std::vector<std::size_t>>& tris) {
+    const auto edges = edge_counts(tris);
+    size_t found = 0;
+    std::ostringstream os;
+    const std::string shared = list_edges(points, edges, -1, &found);
+    if (found > 0) {
+        os << "mesh is not manifold: " << found
+           << " edges are shared by more than two triangles, the first: " << shared
+           << "; a closed, manifold triangle mesh is required";
+        return os.str();
+    }
+    const std::string open = list_edges(points, edges, 1, &found);
+    if (found > 0) {
+        os << "mesh is not closed: " << found
+           << " edges belong to one triangle only (holes), the first: " << open
+           << "; a closed (watertight) triangle mesh is required";
+        return os.str();
+    }
+    const std::string joints = list_nonmanifold_vertices(points, tris, &found);
+    if (found == 0)
+        return "mesh cannot be oriented consistently (a non-orientable surface); a "
+               "closed, orientable triangle mesh is required";
+    os << "mesh is not manifold: " << found
+       << " vertices join separate sheets of triangles, the first: " << joints
+       << "; a closed, manifold triangle mesh is required";
+    return os.str();
+}
+
 }  // namespace
 
 TriangleMesh make_closed_mesh(std::vector<Vec3> positions,
@@ -270,32 +302,12 @@ TriangleMesh make_closed_mesh(std::vector<Vec3> positions,
     std::vector<Point> points;
     std::vector<std::vector<std::size_t>> tris;
     clean_soup(positions, polygons, what, points, tris);
-    const auto edges = edge_counts(tris);
-    size_t found = 0;
-    const std::string shared = list_edges(points, edges, -1, &found);
-    if (found > 0)
-        fail(what, ": mesh is not manifold: ", found,
-             " edges are shared by more than two triangles, the first: ", shared,
-             "; a closed, manifold triangle mesh is required", kRepairAdvice);
-    const std::string open = list_edges(points, edges, 1, &found);
-    if (found > 0)
-        fail(what, ": mesh is not closed: ", found,
-             " edges belong to one triangle only (holes), the first: ", open,
-             "; a closed (watertight) triangle mesh is required", kRepairAdvice);
-    const std::vector<std::vector<std::size_t>> unoriented = tris;  // orienting splits
-    if (!PMP::orient_polygon_soup(points, tris)) {  // the vertices it could not orient
-        const std::string joints = list_nonmanifold_vertices(points, unoriented, &found);
-        fail(what, ": mesh is not manifold: ", found,
-             " vertices join separate sheets of triangles, the first: ", joints,
-             "; a closed, manifold triangle mesh is required", kRepairAdvice);
-    }
+    const std::vector<std::vector<std::size_t>> unoriented = tris;  // orienting edits it
+    const bool oriented = PMP::orient_polygon_soup(points, tris);
     SurfaceMesh sm;
-    PMP::polygon_soup_to_polygon_mesh(points, tris, sm);
-    if (!CGAL::is_closed(sm))  // orient_polygon_soup may have split a vertex
-        fail(what,
-             ": mesh is not closed after orienting it; a closed (watertight) "
-             "triangle mesh is required",
-             kRepairAdvice);
+    if (oriented) PMP::polygon_soup_to_polygon_mesh(points, tris, sm);
+    if (!oriented || !CGAL::is_closed(sm))
+        fail(what, ": ", closed_manifold_defects(points, unoriented), kRepairAdvice);
     PMP::orient_to_bound_a_volume(sm);
 
     TriangleMesh mesh;
