@@ -157,8 +157,8 @@ RenderResult GpuRenderer::render(const RenderOptions& opt, const ProgressFn& pro
                 const size_t at = size_t(k) * pixels + p;
                 film.add_sample(p, &rad[4 * at], cnt[2 * at], cnt[2 * at + 1]);
                 if (paths.on())
-                    paths.set(size_t(w.s0 + k) * pixels + p, cnt[2 * at],
-                              cnt[2 * at + 1]);
+                    paths.set(size_t(w.s0 - opt.first_sample + k) * pixels + p,
+                              cnt[2 * at], cnt[2 * at + 1]);
             }
         return true;
     };
@@ -173,6 +173,7 @@ RenderResult GpuRenderer::render(const RenderOptions& opt, const ProgressFn& pro
     schedule_options.width = width_;
     schedule_options.height = height_;
     schedule_options.spp = opt.spp;
+    schedule_options.first_sample = opt.first_sample;
     schedule_options.tile = std::max(width_, height_);
     schedule_options.threads = 0;
     schedule_options.time_limit = opt.time_limit;
@@ -198,6 +199,7 @@ RenderResult GpuRenderer::render(const RenderOptions& opt, const ProgressFn& pro
     r.gpu_seconds = gpu_seconds;
     done.film.finish(done.spp, r);
     paths.finish(size_t(done.spp) * pixels, r);
+    if (opt.keep_film) r.film = std::move(done.film);
     return r;
 }
 

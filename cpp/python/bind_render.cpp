@@ -104,6 +104,16 @@ py::dict options_dict(const RenderOptions& r) {
     return d;
 }
 
+py::dict film_sums(const Film& film) {
+    const py::ssize_t n = py::ssize_t(film.pixels());
+    py::dict d;
+    d["sum"] = py::array_t<double>({n, py::ssize_t(3)}, film.sums().data());
+    d["sum_sq"] = py::array_t<double>({n, py::ssize_t(3)}, film.sums_of_squares().data());
+    d["events"] = py::array_t<uint64_t>(n, film.event_counts().data());
+    d["steps"] = py::array_t<uint64_t>(n, film.step_counts().data());
+    return d;
+}
+
 }  // namespace
 
 void bind_render(py::module_& m) {
@@ -142,13 +152,15 @@ void bind_render(py::module_& m) {
     m.def(
         "render",
         [](const Scene& scene, const std::string& default_models, py::object progress,
-           const py::dict& text, int gpu_batch, int gpu_lanes,
-           const py::kwargs& options) {
+           const py::dict& text, int gpu_batch, int gpu_lanes, int first_sample,
+           bool keep_film, const py::kwargs& options) {
             RenderOptions opt =
                 resolve_render_options(scene.desc().render, scene.desc().source,
                                        overrides_from(text, options), default_models);
             opt.gpu_batch = gpu_batch;
             opt.gpu_lanes = gpu_lanes;
+            opt.first_sample = first_sample;
+            opt.keep_film = keep_film;
             RenderProgress cb(progress);
             RenderResult r;
             {
@@ -163,13 +175,41 @@ void bind_render(py::module_& m) {
                 d["device"] = r.device;
             }
             d["options"] = options_dict(opt);
+            if (keep_film) d["film"] = film_sums(r.film);
             return d;
         },
         py::arg("scene"), py::arg("default_models") = "",
         py::arg("progress") = py::none(), py::arg("text") = py::dict(),
-        py::arg("gpu_batch") = 0, py::arg("gpu_lanes") = 0,
+        py::arg("gpu_batch") = 0, py::arg("gpu_lanes") = 0, py::arg("first_sample") = 0,
+        py::arg("keep_film") = false,
         "Render with the resolved options (see resolve_render_options) on their "
-        "backend.");
+        "backend. first_sample: render samples [first_sample, first_sample + spp) of "
+        "every pixel; keep_film: return the film's sums as 'film' (sum, sum_sq, events, "
+        "steps), for film_result.");
+    m.def(
+        "film_result",
+        [](py::array_t<double, py::array::c_style | py::array::forcecast> sum,
+           py::array_t<double, py::array::c_style | py::array::forcecast> sum_sq,
+           py::array_t<uint64_t, py::array::c_style | py::array::forcecast> events,
+           py::array_t<uint64_t, py::array::c_style | py::array::forcecast> steps,
+           int spp) {
+            if (events.ndim() != 2) fail("film_result: events must be (height, width)");
+            auto vec = [](const auto& a) {
+                return std::vector(a.data(), a.data() + a.size());
+            };
+            const Film film(vec(sum), vec(sum_sq), vec(events), vec(steps));
+            if (spp < 0) fail("film_result: spp must be >= 0, got ", spp);
+            RenderResult r;
+            r.height = int(events.shape(0));
+            r.width = int(events.shape(1));
+            film.finish(spp, r);
+            return film_dict(r, spp, false, false);
+        },
+        py::arg("sum"), py::arg("sum_sq"), py::arg("events"), py::arg("steps"),
+        py::arg("spp"),
+        "The image, variance, events, sphere_steps, samples and totals of a film's sums "
+        "(as render(keep_film=True) returns them, added over parts) of spp samples per "
+        "pixel: what a render of those samples reports.");
     m.attr("DEFAULT_AOV_SAMPLES") = kDefaultAovSamples;
     m.def(
         "multiple_scattering_albedo", &multiple_scattering_albedo,

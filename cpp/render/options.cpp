@@ -288,6 +288,10 @@ void check_render_options(const RenderOptions& r, const std::string& source) {
     checked_choice("integrator", r.integrator);
     check_time_limit(r.time_limit);
     checked_integer("spp", r.spp);
+    const int64_t max_samples = render_option_spec("spp").hi;
+    if (r.first_sample < 0 || int64_t(r.first_sample) + r.spp > max_samples)
+        fail("first_sample ", r.first_sample, " with spp ", r.spp,
+             ": the samples of a pixel are numbered 0 to ", max_samples - 1);
     checked_integer("threads", r.threads);
     checked_integer("max_bounces", r.max_bounces);
     check_sphere_threshold(r.sphere_threshold);

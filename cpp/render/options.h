@@ -65,6 +65,13 @@ struct RenderOptions {
     // Seconds of rendering after which the render stops with the passes every pixel has
     // finished (at least one sample per pixel); spp stays the most it takes. 0: none.
     double time_limit = 0.0;
+    // One part of a render split by sample ranges (python/sssphere/cluster.py): this
+    // render takes samples [first_sample, first_sample + spp) of every pixel, each with
+    // the random stream it has in a whole render, and keep_film returns its film's sums
+    // (RenderResult::film) for adding to the other parts'. Not in the option table:
+    // callers set them directly.
+    int first_sample = 0;
+    bool keep_film = false;
 };
 
 // A caller's overrides: every option it sets; the others come from the scene file's

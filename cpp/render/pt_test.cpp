@@ -215,3 +215,45 @@ TEST(Renderer, StoppingKeepsWholePassesSoEveryPixelHasTheSameSamples) {
     EXPECT_LT(t.spp, opt.spp);
     for (uint32_t n : t.samples) EXPECT_EQ(n, uint32_t(t.spp));
 }
+
+// A render split by sample ranges (first_sample, keep_film: what sssphere.cluster runs on
+// each node) adds up to the whole render: the same samples, so the same events exactly
+// and the same sums up to their order of addition; and each part's path records are the
+// whole render's for its samples.
+TEST(RenderParts, SampleRangesAddUpToTheWholeRender) {
+    Scene scene(test::sphere_in_environment(Vec3(8.f), Vec3(0.9f), 0.3f,
+                                            BoundaryType::Dielectric, true),
+                2);
+    RenderOptions opt;
+    opt.spp = 7;
+    opt.seed = 11;
+    opt.record_paths = true;
+    const RenderResult whole = render(scene, opt);
+
+    Film sum(whole.image.size() / 3);
+    std::vector<uint32_t> events;
+    for (auto [first, spp] : {std::pair{0, 3}, std::pair{3, 4}}) {
+        RenderOptions part = opt;
+        part.first_sample = first;
+        part.spp = spp;
+        part.keep_film = true;
+        const RenderResult r = render(scene, part);
+        ASSERT_EQ(r.film.pixels(), sum.pixels());
+        sum.add(r.film);
+        events.insert(events.end(), r.path_events.begin(), r.path_events.end());
+    }
+    RenderResult merged;
+    sum.finish(opt.spp, merged);
+    EXPECT_EQ(events, whole.path_events);
+    EXPECT_EQ(merged.events, whole.events);
+    EXPECT_EQ(merged.total_events, whole.total_events);
+    for (size_t i = 0; i < whole.image.size(); ++i) {
+        EXPECT_NEAR(merged.image[i], whole.image[i], 1e-6 * std::abs(whole.image[i]));
+        EXPECT_NEAR(merged.variance[i], whole.variance[i],
+                    1e-5 * std::abs(whole.variance[i]) + 1e-12);
+    }
+
+    RenderOptions beyond = opt;
+    beyond.first_sample = (1 << 24) - 3;
+    EXPECT_THROW(render(scene, beyond), Error);
+}

@@ -62,6 +62,7 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
     schedule_options.width = W;
     schedule_options.height = H;
     schedule_options.spp = opt.spp;
+    schedule_options.first_sample = opt.first_sample;
     schedule_options.tile = kTile;
     schedule_options.threads = worker_threads(opt.threads);
     schedule_options.time_limit = opt.time_limit;
@@ -77,6 +78,7 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
     r.step_seconds = integrator->step_seconds();
     done.film.finish(done.spp, r);
     paths.finish(size_t(W) * H * done.spp, r);
+    if (opt.keep_film) r.film = std::move(done.film);
     return r;
 }
 

@@ -138,7 +138,8 @@ private:
             film_changed_.wait(
                 lock, [&] { return pass < passes_merged_ + kPassesAhead || cancel_; });
         }
-        work = tile_work(int(task % num_tiles_), s0, s1);
+        work = tile_work(int(task % num_tiles_), opt_.first_sample + s0,
+                         opt_.first_sample + s1);
         return !cancel_;
     }
 
@@ -272,7 +273,8 @@ private:
 Scheduled schedule(const ScheduleOptions& options, const TileFn& render_tile,
                    const ProgressFn& progress) {
     SSS_CHECK(options.width > 0 && options.height > 0 && options.spp > 0 &&
-              options.tile > 0 && options.threads >= 0 && options.time_limit >= 0.0);
+              options.first_sample >= 0 && options.tile > 0 && options.threads >= 0 &&
+              options.time_limit >= 0.0);
     return PassRunner(options, render_tile).run(progress);
 }
 

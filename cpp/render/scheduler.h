@@ -35,6 +35,9 @@ struct PassPolicy {
 struct ScheduleOptions {
     int width = 0, height = 0;
     int spp = 1;
+    // The sample indices start here: the tiles get samples [first_sample, first_sample +
+    // spp), the passes count from first_sample (a part of a render split by samples).
+    int first_sample = 0;
     int tile = 16;  // tiles of tile x tile pixels (smaller in the last row and column)
     // Worker threads rendering the tiles, while the calling thread reports progress,
     // relays cancellation and keeps the time limit about ten times a second. 0: the

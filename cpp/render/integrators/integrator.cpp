@@ -34,8 +34,9 @@ void TileSamples::record(int item, const PathSample& sample, Film& film) const {
         int x, y;
         pixel(item, x, y);
         const Camera& cam = setup_.scene.desc().camera;
-        setup_.paths.set((size_t(work_.s0 + item % m_) * cam.height + y) * cam.width + x,
-                         sample.scatter_events, sample.sphere_steps);
+        const size_t k = size_t(work_.s0 - setup_.options.first_sample + item % m_);
+        setup_.paths.set((k * cam.height + y) * cam.width + x, sample.scatter_events,
+                         sample.sphere_steps);
     }
     film.add_sample(item / m_, sample.radiance, sample.scatter_events,
                     sample.sphere_steps);
