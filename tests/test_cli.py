@@ -198,9 +198,9 @@ def test_both_command_lines_take_the_same_options():
     cpp = subprocess.run([_cpp_cli(), "--help"], capture_output=True, text=True)
     assert py.returncode == 0 and cpp.returncode == 0, (py.stderr, cpp.stderr)
     ours, theirs = _long_options(py.stdout), _long_options(cpp.stdout)
-    # Python's alone (docs/options.md): denoising runs pyoidn, and --turntable is built on
-    # render_frames and the editable scene.
-    python_only = {"--denoise", "--turntable"}
+    # Python's alone (docs/options.md): denoising runs pyoidn, --turntable is built on
+    # render_frames and the editable scene, --ray on Ray's Python API.
+    python_only = {"--denoise", "--turntable", "--ray"}
     assert ours - {"--version"} - python_only == theirs - {"--version"}, (ours ^ theirs)
     for spec in _core.render_option_specs():
         if spec["command_line"]:

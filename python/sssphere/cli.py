@@ -50,6 +50,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
         raise SceneError(f"{out}: output directory {str(out.parent)!r} does not exist")
     if args.turntable:
         _frame_pattern(args.output, args.turntable)
+    _check_ray(args.ray)
     # The render options as typed, checked and resolved in C++ with the scene's (one table
     # for both command lines and the API: render/options.h)
     text = {spec["name"]: getattr(args, spec["name"]) for spec in RENDER_OPTIONS
@@ -71,7 +72,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
         return _render_turntable(args, scene, text, load_s)
     bar = Progress(f"rendering {Path(args.scene).name}", enabled=not args.quiet)
     try:
-        result = rendering._result(rendering._render(scene, bar, {}, text))
+        result = rendering._result(rendering._render(scene, bar, {}, text, args.ray))
     finally:
         bar.close()
     result = rendering.with_aovs(scene, result, args.aovs, args.denoise)
@@ -83,8 +84,13 @@ def _cmd_render(args: argparse.Namespace) -> int:
         step_ns = 1e9 * result.step_seconds / (result.mean_sphere_steps_per_path * result.samples.sum())
         steps = f" + {result.mean_sphere_steps_per_path:.1f} sphere steps" + (
             f" ({step_ns:.0f} ns each)" if result.step_seconds > 0 else "")
+    where = ""
+    if result.cluster is not None:
+        c = result.cluster
+        where = (f" on a Ray cluster: {c['tasks_merged']} tasks in {c['processes']} worker "
+                 f"processes on {len(c['nodes'])} nodes;")
     print(
-        f"{what} {out} ({scene.width}x{scene.height}, {result.spp} spp; "
+        f"{what} {out} ({scene.width}x{scene.height}, {result.spp} spp;{where} "
         f"scene built in {load_s:.2f}s, "
         f"rendered in {result.seconds:.2f}s; {result.mean_events_per_path:.1f} scattering "
         f"events{steps} per path)",
@@ -121,7 +127,7 @@ def _render_turntable(args: argparse.Namespace, scene, text: dict, load_s: float
     try:
         results = rendering.render_frames(scene, rendering.orbit_cameras(scene, args.turntable),
                                           progress=bar, on_frame=save, aovs=args.aovs,
-                                          denoise=args.denoise, _text=text)
+                                          denoise=args.denoise, _text=text, ray_address=args.ray)
     finally:
         bar.close()
     interrupted = bool(results) and results[-1].interrupted
@@ -132,13 +138,27 @@ def _render_turntable(args: argparse.Namespace, scene, text: dict, load_s: float
     return _interrupted_status() if interrupted else 0
 
 
+def _check_ray(address) -> None:
+    """--ray: Ray must be installed (said before any work is done)."""
+    if address is None:
+        return
+    from sssphere import cluster
+
+    try:
+        cluster._ray()
+    except ImportError as e:
+        raise SystemExit(f"sssphere: error: --ray: {e}") from None
+
+
 def _cmd_datagen(args: argparse.Namespace) -> int:
     from sssphere.learn.datagen import datagen
 
+    _check_ray(args.ray)
     bar = Progress(f"simulating {args.samples} sphere walks", enabled=not args.quiet)
     try:
         data, interrupted, seconds = datagen(args.samples, args.output, seed=args.seed,
-                                             threads=args.threads, progress=bar)
+                                             threads=args.threads, progress=bar,
+                                             ray_address=args.ray)
     except ValueError as e:
         raise SceneError(str(e)) from None
     finally:
@@ -313,6 +333,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--turntable", type=_positive_int, metavar="N",
                    help="render N frames on a circle about the camera's target (about its up "
                         "axis); -o is then a frame number pattern such as frames/%%03d.png")
+    r.add_argument("--ray", metavar="ADDRESS",
+                   help="render on the Ray cluster at ADDRESS (auto: the one in RAY_ADDRESS or "
+                        "running on this machine; HOST:PORT; docs/cluster.md); --threads is "
+                        "then each task's (default 1). Needs pip install 'sssphere[cluster]'")
     r.add_argument("--set", action="append", metavar="PATH=VALUE",
                    help="change a scene field before loading, e.g. --set "
                         "shapes[0].medium.sigma_t=1000 or --set 'camera.origin=[0, 1, 3]' "
@@ -329,6 +353,9 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("-o", "--output", required=True, help="output file (.npz)")
     d.add_argument("--seed", type=_non_negative_int, default=0, help="random seed")
     d.add_argument("--threads", type=_non_negative_int, default=0, help="worker threads (0 = all cores)")
+    d.add_argument("--ray", metavar="ADDRESS",
+                   help="simulate on the Ray cluster at ADDRESS, in tasks of 20,000 walks: the "
+                        "same file as a local run (docs/cluster.md)")
     d.add_argument("--quiet", action="store_true", help="no progress bar")
     d.set_defaults(func=_cmd_datagen)
 
@@ -411,7 +438,7 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         return args.func(args)
-    except SceneError as e:
+    except (SceneError, ConnectionError) as e:
         print(f"sssphere: error: {e}", file=sys.stderr)
         return 1
 

@@ -78,6 +78,12 @@ class RenderResult:
     depth : with ``aovs=True`` (or ``denoise=True``), (height, width) float32, the distance to that first hit
         along the ray (0: background); else None. The AOVs average the render's first
         min(spp, DEFAULT_AOV_SAMPLES) camera rays of each pixel (first_hit_aovs).
+    cluster : with ``ray_address``, how the render ran on the cluster (a dict): ``tasks``
+        submitted and ``tasks_merged`` (in sample order; fewer when stopped early), their
+        sample ``ranges`` (first, count), ``slots`` (tasks the cluster runs at once),
+        ``builds`` (scene builds by worker processes: one per process, not per task),
+        ``processes`` and ``nodes`` that ran the merged tasks, and per task
+        ``task_seconds`` (its render) and ``build_seconds`` (getting its scene); else None.
     denoised : with ``denoise=True``, ``image`` denoised by Intel Open Image Denoise with
         the albedo and normal AOVs (an Image); else None. ``image`` stays the unbiased
         estimate that ``variance`` describes.
@@ -108,6 +114,7 @@ class RenderResult:
     normal: Optional[np.ndarray] = None
     depth: Optional[np.ndarray] = None
     denoised: Optional[np.ndarray] = None
+    cluster: Optional[dict] = None
 
     @property
     def picture(self) -> np.ndarray:
@@ -159,9 +166,17 @@ class RenderResult:
         return _png_bytes(self.picture)
 
 
-def _render(scene: Scene, progress, options: dict, text: Optional[dict] = None) -> dict:
+def _render(scene: Scene, progress, options: dict, text: Optional[dict] = None,
+            ray_address: Optional[str] = None) -> dict:
     """The C++ render on the options given (None: not given), resolved once in C++
-    (render/options.h: defaults < the scene's render block < command-line text < these)."""
+    (render/options.h: defaults < the scene's render block < command-line text < these);
+    with ``ray_address``, the same render split into tasks on that Ray cluster
+    (sssphere.cluster)."""
+    if ray_address is not None:
+        from sssphere import cluster
+
+        return cluster.render(scene, ray_address, progress, options, text,
+                              os.fspath(DEFAULT_MODELS))
     given = {k: v for k, v in options.items() if v is not None}
     return _core.render(scene, os.fspath(DEFAULT_MODELS), progress, text or {}, **given)
 
@@ -184,6 +199,7 @@ def render_full(
     time_limit: Optional[float] = None,
     aovs: bool = False,
     denoise: bool = False,
+    ray_address: Optional[str] = None,
 ) -> RenderResult:
     """Render and return the image with its variance and complexity (see RenderResult).
 
@@ -216,6 +232,13 @@ def render_full(
     adds ``denoised``: the image denoised by Intel Open Image Denoise with the albedo and
     normal AOVs (the optional extra ``pip install 'sssphere[denoise]'``; see denoise()).
 
+    ``ray_address`` renders on a Ray cluster (``"auto"``, ``"HOST:PORT"``, ... as
+    ``ray.init`` takes it; docs/cluster.md): the samples are split into tasks by sample
+    ranges, run on any node (the scene and its files travel through Ray's object store)
+    and merged in sample order, giving this render's image up to the order of float64
+    sums (the counts exactly). ``threads`` is then each task's threads and the CPUs it
+    asks Ray for (default 1). Needs ``pip install 'sssphere[cluster]'``.
+
     ``record_paths=True`` also returns every path's event and step counts (``path_events``,
     ``path_steps``; 8 bytes per path, at most 2**27 paths): the distribution of path
     lengths, not only their means.
@@ -233,7 +256,8 @@ def render_full(
                    record_paths=record_paths, backend=backend, time_limit=time_limit)
     if denoise:
         _denoiser()  # before the render: a missing extra should not cost one
-    return with_aovs(scene, _result(_render(scene, progress, options)), aovs, denoise)
+    return with_aovs(scene, _result(_render(scene, progress, options, ray_address=ray_address)),
+                     aovs, denoise)
 
 
 def with_aovs(scene: Scene, result: RenderResult, aovs: bool, denoise: bool) -> RenderResult:
@@ -277,12 +301,12 @@ def render_frames(scene: Union[Scene, str, os.PathLike, dict], cameras: list[dic
                   progress: Optional[Callable[[float], Optional[bool]]] = None,
                   on_frame: Optional[Callable[[int, RenderResult], None]] = None,
                   aovs: bool = False, denoise: bool = False, _text: Optional[dict] = None,
-                  **options) -> list[RenderResult]:
+                  ray_address: Optional[str] = None, **options) -> list[RenderResult]:
     """Render the scene from each camera in turn: an animation without rebuilding
     anything (a camera change keeps the BVH and distance grids; see Scene). A camera is a
     dict of camera fields (docs/scene-format.md) that replace the scene camera's, e.g.
     ``{"origin": [0, 1, 4]}``; orbit_cameras makes a turntable. ``options`` are
-    render_full's; ``progress(fraction)`` sees the whole animation (returning False
+    render_full's, and so is ``ray_address``; ``progress(fraction)`` sees the whole animation (returning False
     stops it); ``on_frame(k, result)`` is called as each frame finishes (to save it, say).
     Ctrl-C stops the animation: the results so far are returned, the last one
     ``interrupted``. The scene's camera is restored afterwards."""
@@ -307,8 +331,8 @@ def render_frames(scene: Union[Scene, str, os.PathLike, dict], cameras: list[dic
             def frame_progress(fraction: float, k: int = k):
                 return None if progress is None else progress((k + fraction) / len(cameras))
 
-            result = with_aovs(scene, _result(_render(scene, frame_progress, options, _text)),
-                               aovs, denoise)
+            result = with_aovs(scene, _result(_render(scene, frame_progress, options, _text,
+                                                      ray_address)), aovs, denoise)
             results.append(result)
             if on_frame is not None:
                 on_frame(k, result)
@@ -393,6 +417,7 @@ def _result(r: dict) -> RenderResult:
         options=r["options"],
         gpu_seconds=r.get("gpu_seconds"),
         device=r.get("device"),
+        cluster=r.get("cluster"),
     )
 
 
@@ -409,19 +434,21 @@ def render(
     backend: Optional[str] = None,
     time_limit: Optional[float] = None,
     denoise: bool = False,
+    ray_address: Optional[str] = None,
 ) -> Image:
     """Render a scene to a (height, width, 3) float32 array of linear radiance (an Image:
     a numpy array that shows itself in Jupyter and has ``save(path)``).
 
     ``integrator="st"`` renders with sphere tracing; ``sphere_threshold``, ``models`` and
     ``step_nee`` are described in render_full, and so is ``backend`` (``"vulkan"``: the GPU
-    path) and ``time_limit`` (seconds). ``denoise=True`` returns the image denoised with
-    its albedo and normal AOVs (render_full). Ctrl-C raises KeyboardInterrupt (use
+    path), ``time_limit`` (seconds) and ``ray_address`` (a Ray cluster). ``denoise=True``
+    returns the image denoised with its albedo and normal AOVs (render_full). Ctrl-C raises KeyboardInterrupt (use
     render_full to keep a partial image).
     """
     result = render_full(scene, integrator=integrator, spp=spp, seed=seed, threads=threads, nee=nee,
                          sphere_threshold=sphere_threshold, models=models, step_nee=step_nee,
-                         backend=backend, time_limit=time_limit, denoise=denoise)
+                         backend=backend, time_limit=time_limit, denoise=denoise,
+                         ray_address=ray_address)
     if result.interrupted:
         raise KeyboardInterrupt
     return result.picture

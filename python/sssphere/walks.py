@@ -44,6 +44,7 @@ def sphere_walks(
     seed: int = 0,
     threads: Optional[int] = None,
     first_index: int = 0,
+    ray_address: Optional[str] = None,
 ) -> dict:
     """Simulate ``n`` walks in the unit sphere (C++, multithreaded).
 
@@ -57,6 +58,10 @@ def sphere_walks(
         ``threads`` or on how a large set is split into calls.
     threads : int, optional
         Worker threads (None or 0: all cores).
+    ray_address : str, optional
+        Simulate on this Ray cluster (``"auto"``, ``"HOST:PORT"``; docs/cluster.md), in
+        tasks of ``sssphere.cluster.WALK_CHUNK`` walks of one thread each: the same walks,
+        bit for bit. Ctrl-C cancels the tasks and raises KeyboardInterrupt.
 
     Returns
     -------
@@ -75,4 +80,11 @@ def sphere_walks(
     s = _param("sigma_t", sigma_t, n, 0.0, MAX_SIGMA_T, True)
     gg = _param("g", g, n, -1.0, 1.0, False)
     a = _param("albedo", albedo, n, 0.0, 1.0, True)
+    if ray_address is not None:
+        from sssphere.cluster import walks
+
+        parts, interrupted = walks(s, gg, a, int(seed), int(first_index), ray_address)
+        if interrupted:
+            raise KeyboardInterrupt
+        return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
     return _core.sphere_walks(s, gg, a, n, int(seed), int(first_index), int(threads))

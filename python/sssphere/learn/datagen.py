@@ -58,18 +58,27 @@ def generate(
     threads: Optional[int] = None,
     chunk: int = 10_000,  # walks per call: about 0.7 s on 2 cores, so Ctrl-C and SIGTERM stop soon
     progress: Optional[Callable[[float], object]] = None,
+    ray_address: Optional[str] = None,
 ) -> tuple[dict, bool]:
     """Simulate the walks for ``samples`` parameter draws.
 
     Returns (data, interrupted): data holds ``sigma``, ``g``, ``phi`` and the keys of
     ``sphere_walks``; on Ctrl-C it holds the chunks finished so far and interrupted is True.
+    With ``ray_address`` the chunks are tasks on that Ray cluster (sssphere.cluster.walks):
+    the same walks, bit for bit.
     """
     params = sample_parameters(samples, seed)
     parts: list[dict] = []
     done = 0
     interrupted = False
+    if ray_address is not None:
+        from sssphere.cluster import walks
+
+        parts, interrupted = walks(params["sigma"], params["g"], params["phi"], seed, 0,
+                                   ray_address, progress=progress)
+        done = sum(len(p["N"]) for p in parts)
     try:
-        while done < samples:
+        while done < samples and ray_address is None:
             m = min(chunk, samples - done)
             sl = slice(done, done + m)
             walk = sphere_walks(params["sigma"][sl], params["g"][sl], params["phi"][sl], m,
@@ -97,16 +106,19 @@ def save(path: str | Path, data: dict, seed: int, seconds: float) -> None:
 
 
 def datagen(samples: int, output: str | Path, seed: int = 0, threads: Optional[int] = None,
-            progress: Optional[Callable[[float], object]] = None) -> tuple[dict, bool, float]:
+            progress: Optional[Callable[[float], object]] = None,
+            ray_address: Optional[str] = None) -> tuple[dict, bool, float]:
     """Generate and save; returns (data, interrupted, seconds). Interrupted before any walk
-    finished, it writes nothing (an existing file stays as it was)."""
+    finished, it writes nothing (an existing file stays as it was). ``ray_address``: on
+    that Ray cluster (generate)."""
     out = Path(output)
     if out.suffix != ".npz":
         raise ValueError(f"{out}: the training data file must end in .npz")
     if out.parent != Path("") and not out.parent.is_dir():
         raise ValueError(f"{out}: output directory {str(out.parent)!r} does not exist")
     t0 = time.monotonic()
-    data, interrupted = generate(samples, seed, threads, progress=progress)
+    data, interrupted = generate(samples, seed, threads, progress=progress,
+                                 ray_address=ray_address)
     seconds = time.monotonic() - t0
     if len(data["N"]) or not interrupted:
         save(out, data, seed, seconds)

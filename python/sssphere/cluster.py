@@ -1,0 +1,426 @@
+"""Rendering and walk generation on a Ray cluster (docs/cluster.md).
+
+A render is split into tasks by sample ranges: task k renders samples [s_k, s_k+1) of every
+pixel, each with the random stream it has in a local render (render/scheduler.h), and
+returns its film's sums (float64 radiance and squares, integer event and step counts).
+The driver adds the sums in task order, whatever order the tasks finish in, and turns
+them into the image as a local render does (``_core.film_result``). So the merged image is
+the local render's up to the order of the float64 additions: the event and step counts
+and path records are identical, the float32 pixels almost all bit-identical (rarely one
+unit in the last place).
+
+Nothing is assumed of the workers' file systems: the scene's description, its mesh files,
+environment map and models travel through Ray's object store, and each worker process
+builds a scene once and keeps it for the tasks that follow (``_worker_scene``). Tasks
+that die with their worker or node are re-run by Ray (``max_retries``); being
+deterministic, they give the same sums. Ctrl-C (or a progress callback returning False)
+cancels what is left and returns the tasks merged so far, in order: a render of fewer
+samples per pixel, as locally.
+
+Ray is an optional extra: ``pip install 'sssphere[cluster]'``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+import time
+from typing import Callable, Optional
+
+import numpy as np
+
+from sssphere import _core
+
+#: Tasks per task slot (a slot: ``threads`` CPUs) when the samples allow: enough that a slow
+#: or lost task delays the end little, few enough that each task's overhead stays small.
+TASKS_PER_SLOT = 4
+#: Times Ray re-runs a task whose worker process or node died.
+MAX_RETRIES = 5
+#: Slots per film the driver receives: on a cluster of more slots, groups of
+#: slots // GROUP_FILMS consecutive tasks are added up on a worker first (the driver's
+#: network link would otherwise bound a large cluster: docs/cluster.md).
+GROUP_FILMS = 8
+#: Walks per data-generation task.
+WALK_CHUNK = 20_000
+
+_INSTALL = "pip install 'sssphere[cluster]' (the PyPI package ray)"
+
+
+def _ray():
+    try:
+        import ray
+    except ImportError:
+        raise ImportError(f"rendering on a cluster needs Ray, an optional extra: {_INSTALL}") from None
+    return ray
+
+
+def connect(address: str):
+    """Connect this process to the Ray cluster at ``address`` (what ``ray.init`` takes:
+    ``"auto"`` for the cluster in RAY_ADDRESS or one running on this machine,
+    ``"HOST:PORT"``, ``"ray://HOST:PORT"``, or ``"local"`` to start one here), unless it
+    is connected already. Returns the ray module."""
+    if not isinstance(address, str) or not address:
+        raise ValueError(f"ray_address must be a Ray address (a str such as 'auto' or "
+                         f"'HOST:PORT'), got {address!r}")
+    ray = _ray()
+    if not ray.is_initialized():
+        try:
+            ray.init(address=None if address == "local" else address,
+                     log_to_driver=False, configure_logging=False)
+        except ConnectionError as e:
+            raise ConnectionError(f"ray_address {address!r}: no Ray cluster there ({e}); start "
+                                  "one with `ray start --head` (docs/cluster.md)") from None
+    return ray
+
+
+# --- the scene's package: its description and files, for workers without our files ---
+
+def _file_key(path: str, data: bytes) -> str:
+    # the content's hash keeps the file name's suffix, by which the readers pick a format
+    return f"{hashlib.sha256(data).hexdigest()[:24]}-{os.path.basename(path)}"
+
+
+def package_scene(scene, options: dict, ray) -> tuple[str, dict]:
+    """The scene as (JSON text, {file key: object ref}): each file the scene reads (shape
+    meshes, the environment map, the models of ``options``) put once in the object store,
+    its path in the text replaced by its key."""
+    doc = scene.to_dict()
+    files: dict[str, object] = {}
+
+    def ship(path: str) -> str:
+        full = os.path.join(scene.base_dir, path)
+        with open(full, "rb") as f:
+            data = f.read()
+        key = _file_key(full, data)
+        if key not in files:
+            files[key] = ray.put(data)
+        return key
+
+    for shape in doc.get("shapes", []):
+        if isinstance(shape.get("mesh"), str):
+            shape["mesh"] = ship(shape["mesh"])
+    for light in doc.get("lights", []):
+        if isinstance(light.get("map"), str):
+            light["map"] = ship(light["map"])
+    doc.get("render", {}).pop("models", None)  # the options carry the models
+    models = []
+    if options["integrator"] == "st" and options["sphere_sampler"] == "model":
+        for name in ("lengthgen.json", "pathgen.json", "eventgen.json"):
+            path = os.path.join(options["models"], name)
+            if os.path.isfile(path):
+                models.append(ship(path))
+    package = {"scene": doc, "models": models, "source": scene.source}
+    return json.dumps(package, sort_keys=True), files
+
+
+_FILES_DIR: Optional[str] = None
+_SCENE: dict = {}  # this worker process's scene: key, scene, models directory
+
+
+def _worker_scene(text: str, files: dict, threads: int):
+    """The scene of a package, built in this process on its first task and kept for the
+    next ones (a worker process runs many tasks). A new package is built from the scene
+    before it (an edit: Scene's reusing rebuild), so a sweep over materials, lights or
+    cameras keeps its BVH and distance grids. Returns (scene, models dir, built)."""
+    global _FILES_DIR
+    key = hashlib.sha256(text.encode()).hexdigest()
+    if _SCENE.get("key") == key:
+        return _SCENE["scene"], _SCENE["models"], False
+    import ray
+
+    from sssphere.scene import Scene
+
+    if _FILES_DIR is None:
+        _FILES_DIR = tempfile.mkdtemp(prefix="sssphere-worker-")
+    for name, ref in files.items():
+        path = os.path.join(_FILES_DIR, name)
+        if not os.path.exists(path):
+            with open(path + ".part", "wb") as f:
+                f.write(ray.get(ref))
+            os.replace(path + ".part", path)
+    package = json.loads(text)
+    models_dir = os.path.join(_FILES_DIR, "models-" + key[:24])
+    os.makedirs(models_dir, exist_ok=True)
+    for name in package["models"]:
+        target = os.path.join(models_dir, name.split("-", 1)[1])
+        if not os.path.exists(target):
+            os.link(os.path.join(_FILES_DIR, name), target)
+    doc = json.dumps(package["scene"])
+    scene = _SCENE.get("scene")
+    if scene is None:
+        scene = Scene(doc, _FILES_DIR, package["source"], threads)
+    else:
+        scene._rebuild(doc, _FILES_DIR, package["source"], threads, scene._meshes)
+        scene._doc = package["scene"]
+    _SCENE.update(key=key, scene=scene, models=models_dir)
+    return scene, models_dir, True
+
+
+def _render_part(text: str, files: dict, options: dict, first: int, spp: int) -> dict:
+    """One task: samples [first, first + spp) of every pixel, as film sums (a part; see
+    _add_parts)."""
+    import ray
+
+    t0 = time.monotonic()
+    scene, models_dir, built = _worker_scene(text, files, options["threads"])
+    build_s = time.monotonic() - t0
+    r = _core.render(scene, models_dir, None, {}, first_sample=first, keep_film=True,
+                     **{**options, "spp": spp, "models": models_dir})
+    if r["cancelled"]:  # Ray's cancel of this task arrived as a KeyboardInterrupt
+        raise KeyboardInterrupt
+    task = {"seconds": r["seconds"], "step_seconds": r["step_seconds"], "build_seconds": build_s,
+            "built": built, "rebuilt": list(scene.rebuilt) if built else None,
+            "pid": os.getpid(), "node": ray.get_runtime_context().get_node_id(),
+            "device": r.get("device"), "gpu_seconds": r.get("gpu_seconds")}
+    part = {"film": r["film"], "tasks": [task]}
+    if options["record_paths"]:
+        part["path_events"], part["path_steps"] = r["path_events"], r["path_steps"]
+    return part
+
+
+def _add_parts(*parts: dict) -> dict:
+    """Consecutive parts (tasks, or sums of tasks) as one: their films added in order, their
+    tasks and path records one after another. Run on the workers, it cuts what the driver
+    receives to one film per group of tasks (GROUP_FILMS)."""
+    film = {key: parts[0]["film"][key].copy() for key in parts[0]["film"]}
+    for part in parts[1:]:
+        for key in film:
+            film[key] += part["film"][key]
+    out = {"film": film, "tasks": [task for part in parts for task in part["tasks"]]}
+    for key in ("path_events", "path_steps"):
+        if key in parts[0]:
+            out[key] = np.concatenate([part[key] for part in parts])
+    return out
+
+
+def _sample_ranges(spp: int, slots: int, pixels: int, timed: bool):
+    """The tasks' sample ranges (first, count), in sample order: TASKS_PER_SLOT tasks per
+    slot (fewer if spp is smaller), their sizes differing by at most one sample, so that
+    every round of tasks keeps every slot busy. With a time limit, which ends the render at
+    an unknown spp, tasks of at most 2^16 paths (samples x pixels) instead, so that the
+    last ones, wasted when time is up, are short."""
+    if timed:
+        size = max(1, min(-(-spp // max(1, slots * TASKS_PER_SLOT)), 2 ** 16 // pixels))
+        for first in range(0, spp, size):
+            yield first, min(size, spp - first)
+        return
+    tasks = min(spp, max(1, slots * TASKS_PER_SLOT))
+    first = 0
+    for k in range(tasks):
+        count = spp // tasks + (k < spp % tasks)
+        yield first, count
+        first += count
+
+
+def group_size(slots: int) -> int:
+    """Tasks whose films a worker adds up before the driver gets them: one group per
+    GROUP_FILMS slots (1, no grouping, on small clusters)."""
+    return max(1, slots // GROUP_FILMS)
+
+
+def render(scene, address: str, progress: Optional[Callable[[float], object]], options: dict,
+           text: Optional[dict], models: str) -> dict:
+    """A render on the cluster at ``address``: the dict ``_core.render`` returns for a local
+    render of the same scene and options, with ``cluster`` added (tasks, builds, nodes,
+    seconds; see RenderResult.cluster)."""
+    ray = connect(address)
+    t0 = time.monotonic()
+    given = {k: v for k, v in options.items() if v is not None}
+    resolved = _core.resolve_render_options(scene, models, text or {}, **given)
+    # the CPUs each task asks Ray for, and its threads ("vulkan": one CPU drives the device)
+    threads = resolved["threads"] or 1
+    time_limit = resolved["time_limit"]
+    task_options = {**resolved, "time_limit": 0.0}
+    if resolved["backend"] == "cpu":
+        task_options["threads"] = threads
+    spp = resolved["spp"]
+    package, files = package_scene(scene, resolved, ray)
+
+    resources = ray.cluster_resources()
+    gpu = resolved["backend"] == "vulkan" and resources.get("GPU", 0) > 0
+    slots = int(resources.get("GPU", 0)) if gpu else int(resources.get("CPU", 0) // threads)
+    if slots < 1:
+        raise RuntimeError(f"the Ray cluster at {address!r} has {resources.get('CPU', 0):g} CPUs: "
+                           f"none can run a task of threads={threads}")
+    ranges = _sample_ranges(spp, slots, scene.width * scene.height, time_limit > 0)
+    remote = ray.remote(_render_part).options(
+        num_cpus=0 if gpu else threads, num_gpus=1 if gpu else 0, max_retries=MAX_RETRIES)
+    add = ray.remote(_add_parts).options(num_cpus=0, max_retries=MAX_RETRIES)
+    group = group_size(slots)
+
+    pixels = scene.width * scene.height
+    film = {"sum": np.zeros((pixels, 3)), "sum_sq": np.zeros((pixels, 3)),
+            "events": np.zeros(pixels, np.uint64), "steps": np.zeros(pixels, np.uint64)}
+    merged: list[dict] = []  # the parts added to film, in sample order
+    merged_tasks = 0
+
+    def merge(part: dict) -> None:
+        nonlocal merged_tasks
+        for key in film:
+            film[key] += part["film"][key]
+        merged.append(part)
+        merged_tasks += len(part["tasks"])
+
+    submitted: list[tuple[int, int]] = []  # the ranges of the tasks, in sample order
+    task_refs: list = []
+    groups: list[tuple[int, object]] = []  # (first task, ref of the group's part)
+    running: dict = {}  # task ref -> task number, not yet finished
+    finished: set = set()  # task numbers
+    fetched: dict[int, dict] = {}  # group number -> part, waiting for the groups before it
+    cancelled = time_limit_reached = exhausted = False
+    done_samples = 0
+    try:
+        while True:
+            # at most two tasks a slot in flight: the rest wait here, cheap to drop
+            while len(running) < 2 * slots and not exhausted:
+                first_count = next(ranges, None)
+                if first_count is None:
+                    exhausted = True
+                    break
+                ref = remote.remote(package, files, task_options, *first_count)
+                running[ref] = len(submitted)
+                submitted.append(first_count)
+                task_refs.append(ref)
+            # a group's part: the task's own when groups are of one, else a sum on a worker
+            start = groups[-1][0] + group if groups else 0
+            while len(submitted) - start >= group or (exhausted and start < len(submitted)):
+                members = task_refs[start:start + group]
+                groups.append((start, members[0] if len(members) == 1 else add.remote(*members)))
+                start += group
+            if not running and len(merged) == len(groups) and exhausted:
+                break
+            if running:
+                ready, _ = ray.wait(list(running), num_returns=len(running), timeout=0.1,
+                                    fetch_local=False)
+                for ref in ready:
+                    k = running.pop(ref)
+                    finished.add(k)
+                    done_samples += submitted[k][1]
+            waiting = [ref for g, (_, ref) in enumerate(groups)
+                       if g >= len(merged) and g not in fetched]
+            ready, _ = ray.wait(waiting, num_returns=len(waiting),
+                                timeout=0 if running else 0.1) if waiting else ([], [])
+            ready = set(ready)
+            for g, (_, ref) in enumerate(groups):
+                if ref in ready:
+                    fetched[g] = ray.get(ref)
+            while len(merged) in fetched:
+                merge(fetched.pop(len(merged)))
+            elapsed = time.monotonic() - t0
+            if progress is not None:
+                fraction = done_samples / spp
+                if time_limit > 0:
+                    fraction = max(fraction, elapsed / time_limit)
+                if progress(min(1.0, fraction)) is False:
+                    cancelled = True
+                    break
+            if time_limit > 0 and merged_tasks > 0 and elapsed >= time_limit:
+                time_limit_reached = True
+                break
+    except KeyboardInterrupt:
+        cancelled = True
+    except ray.exceptions.RayTaskError as e:
+        _cancel(ray, list(running) + [ref for _, ref in groups])
+        raise _cause(e) from None
+    if cancelled or time_limit_reached:
+        _cancel(ray, list(running) + [ref for _, ref in groups[len(merged):]])
+        # the tasks finished after the last merged group, in order, are kept too
+        k = merged_tasks
+        while k in finished:
+            try:
+                merge(ray.get(task_refs[k], timeout=10))
+            except Exception:  # noqa: BLE001 -- lost with its node: the prefix ends here
+                break
+            k += 1
+    merged_spp = sum(count for _, count in submitted[:merged_tasks])
+    shape = (scene.height, scene.width)
+    r = _core.film_result(film["sum"], film["sum_sq"], film["events"].reshape(shape),
+                          film["steps"], merged_spp)
+    if progress is not None and not cancelled:
+        progress(1.0)
+    tasks = [task for part in merged for task in part["tasks"]]
+    r["cancelled"] = cancelled
+    r["interrupted"] = cancelled
+    r["time_limit_reached"] = time_limit_reached
+    r["seconds"] = time.monotonic() - t0
+    r["step_seconds"] = sum(t["step_seconds"] for t in tasks)
+    if resolved["record_paths"]:
+        for key in ("path_events", "path_steps"):
+            r[key] = (np.concatenate([p[key] for p in merged]) if merged
+                      else np.zeros((0, *shape), np.uint32))
+    if resolved["backend"] == "vulkan":
+        r["gpu_seconds"] = sum(t["gpu_seconds"] or 0.0 for t in tasks)
+        r["device"] = tasks[0]["device"] if tasks else None
+    r["options"] = {**resolved, "threads": task_options["threads"]}
+    r["cluster"] = {
+        "address": address, "tasks": len(submitted), "tasks_merged": merged_tasks,
+        "slots": slots, "group": group, "ranges": submitted[:merged_tasks],
+        "builds": sum(t["built"] for t in tasks),
+        "processes": len({(t["node"], t["pid"]) for t in tasks}),
+        "nodes": sorted({t["node"] for t in tasks}),
+        "task_seconds": [t["seconds"] for t in tasks],
+        "build_seconds": [t["build_seconds"] for t in tasks],
+        "rebuilt": [t["rebuilt"] for t in tasks if t["built"]],
+    }
+    return r
+
+
+def _cause(error: Exception) -> Exception:
+    """What a task raised (a SceneError, say), not Ray's wrapper around it."""
+    cause = getattr(error, "cause", None)
+    return cause if isinstance(cause, Exception) else error
+
+
+def _cancel(ray, refs: list) -> None:
+    for ref in refs:
+        try:
+            ray.cancel(ref, force=True)
+        except Exception:  # noqa: BLE001 -- a task that ended meanwhile has nothing to cancel
+            pass
+
+
+# --- sphere walks (training data) ---
+
+def _walk_part(sigma, g, albedo, seed: int, first_index: int) -> dict:
+    from sssphere.walks import sphere_walks
+
+    return sphere_walks(sigma, g, albedo, len(sigma), seed=seed, first_index=first_index, threads=1)
+
+
+def walks(sigma, g, albedo, seed: int, first_index: int,
+          address: str, chunk: int = WALK_CHUNK,
+          progress: Optional[Callable[[float], object]] = None) -> tuple[list[dict], bool]:
+    """Sphere walks i = 0 .. n - 1 (stream first_index + i; sigma, g, albedo: arrays of n,
+    or of 1 for all) in tasks of ``chunk``
+    walks on the cluster at ``address``. Returns (the finished chunks from the first, in
+    order; interrupted): Ctrl-C cancels the rest and keeps the chunks finished in order."""
+    ray = connect(address)
+    n = max(np.size(sigma), np.size(g), np.size(albedo))
+    sigma, g, albedo = (np.ascontiguousarray(np.broadcast_to(a, n)) for a in (sigma, g, albedo))
+    remote = ray.remote(_walk_part).options(num_cpus=1, max_retries=MAX_RETRIES)
+    starts = list(range(0, n, chunk))
+    refs = [remote.remote(sigma[s:s + chunk], g[s:s + chunk], albedo[s:s + chunk], seed,
+                          first_index + s) for s in starts]
+    index = {ref: k for k, ref in enumerate(refs)}
+    finished: dict[int, dict] = {}
+    parts: list[dict] = []
+    pending = list(refs)
+    interrupted = False
+    try:
+        while pending:
+            ready, pending = ray.wait(pending, num_returns=len(pending), timeout=0.1)
+            for ref in ready:
+                finished[index[ref]] = ray.get(ref)
+            while len(parts) in finished:
+                parts.append(finished.pop(len(parts)))
+            if progress is not None and ready:
+                progress(sum(len(p["N"]) for p in parts) / n)
+    except KeyboardInterrupt:
+        interrupted = True
+    except ray.exceptions.RayTaskError as e:
+        _cancel(ray, pending)
+        raise _cause(e) from None
+    _cancel(ray, pending)
+    return parts, interrupted

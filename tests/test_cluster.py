@@ -1,0 +1,319 @@
+"""Rendering and data generation on a Ray cluster (sssphere.cluster, docs/cluster.md).
+
+Each test runs on a real multi-node Ray cluster started on this machine: a head node that
+runs no tasks and worker nodes of one CPU each (ray.cluster_utils.Cluster: separate
+raylets and object stores, as separate machines would have). A render there must equal
+the local render of the same scene, seed and spp: the same samples, added in another
+grouping, so the counts exactly and the float32 pixels to within the rounding of float64
+sums (1e-6 relative is far above it; the measured difference is reported in the note).
+"""
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+import ray
+from ray.cluster_utils import Cluster
+
+import sssphere
+from sssphere import cluster as sss_cluster
+
+REL = 1e-6
+
+
+def _start(nodes: int) -> Cluster:
+    c = Cluster(initialize_head=True, head_node_args={"num_cpus": 0})
+    for _ in range(nodes):
+        c.add_node(num_cpus=1)
+    c.wait_for_nodes()
+    ray.init(address=c.address, log_to_driver=False, configure_logging=False)
+    return c
+
+
+@pytest.fixture(scope="module")
+def two_nodes():
+    c = _start(2)
+    yield c
+    ray.shutdown()
+    c.shutdown()
+
+
+def _scene(small_scene, sigma_t=20.0):
+    small_scene["shapes"][0]["medium"]["sigma_t"] = sigma_t
+    small_scene["camera"]["width"], small_scene["camera"]["height"] = 32, 24
+    return sssphere.load_scene(small_scene)
+
+
+def _assert_same_render(a, b):
+    """b (on the cluster) renders what a (local) does."""
+    assert a.spp == b.spp
+    np.testing.assert_array_equal(a.events, b.events)
+    np.testing.assert_array_equal(a.sphere_steps, b.sphere_steps)
+    np.testing.assert_array_equal(a.samples, b.samples)
+    np.testing.assert_allclose(b.image, a.image, rtol=REL, atol=0)
+    np.testing.assert_allclose(b.variance, a.variance, rtol=1e-5, atol=1e-12)
+    assert a.mean_events_per_path == b.mean_events_per_path
+
+
+@pytest.mark.parametrize("integrator", ["pt", "st"])
+def test_render_on_the_cluster_is_the_local_render(two_nodes, small_scene, integrator):
+    scene = _scene(small_scene)
+    # 24 spp: local passes of 1, 2, 2, ... samples; 8 tasks of 3 on the cluster
+    local = sssphere.render_full(scene, integrator=integrator, spp=24, seed=5, threads=1,
+                                 record_paths=True, aovs=True)
+    remote = sssphere.render_full(scene, integrator=integrator, spp=24, seed=5,
+                                  record_paths=True, aovs=True, ray_address=two_nodes.address)
+    _assert_same_render(local, remote)
+    np.testing.assert_array_equal(local.path_events, remote.path_events)
+    np.testing.assert_array_equal(local.path_steps, remote.path_steps)
+    for aov in ("albedo", "normal", "depth"):
+        np.testing.assert_array_equal(getattr(local, aov), getattr(remote, aov))
+    c = remote.cluster
+    assert c["tasks"] == c["tasks_merged"] == 8 and c["slots"] == 2
+    assert [count for _, count in c["ranges"]] == [3] * 8
+    assert len(c["nodes"]) == 2, "both worker nodes should have rendered"
+    # a worker process builds the scene once, not once per task
+    assert c["builds"] <= c["processes"] < c["tasks"]
+    again = sssphere.render_full(scene, integrator=integrator, spp=24, seed=5,
+                                 ray_address=two_nodes.address)
+    assert again.cluster["builds"] == 0, "the workers' scenes should be reused"
+    np.testing.assert_array_equal(again.image, remote.image)
+
+
+def test_a_sweep_reuses_the_workers_bvh_and_grids(two_nodes, small_scene):
+    """A new scene that differs in its material is an edit on the workers: nothing is
+    built again (Scene's reusing rebuild), and the image is the edited scene's."""
+    scene = _scene(small_scene)
+    sssphere.render_full(scene, spp=4, ray_address=two_nodes.address)
+    scene.shapes[0].medium.sigma_t = 25.0
+    local = sssphere.render_full(scene, spp=8, seed=3, threads=1)
+    remote = sssphere.render_full(scene, spp=8, seed=3, ray_address=two_nodes.address)
+    _assert_same_render(local, remote)
+    c = remote.cluster
+    assert c["builds"] >= 1 and c["rebuilt"] == [[]] * c["builds"]
+
+
+def test_films_added_up_on_the_workers(two_nodes, small_scene, monkeypatch):
+    """On a large cluster groups of tasks are added up on a worker before the driver
+    gets them (GROUP_FILMS): the same render; stopped early, still a prefix of samples."""
+    monkeypatch.setattr(sss_cluster, "GROUP_FILMS", 1)  # groups of 2 tasks on 2 slots
+    scene = _scene(small_scene)
+    local = sssphere.render_full(scene, spp=24, seed=6, threads=1, record_paths=True)
+    remote = sssphere.render_full(scene, spp=24, seed=6, record_paths=True,
+                                  ray_address=two_nodes.address)
+    assert remote.cluster["group"] == 2
+    _assert_same_render(local, remote)
+    np.testing.assert_array_equal(local.path_events, remote.path_events)
+
+    scene = _scene(small_scene, sigma_t=60.0)
+    r = sssphere.render_full(scene, spp=64, seed=2, progress=lambda f: f < 0.25,
+                             ray_address=two_nodes.address)
+    assert r.interrupted and 0 < r.spp < 64
+    _assert_same_render(sssphere.render_full(scene, spp=r.spp, seed=2, threads=1), r)
+
+
+def test_files_reach_the_workers_through_the_object_store(two_nodes, small_scene, tmp_path):
+    """Meshes and the environment map are read on the driver only: the workers get them
+    from Ray's object store (here they are deleted before the render)."""
+    d = tmp_path / "scene"
+    d.mkdir()
+    meshes = os.path.join(os.path.dirname(__file__), "..", "scenes")
+    shutil.copy(os.path.join(meshes, "meshes", "thin_torus.obj"), d / "ring.obj")
+    shutil.copy(os.path.join(meshes, "sky.exr"), d / "sky.exr")
+    small_scene["shapes"][0].pop("sphere")
+    small_scene["shapes"][0]["mesh"] = "ring.obj"
+    small_scene["shapes"][0]["normalize"] = True
+    small_scene["lights"][1] = {"type": "environment", "map": "sky.exr"}
+    small_scene["render"]["models"] = os.fspath(sssphere.rendering.DEFAULT_MODELS)
+    (d / "scene.json").write_text(json.dumps(small_scene))
+    scene = sssphere.load_scene(d / "scene.json")
+    local = sssphere.render_full(scene, integrator="st", spp=6, threads=1)
+    remote = sssphere.render_full(scene, integrator="st", spp=6, ray_address=two_nodes.address)
+    _assert_same_render(local, remote)
+
+    # A task needs nothing but the package: with the files gone, a worker that has not
+    # seen this scene (its description changed: a new package) builds it from the store.
+    scene.render.grid_resolution = 40
+    options = sssphere._core.resolve_render_options(
+        scene, os.fspath(sssphere.rendering.DEFAULT_MODELS), {}, integrator="st", spp=6)
+    package, files = sss_cluster.package_scene(scene, options, ray)
+    assert sorted(name.split("-", 1)[1] for name in files) == [
+        "eventgen.json", "lengthgen.json", "pathgen.json", "ring.obj", "sky.exr"]
+    shutil.rmtree(d)
+    part = ray.get(ray.remote(sss_cluster._render_part).remote(
+        package, files, {**options, "threads": 1}, 0, 6))
+    assert part["tasks"][0]["built"]
+    film = part["film"]
+    r = sssphere._core.film_result(film["sum"], film["sum_sq"],
+                                   film["events"].reshape(local.events.shape), film["steps"], 6)
+    np.testing.assert_array_equal(r["events"], local.events)
+    np.testing.assert_allclose(r["image"], local.image, rtol=REL, atol=0)
+
+
+def test_stopping_keeps_the_tasks_merged_in_order(two_nodes, small_scene):
+    """A progress callback returning False (as Ctrl-C) cancels the rest: the result holds
+    the tasks merged so far, from sample 0, which is the local render of that many spp."""
+    scene = _scene(small_scene, sigma_t=60.0)
+    # stop once a quarter of the tasks are done (tasks start in sample order, so the first
+    # is done by then; the result may hold later ones too, never one after a gap)
+    r = sssphere.render_full(scene, spp=64, seed=2, progress=lambda f: f < 0.25,
+                             ray_address=two_nodes.address)
+    assert r.interrupted and 0 < r.spp < 64
+    assert r.cluster["tasks_merged"] < 16
+    _assert_same_render(sssphere.render_full(scene, spp=r.spp, seed=2, threads=1), r)
+
+
+def test_time_limit_ends_with_whole_tasks(two_nodes, small_scene):
+    del small_scene["render"]["spp"]  # the time alone ends the render
+    scene = _scene(small_scene, sigma_t=60.0)
+    r = sssphere.render_full(scene, time_limit=1.5, seed=4, ray_address=two_nodes.address)
+    assert r.time_limit_reached and r.spp >= 1 and not r.interrupted
+    _assert_same_render(sssphere.render_full(scene, spp=r.spp, seed=4, threads=1), r)
+
+
+def test_vulkan_tasks(two_nodes, small_scene):
+    """backend="vulkan" tasks run where Vulkan is (here Mesa's lavapipe on every node; a
+    cluster with GPUs gives each task one) and merge like CPU ones."""
+    scene = _scene(small_scene, sigma_t=5.0)
+    local = sssphere.render_full(scene, backend="vulkan", spp=3, seed=1)
+    remote = sssphere.render_full(scene, backend="vulkan", spp=3, seed=1,
+                                  ray_address=two_nodes.address)
+    _assert_same_render(local, remote)
+    assert remote.device == local.device and remote.backend == "vulkan"
+
+
+def test_walks_on_the_cluster_are_the_local_walks(two_nodes, tmp_path):
+    """`sssphere datagen --ray` writes the file a local run writes (but for the time it
+    took, in its metadata); sphere_walks(ray_address=) gives the same walks."""
+    from sssphere import cli
+
+    files = {}
+    for name, extra in (("local", []), ("ray", ["--ray", two_nodes.address])):
+        files[name] = tmp_path / f"{name}.npz"
+        assert cli.main(["datagen", "--samples", "45000", "--seed", "7", "-o",
+                         str(files[name]), "--quiet", *extra]) == 0
+    with np.load(files["local"]) as local, np.load(files["ray"]) as remote:
+        assert sorted(local.files) == sorted(remote.files)
+        for key in local.files:
+            if key == "meta":
+                a, b = (json.loads(str(f["meta"])) for f in (local, remote))
+                assert a.pop("seconds") > 0 and b.pop("seconds") > 0 and a == b
+            else:
+                np.testing.assert_array_equal(local[key], remote[key], err_msg=key)
+    w = sssphere.sphere_walks([3.0, 40.0] * 15_000, 0.5, 0.99, 30_000, seed=3, first_index=11,
+                              ray_address=two_nodes.address)
+    w0 = sssphere.sphere_walks([3.0, 40.0] * 15_000, 0.5, 0.99, 30_000, seed=3, first_index=11)
+    for key in w0:
+        np.testing.assert_array_equal(w0[key], w[key], err_msg=key)
+
+
+def _default_signals():
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+def test_command_line_ray_and_ctrl_c(two_nodes, small_scene, tmp_path):
+    """`sssphere render --ray ADDRESS` renders on the cluster; Ctrl-C cancels the tasks
+    and writes what was merged, exit status 130."""
+    small_scene["shapes"][0]["medium"]["sigma_t"] = 100
+    small_scene["shapes"][0]["medium"]["albedo"] = 0.999
+    scene_path = tmp_path / "slow.json"
+    scene_path.write_text(json.dumps(small_scene))
+    cli = [sys.executable, "-m", "sssphere.cli", "render", str(scene_path), "--ray",
+           two_nodes.address]
+    quick = subprocess.run(cli + ["-o", str(tmp_path / "quick.exr"), "--spp", "4"],
+                           capture_output=True, text=True, timeout=300)
+    assert quick.returncode == 0, quick.stderr
+    assert "on a Ray cluster" in quick.stderr
+    np.testing.assert_allclose(sssphere.read_image(tmp_path / "quick.exr"),
+                               sssphere.render(sssphere.load_scene(scene_path), spp=4),
+                               rtol=REL, atol=0)
+
+    out = tmp_path / "partial.exr"
+    proc = subprocess.Popen(cli + ["-o", str(out), "--spp", "65536"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, preexec_fn=_default_signals)
+    try:
+        # Ctrl-C once the render's tasks hold both CPUs (the command has connected)
+        deadline = time.monotonic() + 120
+        while ray.available_resources().get("CPU", 0) > 0 and time.monotonic() < deadline:
+            time.sleep(0.2)
+        time.sleep(2.0)  # some tasks finish
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 130, err
+    assert "interrupted: wrote the partial image" in err and out.is_file()
+    # the cancelled tasks are gone: the cluster's CPUs are free again
+    deadline = time.monotonic() + 30
+    while ray.available_resources().get("CPU", 0) < 2 and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert ray.available_resources().get("CPU", 0) == 2
+
+
+def test_without_ray_the_option_says_how_to_install_it(monkeypatch, small_scene, tmp_path):
+    monkeypatch.setitem(sys.modules, "ray", None)  # as if not installed
+    with pytest.raises(ImportError, match=r"pip install 'sssphere\[cluster\]'"):
+        sss_cluster.connect("auto")
+    from sssphere import cli
+
+    scene_path = tmp_path / "s.json"
+    scene_path.write_text(json.dumps(small_scene))
+    with pytest.raises(SystemExit, match=r"--ray: .*pip install 'sssphere\[cluster\]'"):
+        cli.main(["render", str(scene_path), "-o", str(tmp_path / "x.png"), "--ray", "auto"])
+    with pytest.raises(ValueError, match="ray_address must be a Ray address"):
+        sssphere.render_full(small_scene, ray_address="")
+
+
+def _task_pids() -> list[int]:
+    """The processes running a render task now (Ray names a busy worker ray::FUNCTION)."""
+    pids = []
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/cmdline", "rb") as f:
+                    if f.read().startswith(b"ray::_render_part"):
+                        pids.append(int(entry))
+            except OSError:
+                pass
+    return pids
+
+
+def test_a_killed_worker_process_and_a_lost_node_cost_only_their_tasks(small_scene):
+    """Killing a worker process mid-task, then removing a whole node mid-render: Ray re-runs
+    the lost tasks and the image is the local one."""
+    ray.shutdown()  # this test takes nodes away: a cluster of its own
+    c = _start(2)
+    try:
+        scene = _scene(small_scene, sigma_t=60.0)
+        local = sssphere.render_full(scene, spp=32, seed=9, threads=1)
+        events = []
+
+        def faults(fraction):
+            if not events:
+                pids = _task_pids()
+                if pids:
+                    os.kill(pids[0], signal.SIGKILL)
+                    events.append("killed worker")
+            elif len(events) == 1 and fraction > 0 and ray.available_resources().get("CPU", 0) == 0:
+                # both nodes busy: the second has a task in flight
+                c.remove_node(c.list_all_nodes()[-1], allow_graceful=False)
+                events.append("removed node")
+            return True
+
+        remote = sssphere.render_full(scene, spp=32, seed=9, progress=faults,
+                                      ray_address=c.address)
+        assert events == ["killed worker", "removed node"]
+        _assert_same_render(local, remote)
+        assert remote.cluster["tasks_merged"] == remote.cluster["tasks"]
+    finally:
+        ray.shutdown()
+        c.shutdown()
