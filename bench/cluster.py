@@ -52,15 +52,7 @@ HERE = Path(__file__).resolve().parent
 
 
 def start_cluster(workers: int):
-    import ray
-    from ray.cluster_utils import Cluster
-
-    c = Cluster(initialize_head=True, head_node_args={"num_cpus": 0})
-    for _ in range(workers):
-        c.add_node(num_cpus=1)
-    c.wait_for_nodes()
-    ray.init(address=c.address, log_to_driver=False, configure_logging=False)
-    return c
+    return cluster.local_cluster(workers)
 
 
 def stop_cluster(c) -> None:

@@ -20,7 +20,6 @@ import numpy as np
 import pytest
 
 import ray
-from ray.cluster_utils import Cluster
 
 import sssphere
 from sssphere import cluster as sss_cluster
@@ -28,13 +27,8 @@ from sssphere import cluster as sss_cluster
 REL = 1e-6
 
 
-def _start(nodes: int) -> Cluster:
-    c = Cluster(initialize_head=True, head_node_args={"num_cpus": 0})
-    for _ in range(nodes):
-        c.add_node(num_cpus=1)
-    c.wait_for_nodes()
-    ray.init(address=c.address, log_to_driver=False, configure_logging=False)
-    return c
+def _start(nodes: int):
+    return sss_cluster.local_cluster(nodes)
 
 
 @pytest.fixture(scope="module")
@@ -259,7 +253,7 @@ def test_command_line_ray_and_ctrl_c(two_nodes, small_scene, tmp_path):
     assert ray.available_resources().get("CPU", 0) == 2
 
 
-def test_without_ray_the_option_says_how_to_install_it(monkeypatch, small_scene, tmp_path):
+def test_without_ray_or_a_cluster_the_option_says_what_to_do(monkeypatch, small_scene, tmp_path):
     monkeypatch.setitem(sys.modules, "ray", None)  # as if not installed
     with pytest.raises(ImportError, match=r"pip install 'sssphere\[cluster\]'"):
         sss_cluster.connect("auto")
@@ -271,6 +265,12 @@ def test_without_ray_the_option_says_how_to_install_it(monkeypatch, small_scene,
         cli.main(["render", str(scene_path), "-o", str(tmp_path / "x.png"), "--ray", "auto"])
     with pytest.raises(ValueError, match="ray_address must be a Ray address"):
         sssphere.render_full(small_scene, ray_address="")
+    monkeypatch.undo()
+    # an address nothing answers on is said at once (Ray itself would wait for minutes)
+    r = subprocess.run([sys.executable, "-m", "sssphere.cli", "render", str(scene_path), "-o",
+                        str(tmp_path / "x.png"), "--ray", "127.0.0.1:1"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 1 and "'127.0.0.1:1': nothing answers there" in r.stderr, r.stderr
 
 
 def _task_pids() -> list[int]:

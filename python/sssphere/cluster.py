@@ -5,17 +5,18 @@ pixel, each with the random stream it has in a local render (render/scheduler.h)
 returns its film's sums (float64 radiance and squares, integer event and step counts).
 The driver adds the sums in task order, whatever order the tasks finish in, and turns
 them into the image as a local render does (``_core.film_result``). So the merged image is
-the local render's up to the order of the float64 additions: the event and step counts
-and path records are identical, the float32 pixels almost all bit-identical (rarely one
-unit in the last place).
+the local render's up to the grouping of the float64 additions: the event and step counts
+and path records are identical, and the float32 pixels are too unless a pixel's float64
+sums round (float32 samples spanning more than about 2^29 in magnitude).
 
 Nothing is assumed of the workers' file systems: the scene's description, its mesh files,
 environment map and models travel through Ray's object store, and each worker process
-builds a scene once and keeps it for the tasks that follow (``_worker_scene``). Tasks
-that die with their worker or node are re-run by Ray (``max_retries``); being
-deterministic, they give the same sums. Ctrl-C (or a progress callback returning False)
-cancels what is left and returns the tasks merged so far, in order: a render of fewer
-samples per pixel, as locally.
+builds the scene once and keeps it for the tasks that follow (``_worker_scene``; a new
+scene is built from the kept one as an edit is). On a large cluster, groups of tasks are
+added up on workers before the driver receives them (``GROUP_FILMS``). Tasks that die with
+their worker or node are re-run by Ray (``max_retries``); being deterministic, they give
+the same sums. Ctrl-C (or a progress callback returning False) cancels what is left and
+returns the tasks merged so far, in order: a render of fewer samples per pixel, as locally.
 
 Ray is an optional extra: ``pip install 'sssphere[cluster]'``.
 """
@@ -66,6 +67,7 @@ def connect(address: str):
                          f"'HOST:PORT'), got {address!r}")
     ray = _ray()
     if not ray.is_initialized():
+        _check_reachable(address)
         try:
             ray.init(address=None if address == "local" else address,
                      log_to_driver=False, configure_logging=False)
@@ -75,11 +77,60 @@ def connect(address: str):
     return ray
 
 
+def local_cluster(nodes: int, cpus_per_node: int = 1):
+    """A Ray cluster on this machine, and this process connected to it: a head node that runs
+    no tasks and ``nodes`` worker nodes of ``cpus_per_node`` CPUs, each its own raylet and
+    object store as separate machines would have (``ray.cluster_utils.Cluster``). For tests,
+    benchmarks and trying ``ray_address=cluster.address`` out; ``ray.shutdown()`` then
+    ``cluster.shutdown()`` end it."""
+    ray = _ray()
+    from ray.cluster_utils import Cluster
+
+    cluster = Cluster(initialize_head=True, head_node_args={"num_cpus": 0})
+    for _ in range(nodes):
+        cluster.add_node(num_cpus=cpus_per_node)
+    cluster.wait_for_nodes()
+    ray.init(address=cluster.address, log_to_driver=False, configure_logging=False)
+    return cluster
+
+
+def _check_reachable(address: str, seconds: float = 10.0) -> None:
+    """A HOST:PORT that nothing answers on is said at once (Ray would wait for minutes)."""
+    import socket
+
+    host, sep, port = address.rpartition(":")
+    if "://" in address or not sep or not port.isdigit():
+        return  # auto, local, ray://...: Ray says what is wrong with those itself
+    try:
+        socket.create_connection((host, int(port)), timeout=seconds).close()
+    except OSError as e:
+        raise ConnectionError(f"ray_address {address!r}: nothing answers there ({e}); is the "
+                              "head node started (`ray start --head`, docs/cluster.md)?") from None
+
+
 # --- the scene's package: its description and files, for workers without our files ---
 
 def _file_key(path: str, data: bytes) -> str:
     # the content's hash keeps the file name's suffix, by which the readers pick a format
     return f"{hashlib.sha256(data).hexdigest()[:24]}-{os.path.basename(path)}"
+
+
+_PUT: dict = {}  # (job, path, size, mtime) -> (key, ref): files in the object store
+_KEEP_PUT = 32
+
+
+def _put_file(path: str, ray) -> tuple[str, object]:
+    """A file put in the object store, once while it is unchanged (a turntable's frames, a
+    sweep's renders share their meshes); the last _KEEP_PUT files stay there."""
+    st = os.stat(path)
+    cache_key = (ray.get_runtime_context().get_job_id(), path, st.st_size, st.st_mtime_ns)
+    if cache_key not in _PUT:
+        with open(path, "rb") as f:
+            data = f.read()
+        while len(_PUT) >= _KEEP_PUT:
+            _PUT.pop(next(iter(_PUT)))
+        _PUT[cache_key] = (_file_key(path, data), ray.put(data))
+    return _PUT[cache_key]
 
 
 def package_scene(scene, options: dict, ray) -> tuple[str, dict]:
@@ -91,11 +142,8 @@ def package_scene(scene, options: dict, ray) -> tuple[str, dict]:
 
     def ship(path: str) -> str:
         full = os.path.join(scene.base_dir, path)
-        with open(full, "rb") as f:
-            data = f.read()
-        key = _file_key(full, data)
-        if key not in files:
-            files[key] = ray.put(data)
+        key, ref = _put_file(full, ray)
+        files[key] = ref
         return key
 
     for shape in doc.get("shapes", []):
@@ -324,6 +372,9 @@ def render(scene, address: str, progress: Optional[Callable[[float], object]], o
     except ray.exceptions.RayTaskError as e:
         _cancel(ray, list(running) + [ref for _, ref in groups])
         raise _cause(e) from None
+    except BaseException:  # a progress callback's error, say: no task outlives the render
+        _cancel(ray, list(running) + [ref for _, ref in groups])
+        raise
     if cancelled or time_limit_reached:
         _cancel(ray, list(running) + [ref for _, ref in groups[len(merged):]])
         # the tasks finished after the last merged group, in order, are kept too
