@@ -181,20 +181,25 @@ def _worker_scene(text: str, files: dict, threads: int):
     from sssphere.scene import Scene
 
     if _FILES_DIR is None:
-        _FILES_DIR = tempfile.mkdtemp(prefix="sssphere-worker-")
+        _FILES_DIR = os.path.join(tempfile.gettempdir(), f"sssphere-cluster-{os.getuid()}")
+        os.makedirs(_FILES_DIR, mode=0o700, exist_ok=True)
     for name, ref in files.items():
         path = os.path.join(_FILES_DIR, name)
         if not os.path.exists(path):
-            with open(path + ".part", "wb") as f:
+            part = f"{path}.{os.getpid()}.part"  # the node's workers share the directory
+            with open(part, "wb") as f:
                 f.write(ray.get(ref))
-            os.replace(path + ".part", path)
+            os.replace(part, path)
     package = json.loads(text)
     models_dir = os.path.join(_FILES_DIR, "models-" + key[:24])
     os.makedirs(models_dir, exist_ok=True)
     for name in package["models"]:
         target = os.path.join(models_dir, name.split("-", 1)[1])
         if not os.path.exists(target):
-            os.link(os.path.join(_FILES_DIR, name), target)
+            try:
+                os.link(os.path.join(_FILES_DIR, name), target)
+            except FileExistsError:  # another worker of this node linked it meanwhile
+                pass
     doc = json.dumps(package["scene"])
     scene = _SCENE.get("scene")
     if scene is None:
