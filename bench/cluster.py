@@ -35,6 +35,7 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
+import heapq
 import math
 import os
 import platform
@@ -94,9 +95,10 @@ def model_100_nodes(per_path: dict, overhead_s: float, setup_s: list[float],
     * build: the scene's build on every worker, in parallel (the first render), or its
       rebuild from the one before (the later renders: setup_s, measured; a density change
       keeps the BVH, and the distance grid unless its automatic resolution changes);
-    * render = rounds x (largest task's time + per-task overhead): the tasks are those of
-      cluster._sample_ranges (TASKS_PER_SLOT per slot, sizes within one sample), a round is
-      one task per slot, a task of s samples on t threads takes s x pixels x per-path / t
+    * render: the tasks, those of cluster._sample_ranges (TASKS_PER_SLOT per slot, sizes
+      within one sample, the larger first), each cut into cluster._bands of rows when the
+      samples are too few, handed in order to the first free slot (as Ray does); a task of
+      s samples of p pixels on t threads takes s x p x per-path / t + the per-task overhead
       (the per-path time measured on one thread; a node's threads taken to scale
       perfectly, as the local renderer nearly does);
     * driver: it receives and adds one film per group of group_size(slots) tasks (64 bytes
@@ -111,20 +113,29 @@ def model_100_nodes(per_path: dict, overhead_s: float, setup_s: list[float],
     for layout, threads in (("one task per node, threads = cores", cores),
                             ("one-thread tasks", 1)):
         slots = nodes * cores // threads
-        group = group_size(slots)
         total = ideal = 0.0
         parts = {}
         for i, t_path in enumerate(per_path.values()):
-            tasks = min(spp, slots * TASKS_PER_SLOT)
-            size = -(-spp // tasks)  # the largest task's samples
+            ranges = list(cluster._sample_ranges(spp, slots, pixels, False))
+            bands = [b or (0, res) for b in cluster._bands(spp, slots, res)]
+            group = group_size(slots, len(bands))
+            tasks = len(ranges) * len(bands)
+            band_pixels = pixels / len(bands)
+            # Ray hands each task, in order, to the first free slot
+            free = [0.0] * slots
+            for _, count in ranges:
+                for a, b in bands:
+                    heapq.heappush(free, heapq.heappop(free) + overhead_s
+                                   + count * (b - a) * res * t_path / threads)
+            render_s = max(free)
             rounds = math.ceil(tasks / slots)
-            render_s = rounds * (size * pixels * t_path / threads + overhead_s)
             driver_s = math.ceil(tasks / group) * pixels * (merge_s_per_pixel + transfer)
-            reduce_s = (tasks * pixels * (merge_s_per_pixel + transfer) / nodes
+            reduce_s = (tasks * band_pixels * (merge_s_per_pixel + transfer) / nodes
                         if group > 1 else 0.0)
             total += setup_s[i] + max(render_s, driver_s, reduce_s)
             ideal += spp * pixels * t_path / (nodes * cores)
-            parts = {"tasks_per_render": tasks, "group": group, "rounds": rounds,
+            parts = {"tasks_per_render": tasks, "bands": len(bands), "group": group,
+                     "rounds": rounds,
                      "render_seconds": render_s,
                      "driver_seconds": driver_s, "reduce_seconds": reduce_s}
         rows.append({"layout": layout, "threads_per_task": threads, "slots": slots,

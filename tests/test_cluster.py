@@ -81,6 +81,25 @@ def test_render_on_the_cluster_is_the_local_render(two_nodes, small_scene, integ
     np.testing.assert_array_equal(again.image, remote.image)
 
 
+def test_few_samples_are_split_into_bands_of_rows(two_nodes, small_scene):
+    """Fewer samples than the cluster has task slots x TASKS_PER_SLOT: each sample range
+    is cut into bands of rows, which add up to the local render; stopped early, the result
+    holds whole sample ranges only (every pixel the same samples)."""
+    scene = _scene(small_scene)
+    local = sssphere.render_full(scene, spp=2, seed=8, threads=1)
+    remote = sssphere.render_full(scene, spp=2, seed=8, ray_address=two_nodes.address)
+    c = remote.cluster
+    assert c["bands"] == 4 and c["tasks"] == 8 and c["ranges"] == [(0, 1), (1, 1)]
+    _assert_same_render(local, remote)
+
+    scene = _scene(small_scene, sigma_t=60.0)
+    r = sssphere.render_full(scene, spp=3, seed=2, progress=lambda f: f < 0.5,
+                             ray_address=two_nodes.address)
+    assert r.interrupted and 0 < r.spp < 3 and r.cluster["bands"] == 3
+    assert r.cluster["tasks_merged"] == 3 * r.spp
+    _assert_same_render(sssphere.render_full(scene, spp=r.spp, seed=2, threads=1), r)
+
+
 def test_a_sweep_reuses_the_workers_bvh_and_grids(two_nodes, small_scene):
     """A new scene that differs in its material is an edit on the workers: nothing is
     built again (Scene's reusing rebuild), and the image is the edited scene's."""

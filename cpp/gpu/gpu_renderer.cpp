@@ -93,6 +93,8 @@ GpuRenderer::GpuRenderer(VulkanCompute& vk, const GpuSceneData& scene)
 RenderResult GpuRenderer::render(const RenderOptions& opt, const ProgressFn& progress) {
     check_render_options(opt, "");
     if (opt.gpu_lanes < 0) fail("lanes must be >= 0 (0: automatic), got ", opt.gpu_lanes);
+    if (opt.rows != 0)
+        fail("a band of rows is CPU only (backend 'vulkan' renders whole images)");
     const bool st = opt.integrator == "st";
     const size_t W = size_t(width_), H = size_t(height_), pixels = W * H;
     if (opt.record_paths && uint64_t(opt.spp) * pixels > kMaxRecordedPaths)

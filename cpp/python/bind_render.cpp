@@ -153,7 +153,7 @@ void bind_render(py::module_& m) {
         "render",
         [](const Scene& scene, const std::string& default_models, py::object progress,
            const py::dict& text, int gpu_batch, int gpu_lanes, int first_sample,
-           bool keep_film, const py::kwargs& options) {
+           bool keep_film, int first_row, int rows, const py::kwargs& options) {
             RenderOptions opt =
                 resolve_render_options(scene.desc().render, scene.desc().source,
                                        overrides_from(text, options), default_models);
@@ -161,6 +161,8 @@ void bind_render(py::module_& m) {
             opt.gpu_lanes = gpu_lanes;
             opt.first_sample = first_sample;
             opt.keep_film = keep_film;
+            opt.first_row = first_row;
+            opt.rows = rows;
             RenderProgress cb(progress);
             RenderResult r;
             {
@@ -181,11 +183,11 @@ void bind_render(py::module_& m) {
         py::arg("scene"), py::arg("default_models") = "",
         py::arg("progress") = py::none(), py::arg("text") = py::dict(),
         py::arg("gpu_batch") = 0, py::arg("gpu_lanes") = 0, py::arg("first_sample") = 0,
-        py::arg("keep_film") = false,
+        py::arg("keep_film") = false, py::arg("first_row") = 0, py::arg("rows") = 0,
         "Render with the resolved options (see resolve_render_options) on their "
         "backend. first_sample: render samples [first_sample, first_sample + spp) of "
         "every pixel; keep_film: return the film's sums as 'film' (sum, sum_sq, events, "
-        "steps), for film_result.");
+        "steps), for film_result; first_row, rows: render only those rows (CPU).");
     m.def(
         "film_result",
         [](py::array_t<double, py::array::c_style | py::array::forcecast> sum,

@@ -72,6 +72,9 @@ struct RenderOptions {
     // callers set them directly.
     int first_sample = 0;
     bool keep_film = false;
+    // Only the image rows [first_row, first_row + rows) are rendered (a band of a render
+    // split by tiles; the others stay 0); rows = 0: all. CPU only.
+    int first_row = 0, rows = 0;
 };
 
 // A caller's overrides: every option it sets; the others come from the scene file's

@@ -257,3 +257,40 @@ TEST(RenderParts, SampleRangesAddUpToTheWholeRender) {
     beyond.first_sample = (1 << 24) - 3;
     EXPECT_THROW(render(scene, beyond), Error);
 }
+
+// Bands of rows (first_row, rows) split a render by tiles too: each band's pixels are the
+// whole render's, the other rows stay empty, and bands that do not fit are refused.
+TEST(RenderParts, BandsOfRowsAddUpToTheWholeRender) {
+    Scene scene(test::sphere_in_environment(Vec3(8.f), Vec3(0.9f), 0.3f,
+                                            BoundaryType::Dielectric),
+                2);
+    RenderOptions opt;
+    opt.spp = 5;
+    opt.seed = 2;
+    const RenderResult whole = render(scene, opt);
+    const int W = scene.desc().camera.width, H = scene.desc().camera.height;
+
+    Film sum(size_t(W) * H);
+    for (auto [first, rows] : {std::pair{0, 5}, std::pair{5, H - 5}}) {
+        RenderOptions part = opt;
+        part.first_row = first;
+        part.rows = rows;
+        part.keep_film = true;
+        const RenderResult r = render(scene, part);
+        for (int y = 0; y < H; ++y)
+            for (int x = 0; x < W; ++x)
+                if (y < first || y >= first + rows)
+                    ASSERT_EQ(r.film.event_counts()[size_t(y) * W + x], 0u)
+                        << x << "," << y;
+        sum.add(r.film);
+    }
+    RenderResult merged;
+    sum.finish(opt.spp, merged);
+    EXPECT_EQ(merged.events, whole.events);
+    EXPECT_EQ(merged.image, whole.image);  // each pixel's sums are the whole render's
+
+    RenderOptions bad = opt;
+    bad.first_row = H - 2;
+    bad.rows = 3;
+    EXPECT_THROW(render(scene, bad), Error);
+}

@@ -36,6 +36,10 @@ void check_options(const Scene& scene, const RenderOptions& opt) {
     const Camera& cam = scene.desc().camera;
     const uint64_t num_paths =
         uint64_t(cam.width) * uint64_t(cam.height) * uint64_t(opt.spp);
+    if (opt.first_row < 0 || opt.rows < 0 || opt.first_row + opt.rows > cam.height ||
+        (opt.rows == 0 && opt.first_row != 0))
+        fail("rows [", opt.first_row, ", ", opt.first_row + opt.rows,
+             ") are not a band of the image's ", cam.height, " rows");
     if (opt.record_paths && num_paths > kMaxRecordedPaths)
         fail("record_paths keeps 8 bytes per path: ", cam.width, "x", cam.height,
              " pixels at ", opt.spp, " spp are ", num_paths, " paths (allowed: at most ",
@@ -63,6 +67,8 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
     schedule_options.height = H;
     schedule_options.spp = opt.spp;
     schedule_options.first_sample = opt.first_sample;
+    schedule_options.row0 = opt.first_row;
+    schedule_options.row1 = opt.rows > 0 ? opt.first_row + opt.rows : 0;
     schedule_options.tile = kTile;
     schedule_options.threads = worker_threads(opt.threads);
     schedule_options.time_limit = opt.time_limit;

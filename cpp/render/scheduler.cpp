@@ -27,11 +27,13 @@ public:
     PassRunner(const ScheduleOptions& options, const TileFn& render_tile)
         : opt_(options),
           render_tile_(render_tile),
+          row0_(options.row0),
+          row1_(options.row1 > 0 ? options.row1 : options.height),
           tiles_x_((options.width + options.tile - 1) / options.tile),
-          num_tiles_(tiles_x_ * ((options.height + options.tile - 1) / options.tile)),
-          pixels_(size_t(options.width) * options.height),
+          num_tiles_(tiles_x_ * ((row1_ - row0_ + options.tile - 1) / options.tile)),
+          pixels_(size_t(options.width) * (row1_ - row0_)),
           timed_(options.time_limit > 0.0),
-          film_(pixels_) {}
+          film_(size_t(options.width) * options.height) {}
 
     Scheduled run(const ProgressFn& progress) {
         start_ = std::chrono::steady_clock::now();
@@ -93,13 +95,11 @@ private:
     }
 
     TileWork tile_work(int tile, int s0, int s1) const {
-        const int x0 = (tile % tiles_x_) * opt_.tile, y0 = (tile / tiles_x_) * opt_.tile;
-        return {x0,
-                y0,
-                std::min(opt_.width, x0 + opt_.tile),
-                std::min(opt_.height, y0 + opt_.tile),
-                s0,
-                s1};
+        const int x0 = (tile % tiles_x_) * opt_.tile,
+                  y0 = row0_ + (tile / tiles_x_) * opt_.tile;
+        return {
+            x0, y0, std::min(opt_.width, x0 + opt_.tile), std::min(row1_, y0 + opt_.tile),
+            s0, s1};
     }
 
     // Under film_mutex_: adds every pass all tiles have finished, in order.
@@ -246,8 +246,9 @@ private:
 
     const ScheduleOptions& opt_;
     const TileFn& render_tile_;
+    const int row0_, row1_;  // the rows rendered
     const int tiles_x_, num_tiles_;
-    const size_t pixels_;
+    const size_t pixels_;  // rendered
     const bool timed_;
     std::chrono::steady_clock::time_point start_;
 
@@ -273,8 +274,10 @@ private:
 Scheduled schedule(const ScheduleOptions& options, const TileFn& render_tile,
                    const ProgressFn& progress) {
     SSS_CHECK(options.width > 0 && options.height > 0 && options.spp > 0 &&
-              options.first_sample >= 0 && options.tile > 0 && options.threads >= 0 &&
-              options.time_limit >= 0.0);
+              options.first_sample >= 0 && options.row0 >= 0 && options.row1 >= 0 &&
+              options.row1 <= options.height &&
+              options.row0 < (options.row1 > 0 ? options.row1 : options.height) &&
+              options.tile > 0 && options.threads >= 0 && options.time_limit >= 0.0);
     return PassRunner(options, render_tile).run(progress);
 }
 

@@ -38,6 +38,9 @@ struct ScheduleOptions {
     // The sample indices start here: the tiles get samples [first_sample, first_sample +
     // spp), the passes count from first_sample (a part of a render split by samples).
     int first_sample = 0;
+    // Only rows [row0, row1) are rendered (a band of a render split by tiles); row1 = 0:
+    // to the last row. The film still holds the whole image.
+    int row0 = 0, row1 = 0;
     int tile = 16;  // tiles of tile x tile pixels (smaller in the last row and column)
     // Worker threads rendering the tiles, while the calling thread reports progress,
     // relays cancellation and keeps the time limit about ten times a second. 0: the

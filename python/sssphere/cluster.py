@@ -211,15 +211,18 @@ def _worker_scene(text: str, files: dict, threads: int):
     return scene, models_dir, True
 
 
-def _render_part(text: str, files: dict, options: dict, first: int, spp: int) -> dict:
-    """One task: samples [first, first + spp) of every pixel, as film sums (a part; see
-    _add_parts)."""
+def _render_part(text: str, files: dict, options: dict, first: int, spp: int,
+                 rows: Optional[tuple[int, int]] = None) -> dict:
+    """One task: samples [first, first + spp) of every pixel, or of the pixels of rows
+    [rows[0], rows[1]), as film sums (a part; see _add_parts)."""
     import ray
 
     t0 = time.monotonic()
     scene, models_dir, built = _worker_scene(text, files, options["threads"])
     build_s = time.monotonic() - t0
-    r = _core.render(scene, models_dir, None, {}, first_sample=first, keep_film=True,
+    y0, y1 = rows if rows is not None else (0, scene.height)
+    band = {} if rows is None else {"first_row": y0, "rows": y1 - y0}
+    r = _core.render(scene, models_dir, None, {}, first_sample=first, keep_film=True, **band,
                      **{**options, "spp": spp, "models": models_dir})
     if r["cancelled"]:  # Ray's cancel of this task arrived as a KeyboardInterrupt
         raise KeyboardInterrupt
@@ -227,21 +230,34 @@ def _render_part(text: str, files: dict, options: dict, first: int, spp: int) ->
             "built": built, "rebuilt": list(scene.rebuilt) if built else None,
             "pid": os.getpid(), "node": ray.get_runtime_context().get_node_id(),
             "device": r.get("device"), "gpu_seconds": r.get("gpu_seconds")}
-    part = {"film": r["film"], "tasks": [task]}
+    w = scene.width
+    part = {"film": {key: a[y0 * w:y1 * w] for key, a in r["film"].items()},
+            "rows": (y0, y1), "width": w, "tasks": [task]}
     if options["record_paths"]:
         part["path_events"], part["path_steps"] = r["path_events"], r["path_steps"]
     return part
 
 
+def _add_part(film: dict, rows: tuple[int, int], part: dict) -> None:
+    """Adds a part's sums to those of ``film``, which covers the image rows ``rows``."""
+    w = part["width"]
+    a, b = ((y - rows[0]) * w for y in part["rows"])
+    for key in film:
+        film[key][a:b] += part["film"][key]
+
+
 def _add_parts(*parts: dict) -> dict:
-    """Consecutive parts (tasks, or sums of tasks) as one: their films added in order, their
-    tasks and path records one after another. Run on the workers, it cuts what the driver
-    receives to one film per group of tasks (GROUP_FILMS)."""
-    film = {key: parts[0]["film"][key].copy() for key in parts[0]["film"]}
-    for part in parts[1:]:
-        for key in film:
-            film[key] += part["film"][key]
-    out = {"film": film, "tasks": [task for part in parts for task in part["tasks"]]}
+    """Consecutive parts (tasks, or sums of tasks) as one: their films added in order (each
+    to its rows), their tasks and path records one after another. Run on the workers, it
+    cuts what the driver receives to one film per group of tasks (GROUP_FILMS)."""
+    rows = (min(p["rows"][0] for p in parts), max(p["rows"][1] for p in parts))
+    w = parts[0]["width"]
+    film = {key: np.zeros((w * (rows[1] - rows[0]), *a.shape[1:]), a.dtype)
+            for key, a in parts[0]["film"].items()}
+    for part in parts:
+        _add_part(film, rows, part)
+    out = {"film": film, "rows": rows, "width": w,
+           "tasks": [task for part in parts for task in part["tasks"]]}
     for key in ("path_events", "path_steps"):
         if key in parts[0]:
             out[key] = np.concatenate([part[key] for part in parts])
@@ -267,10 +283,22 @@ def _sample_ranges(spp: int, slots: int, pixels: int, timed: bool):
         first += count
 
 
-def group_size(slots: int) -> int:
+def group_size(slots: int, bands: int = 1) -> int:
     """Tasks whose films a worker adds up before the driver gets them: one group per
-    GROUP_FILMS slots (1, no grouping, on small clusters)."""
-    return max(1, slots // GROUP_FILMS)
+    GROUP_FILMS slots (1, no grouping, on small clusters), a whole number of sample ranges
+    when a range is cut into ``bands`` tasks."""
+    return max(1, slots // GROUP_FILMS // bands) * bands
+
+
+def _bands(spp: int, slots: int, height: int) -> list[Optional[tuple[int, int]]]:
+    """The bands of rows a sample range is cut into: [None] (the whole image) when the
+    samples alone make TASKS_PER_SLOT tasks per slot, else as many bands as make up the
+    difference (their heights within one row)."""
+    n = min(height, -(-slots * TASKS_PER_SLOT // spp))
+    if n <= 1:
+        return [None]
+    edges = [height * k // n for k in range(n + 1)]
+    return [(edges[k], edges[k + 1]) for k in range(n)]
 
 
 def render(scene, address: str, progress: Optional[Callable[[float], object]], options: dict,
@@ -297,11 +325,19 @@ def render(scene, address: str, progress: Optional[Callable[[float], object]], o
     if slots < 1:
         raise RuntimeError(f"the Ray cluster at {address!r} has {resources.get('CPU', 0):g} CPUs: "
                            f"none can run a task of threads={threads}")
-    ranges = _sample_ranges(spp, slots, scene.width * scene.height, time_limit > 0)
+    timed = time_limit > 0
+    # too few samples for the slots: each sample range is cut into bands of rows (CPU only;
+    # record_paths keeps whole images)
+    bands = (_bands(spp, slots, scene.height)
+             if not (timed or resolved["backend"] != "cpu" or resolved["record_paths"]) else [None])
+    tasks_in_order = ((first, count, band)
+                      for first, count in _sample_ranges(spp, slots, scene.width * scene.height, timed)
+                      for band in bands)
     remote = ray.remote(_render_part).options(
         num_cpus=0 if gpu else threads, num_gpus=1 if gpu else 0, max_retries=MAX_RETRIES)
     add = ray.remote(_add_parts).options(num_cpus=0, max_retries=MAX_RETRIES)
-    group = group_size(slots)
+    nb = len(bands)
+    group = group_size(slots, nb)
 
     pixels = scene.width * scene.height
     film = {"sum": np.zeros((pixels, 3)), "sum_sq": np.zeros((pixels, 3)),
@@ -311,12 +347,12 @@ def render(scene, address: str, progress: Optional[Callable[[float], object]], o
 
     def merge(part: dict) -> None:
         nonlocal merged_tasks
-        for key in film:
-            film[key] += part["film"][key]
+        _add_part(film, (0, scene.height), part)
         merged.append(part)
         merged_tasks += len(part["tasks"])
 
-    submitted: list[tuple[int, int]] = []  # the ranges of the tasks, in sample order
+    # the tasks' (first sample, samples, band), in order: a range's bands, range by range
+    submitted: list[tuple[int, int, Optional[tuple[int, int]]]] = []
     task_refs: list = []
     groups: list[tuple[int, object]] = []  # (first task, ref of the group's part)
     running: dict = {}  # task ref -> task number, not yet finished
@@ -328,13 +364,13 @@ def render(scene, address: str, progress: Optional[Callable[[float], object]], o
         while True:
             # at most two tasks a slot in flight: the rest wait here, cheap to drop
             while len(running) < 2 * slots and not exhausted:
-                first_count = next(ranges, None)
-                if first_count is None:
+                work = next(tasks_in_order, None)
+                if work is None:
                     exhausted = True
                     break
-                ref = remote.remote(package, files, task_options, *first_count)
+                ref = remote.remote(package, files, task_options, *work)
                 running[ref] = len(submitted)
-                submitted.append(first_count)
+                submitted.append(work)
                 task_refs.append(ref)
             # a group's part: the task's own when groups are of one, else a sum on a worker
             start = groups[-1][0] + group if groups else 0
@@ -350,7 +386,9 @@ def render(scene, address: str, progress: Optional[Callable[[float], object]], o
                 for ref in ready:
                     k = running.pop(ref)
                     finished.add(k)
-                    done_samples += submitted[k][1]
+                    _, count, band = submitted[k]
+                    done_samples += count * (1 if band is None
+                                             else (band[1] - band[0]) / scene.height)
             waiting = [ref for g, (_, ref) in enumerate(groups)
                        if g >= len(merged) and g not in fetched]
             ready, _ = ray.wait(waiting, num_returns=len(waiting),
@@ -382,15 +420,19 @@ def render(scene, address: str, progress: Optional[Callable[[float], object]], o
         raise
     if cancelled or time_limit_reached:
         _cancel(ray, list(running) + [ref for _, ref in groups[len(merged):]])
-        # the tasks finished after the last merged group, in order, are kept too
+        # the sample ranges finished (all their bands) after the last merged group, in
+        # order, are kept too: every pixel keeps the same samples
         k = merged_tasks
-        while k in finished:
+        while k + nb <= len(submitted) and all(j in finished for j in range(k, k + nb)):
             try:
-                merge(ray.get(task_refs[k], timeout=10))
+                parts = [ray.get(task_refs[j], timeout=10) for j in range(k, k + nb)]
             except Exception:  # noqa: BLE001 -- lost with its node: the prefix ends here
                 break
-            k += 1
-    merged_spp = sum(count for _, count in submitted[:merged_tasks])
+            for part in parts:
+                merge(part)
+            k += nb
+    ranges = [(first, count) for first, count, _ in submitted[:merged_tasks:nb]]
+    merged_spp = sum(count for _, count in ranges)
     shape = (scene.height, scene.width)
     r = _core.film_result(film["sum"], film["sum_sq"], film["events"].reshape(shape),
                           film["steps"], merged_spp)
@@ -412,7 +454,7 @@ def render(scene, address: str, progress: Optional[Callable[[float], object]], o
     r["options"] = {**resolved, "threads": task_options["threads"]}
     r["cluster"] = {
         "address": address, "tasks": len(submitted), "tasks_merged": merged_tasks,
-        "slots": slots, "group": group, "ranges": submitted[:merged_tasks],
+        "slots": slots, "group": group, "ranges": ranges, "bands": nb,
         "builds": sum(t["built"] for t in tasks),
         "processes": len({(t["node"], t["pid"]) for t in tasks}),
         "nodes": sorted({t["node"] for t in tasks}),

@@ -79,8 +79,10 @@ class RenderResult:
         along the ray (0: background); else None. The AOVs average the render's first
         min(spp, DEFAULT_AOV_SAMPLES) camera rays of each pixel (first_hit_aovs).
     cluster : with ``ray_address``, how the render ran on the cluster (a dict): ``tasks``
-        submitted and ``tasks_merged`` (in sample order; fewer when stopped early), their
-        sample ``ranges`` (first, count), ``slots`` (tasks the cluster runs at once),
+        submitted and ``tasks_merged`` (in sample order; fewer when stopped early), the
+        sample ``ranges`` (first, count) merged, each cut into ``bands`` tasks of rows
+        (1 unless the samples are too few for the cluster), ``slots`` (tasks the cluster
+        runs at once), ``group`` (tasks added up on a worker before the driver gets them),
         ``builds`` (scene builds by worker processes: one per process, not per task),
         ``processes`` and ``nodes`` that ran the merged tasks, and per task
         ``task_seconds`` (its render) and ``build_seconds`` (getting its scene); else None.
