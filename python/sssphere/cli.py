@@ -87,8 +87,9 @@ def _cmd_render(args: argparse.Namespace) -> int:
     where = ""
     if result.cluster is not None:
         c = result.cluster
+        nodes = len(c["nodes"])
         where = (f" on a Ray cluster: {c['tasks_merged']} tasks in {c['processes']} worker "
-                 f"processes on {len(c['nodes'])} nodes;")
+                 f"processes on {nodes} node{'' if nodes == 1 else 's'};")
     print(
         f"{what} {out} ({scene.width}x{scene.height}, {result.spp} spp;{where} "
         f"scene built in {load_s:.2f}s, "
