@@ -41,7 +41,7 @@ for cycle in range(1, 1001):
     # Both integrators: "st" also loads the three decoders every time.
     result = sssphere.render_full(scene, integrator="st" if cycle % 2 else "pt", threads=2)
     assert result.spp == 1
-    if cycle in (100, 1000):
+    if cycle in (100, 400, 700, 1000):
         rss[cycle] = _rss_kib()
 print(json.dumps(rss))
 """
@@ -55,10 +55,15 @@ def test_memory_stays_flat_over_a_thousand_load_render_cycles(tmp_path, small_sc
     out = subprocess.run([sys.executable, "-c", _CYCLES, str(path)], check=True,
                          capture_output=True, text=True, cwd=Path(__file__).parents[1]).stdout
     rss = {int(k): v for k, v in json.loads(out.splitlines()[-1]).items()}
-    # After 100 cycles the allocator has its working set. Anything a cycle leaks, even one
-    # small mesh (80 triangles, ~3 KiB) or one decoder layer, would add > 900 cycles x 1 KiB
-    # between cycle 100 and 1000; measured growth is ~50 KiB.
-    assert rss[1000] - rss[100] < 512, rss
+    # After 100 cycles the allocator has its working set; up to cycle 400 it still has
+    # free memory to hand out, so growth is judged over cycles 400-700 and 700-1000. A
+    # leak grows both: 2 KiB a cycle (a small mesh is ~3 KiB) added 672 KiB to each in a
+    # trial with a bytearray leaked per cycle; without one they grow 0-40 KiB. One of
+    # them may grow once by ~0.5-1 MiB: glibc extends a render thread's malloc arena
+    # now and then (seen at cycle 1530 of one run: 940 KiB in one arena's heap, flat
+    # before and after), which is not a leak; so the smaller of the two is judged.
+    growth = [rss[b] - rss[a] for a, b in ((400, 700), (700, 1000))]
+    assert min(growth) < 160, rss
 
 
 def test_renders_at_once_from_threads_equal_renders_one_at_a_time(small_scene):
