@@ -491,9 +491,9 @@ def walks(sigma, g, albedo, seed: int, first_index: int,
           address: str, chunk: int = WALK_CHUNK,
           progress: Optional[Callable[[float], object]] = None) -> tuple[list[dict], bool]:
     """Sphere walks i = 0 .. n - 1 (stream first_index + i; sigma, g, albedo: arrays of n,
-    or of 1 for all) in tasks of ``chunk``
-    walks on the cluster at ``address``. Returns (the finished chunks from the first, in
-    order; interrupted): Ctrl-C cancels the rest and keeps the chunks finished in order."""
+    or of 1 for all) in tasks of ``chunk`` walks on the cluster at ``address``. Returns
+    (the finished chunks from the first, in order; interrupted): Ctrl-C cancels the rest
+    and keeps the chunks finished in order."""
     ray = connect(address)
     n = max(np.size(sigma), np.size(g), np.size(albedo))
     sigma, g, albedo = (np.ascontiguousarray(np.broadcast_to(a, n)) for a in (sigma, g, albedo))
