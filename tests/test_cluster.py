@@ -56,6 +56,17 @@ def _assert_same_render(a, b):
     assert a.mean_events_per_path == b.mean_events_per_path
 
 
+def _assert_stopped_prefix(scene, r, seed, spp):
+    """r, a render stopped early on the cluster, holds a prefix of whole sample ranges:
+    the local render of r.spp samples (none at all when the first task was not done yet:
+    Ray may run a later task before the first, and then nothing may be kept)."""
+    assert r.interrupted and r.spp < spp
+    if r.spp == 0:
+        assert not r.image.any() and not r.events.any()
+        return
+    _assert_same_render(sssphere.render_full(scene, spp=r.spp, seed=seed, threads=1), r)
+
+
 @pytest.mark.parametrize("integrator", ["pt", "st"])
 def test_render_on_the_cluster_is_the_local_render(two_nodes, small_scene, integrator):
     scene = _scene(small_scene)
@@ -95,9 +106,8 @@ def test_few_samples_are_split_into_bands_of_rows(two_nodes, small_scene):
     scene = _scene(small_scene, sigma_t=60.0)
     r = sssphere.render_full(scene, spp=3, seed=2, progress=lambda f: f < 0.5,
                              ray_address=two_nodes.address)
-    assert r.interrupted and 0 < r.spp < 3 and r.cluster["bands"] == 3
-    assert r.cluster["tasks_merged"] == 3 * r.spp
-    _assert_same_render(sssphere.render_full(scene, spp=r.spp, seed=2, threads=1), r)
+    assert r.cluster["bands"] == 3 and r.cluster["tasks_merged"] == 3 * r.spp
+    _assert_stopped_prefix(scene, r, seed=2, spp=3)
 
 
 def test_a_sweep_reuses_the_workers_bvh_and_grids(two_nodes, small_scene):
@@ -126,10 +136,9 @@ def test_films_added_up_on_the_workers(two_nodes, small_scene, monkeypatch):
     np.testing.assert_array_equal(local.path_events, remote.path_events)
 
     scene = _scene(small_scene, sigma_t=60.0)
-    r = sssphere.render_full(scene, spp=64, seed=2, progress=lambda f: f < 0.25,
+    r = sssphere.render_full(scene, spp=64, seed=2, progress=lambda f: f < 0.5,
                              ray_address=two_nodes.address)
-    assert r.interrupted and 0 < r.spp < 64
-    _assert_same_render(sssphere.render_full(scene, spp=r.spp, seed=2, threads=1), r)
+    _assert_stopped_prefix(scene, r, seed=2, spp=64)
 
 
 def test_files_reach_the_workers_through_the_object_store(two_nodes, small_scene, tmp_path):
@@ -174,13 +183,11 @@ def test_stopping_keeps_the_tasks_merged_in_order(two_nodes, small_scene):
     """A progress callback returning False (as Ctrl-C) cancels the rest: the result holds
     the tasks merged so far, from sample 0, which is the local render of that many spp."""
     scene = _scene(small_scene, sigma_t=60.0)
-    # stop once a quarter of the tasks are done (tasks start in sample order, so the first
-    # is done by then; the result may hold later ones too, never one after a gap)
-    r = sssphere.render_full(scene, spp=64, seed=2, progress=lambda f: f < 0.25,
+    # stop once half the samples are done: the first task is nearly always among them (a CI
+    # run once had Ray finish tasks 1 and 2 before 0), and nothing after a gap is kept
+    r = sssphere.render_full(scene, spp=64, seed=2, progress=lambda f: f < 0.5,
                              ray_address=two_nodes.address)
-    assert r.interrupted and 0 < r.spp < 64
-    assert r.cluster["tasks_merged"] < 16
-    _assert_same_render(sssphere.render_full(scene, spp=r.spp, seed=2, threads=1), r)
+    _assert_stopped_prefix(scene, r, seed=2, spp=64)
 
 
 def test_time_limit_ends_with_whole_tasks(two_nodes, small_scene):
