@@ -473,7 +473,12 @@ RENDER_CASES = {
     # An opaque diffuse floor (light sampling and MIS at its points, shadow rays it blocks)
     # under an index-matched and under a dielectric medium.
     "floor_index_matched_nee": (lambda: sphere_on_floor_scene(), True),
-    "floor_dielectric_nee": (lambda: sphere_on_floor_scene(boundary=DIELECTRIC), True),
+    "floor_dielectric_nee": (
+        lambda: sphere_on_floor_scene(boundary={**DIELECTRIC, "regularization": 0}), True),
+    # A smooth dielectric regularized (alpha 0.1: a wide lobe, little noise): the point light
+    # sampled at its boundary vertices, the area light and environment not.
+    "floor_regularized_dielectric_nee": (
+        lambda: sphere_on_floor_scene(boundary={**DIELECTRIC, "regularization": 0.1}), True),
     # A rough dielectric: light sampling at boundary vertices from both sides (point, area
     # and environment lights, MIS with the sampled lobe), over the floor.
     "floor_rough_dielectric_nee": (

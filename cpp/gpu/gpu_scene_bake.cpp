@@ -122,8 +122,12 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
     for (int i = 0; i < scene.num_shapes(); ++i) {
         const Shape& s = desc.shapes[i];
         meshes.push_back(&s.mesh);
+        // (a regularized smooth boundary samples the point and directional lights only)
+        const bool boundary_samples = s.boundary.samples_delta_lights_only()
+                                          ? num_delta > 0
+                                          : s.boundary.samples_lights();
         shadow_rays_pass = shadow_rays_pass || s.is_surface() ||
-                           s.boundary.passes_shadow_rays() || s.boundary.samples_lights();
+                           s.boundary.passes_shadow_rays() || boundary_samples;
         put3(h.shapes[i].surface, Vec3(float(s.surface.type), s.surface.x, 0.f), 0.f);
         put3(h.shapes[i].surface_color, s.surface.color, 0.f);
         put3(h.shapes[i].sigma_t, s.medium.sigma_t, 0.f);
@@ -131,7 +135,7 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
              Vec3(float(s.medium.phase.type), s.medium.phase.x, s.medium.phase.y), 0.f);
         put3(h.shapes[i].albedo, s.medium.albedo, 0.f);
         put3(h.shapes[i].boundary,
-             Vec3(float(s.boundary.type), s.boundary.x, s.boundary.y), 0.f);
+             Vec3(float(s.boundary.type), s.boundary.x, s.boundary.y), s.boundary.z);
         const DistanceGrid& g = scene.grid(i);
         GpuGrid& gg = h.grids[i];
         put3(gg.origin, g.origin(), g.cell_size());

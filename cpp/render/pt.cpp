@@ -105,8 +105,9 @@ struct SurfaceScatter {
     const Phase* phase_function() const { return nullptr; }
 };
 
-// A vertex on a rough boundary, for sample_light: its BSDF (reflection or transmission),
-// and shadow rays start off the surface on their side, inside the shape or outside.
+// A vertex on a rough (or regularized) boundary, for sample_light: its BSDF (reflection
+// or transmission), and shadow rays start off the surface on their side, inside the shape
+// or outside.
 struct BoundaryScatter {
     const Boundary& boundary;
     const Hit& hit;
@@ -370,11 +371,13 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
         return roulette();
     };
     // The photon meets the boundary of the shape of `hit`, from outside or from inside:
-    // on a rough interface the meeting point is a path vertex that samples lights first;
+    // on a rough interface the meeting point is a path vertex that samples lights first
+    // (on a regularized smooth one, the point and directional lights);
     // then the boundary reflects or transmits it. False when the path ends there.
     auto cross = [&](const Hit& hit, const Boundary& boundary) {
         if (nee_ && !desc.lights.empty() && boundary.samples_lights())
-            L += weight() * sample_light(hit.p, BoundaryScatter{boundary, hit, d}, rng);
+            L += weight() * sample_light(hit.p, BoundaryScatter{boundary, hit, d}, rng,
+                                         true, boundary.samples_delta_lights_only());
         const BoundaryEvent b = boundary_cross(boundary, d, hit.normal, rng.state());
         beta *= b.weight;
         if (is_black(beta)) return false;

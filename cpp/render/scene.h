@@ -42,7 +42,12 @@ struct Boundary : BoundaryData {
     Boundary() : BoundaryData{} {}
     const BoundaryKind& kind() const { return boundary_kind(type); }
     bool passes_shadow_rays() const { return boundary_passes_shadow_rays(*this); }
-    bool samples_lights() const { return boundary_samples_lights(*this); }
+    bool samples_lights() const {
+        return boundary_light_sampling(*this) != kSamplesNoLights;
+    }
+    bool samples_delta_lights_only() const {
+        return boundary_light_sampling(*this) == kSamplesDeltaLights;
+    }
 };
 
 // An opaque surface of any type of render/surfaces/registry.h (SurfaceData says what it

@@ -392,6 +392,44 @@ TEST(Registries, BoundariesObeyFresnelAndSnell) {
         EXPECT_FALSE(boundary_cross(di, grazing, n, rng).crossed);
 }
 
+// A smooth dielectric's regularization: its vertices sample the point and directional
+// lights only, through the rough BSDF of alpha = regularization (the same value and pdf
+// as that rough boundary's, from both sides), while crossing it stays a delta; with
+// regularization 0 they sample nothing. A rough boundary ignores the key.
+TEST(Registries, RegularizedSmoothDielectricSamplesDeltaLightsThroughARoughLobe) {
+    const Boundary smooth = parse_boundary(R"({"type": "dielectric", "ior": 1.4})");
+    EXPECT_EQ(boundary_light_sampling(smooth), kSamplesDeltaLights);
+    EXPECT_TRUE(smooth.samples_delta_lights_only());
+    EXPECT_EQ(smooth.z, kDefaultRegularization);
+    const Boundary reg =
+        parse_boundary(R"({"type": "dielectric", "ior": 1.4, "regularization": 0.2})");
+    const Boundary rough =
+        parse_boundary(R"({"type": "dielectric", "ior": 1.4, "roughness": 0.2})");
+    const Boundary off =
+        parse_boundary(R"({"type": "dielectric", "ior": 1.4, "regularization": 0})");
+    const Boundary rough_reg = parse_boundary(
+        R"({"type": "dielectric", "ior": 1.4, "roughness": 0.2, "regularization": 0.7})");
+    EXPECT_EQ(boundary_light_sampling(off), kSamplesNoLights);
+    EXPECT_EQ(boundary_light_sampling(rough_reg), kSamplesAllLights);
+    const Vec3 n = normalize(Vec3(0.2f, -0.1f, 1.f));
+    Rng rng(31, 0);
+    int nonzero = 0;
+    for (int i = 0; i < 2000; ++i) {
+        const Vec3 d = sample_uniform_sphere(rng.uniform(), rng.uniform());
+        const Vec3 wo = sample_uniform_sphere(rng.uniform(), rng.uniform());
+        const BoundaryEval a = boundary_eval(reg, d, wo, n),
+                           b = boundary_eval(rough, d, wo, n);
+        EXPECT_EQ(a.f, b.f);
+        EXPECT_EQ(a.pdf, b.pdf);
+        EXPECT_EQ(boundary_eval(rough_reg, d, wo, n).f, b.f);
+        EXPECT_EQ(boundary_eval(off, d, wo, n).f, 0.f);
+        nonzero += a.f > 0.f;
+        RngState s = rng_make(1, uint64_t(i), 0);
+        EXPECT_TRUE(boundary_cross(reg, d, n, s).specular);
+    }
+    EXPECT_GT(nonzero, 500);  // both sides, reflection and transmission
+}
+
 // A rough dielectric boundary, for photons arriving from several directions on both
 // sides (outward normal n, tilted):
 // - sampling follows the BSDF: a chi-square test (alpha = 1e-3) of sampled directions in

@@ -44,7 +44,7 @@ SSS_LAYOUT_CONST uint32_t kGpuWritten = 0x80000000u;
 struct GpuShape {
     vec4 sigma_t;   // xyz: sigma_t per channel
     vec4 albedo;    // xyz: albedo
-    vec4 boundary;  // render/boundaries/boundary.h's BoundaryData: x its type, y, z x, y
+    vec4 boundary;  // render/boundaries/boundary.h's BoundaryData: x its type, yzw xyz
     vec4 phase;     // render/phase/phase.h's PhaseData: x its type, y, z x, y
     // render/surfaces/surface.h's SurfaceData: surface.x its type (-1: the shape holds a
     // medium), surface.y its x; surface_color.xyz its colour

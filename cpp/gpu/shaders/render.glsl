@@ -51,6 +51,7 @@ BoundaryData boundary_data(GpuShape s) {
     b.type = int(s.boundary.x);
     b.x = s.boundary.y;
     b.y = s.boundary.z;
+    b.z = s.boundary.w;
     return b;
 }
 
@@ -246,15 +247,18 @@ void reflect_off(inout Path p, Hit hit) {
 }
 
 // The photon meets the boundary of the shape of `hit`, from outside or inside
-// (PathTracer::run's cross): a rough interface's vertex samples lights first; then the
+// (PathTracer::run's cross): a rough interface's vertex samples lights first (a
+// regularized smooth one's the point and directional lights); then the
 // boundary reflects or transmits it.
 void cross(inout Path p, Hit hit) {
     BoundaryData bd = boundary_data(shapes[hit.mesh]);
-    if (NEE && boundary_samples_lights(bd)) {
+    int lights = boundary_light_sampling(bd);
+    if (NEE && lights != kSamplesNoLights) {
         PhaseData none;
         SurfaceData no_surface;
         p.L += path_weight(p) * sample_light(hit.p, p.d, p.shape, none, kBoundaryVertex,
-                                             no_surface, hit, false, p.rng);
+                                             no_surface, hit, lights == kSamplesDeltaLights,
+                                             p.rng);
     }
     BoundaryEvent b = boundary_cross(bd, p.d, hit.normal, p.rng);
     p.beta *= b.weight;

@@ -18,13 +18,21 @@
 namespace sss {
 #endif
 
-// A boundary as the integrators see it: its type (an id of registry.h) and two numbers
+// A boundary as the integrators see it: its type (an id of registry.h) and three numbers
 // whose meaning each type states. On the GPU: GpuShape.boundary (gpu/shaders/layout.h).
 struct BoundaryData {
     int type;
     float x;
     float y;
+    float z;
 };
+
+// Which lights a path vertex on a boundary samples (boundary_light_sampling): none, all
+// of them, or only the point and directional ones (whose light no sampled direction can
+// reach, so that their NEE needs no MIS partner).
+const int kSamplesNoLights = 0;
+const int kSamplesAllLights = 1;
+const int kSamplesDeltaLights = 2;
 
 // What a boundary did to a photon that met it: the photon's new direction d, whether it
 // crossed to the other side (else it stays on its side), the factor its throughput takes

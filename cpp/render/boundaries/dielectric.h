@@ -1,9 +1,14 @@
 // Dielectric boundary: x = the index of refraction inside over outside (`ior`, default
 // 1.5), y = the GGX roughness alpha (`roughness`, Mitsuba 3's `alpha`, not remapped;
-// default 0).
+// default 0), z = the regularization alpha of a smooth one (`regularization`, default
+// kDefaultRegularization).
 // - Smooth (alpha = 0): Fresnel reflection or refraction, chosen with the Fresnel
 //   reflectance as probability; total internal reflection from inside. A straight shadow
-//   ray cannot pass it (docs/notation.md, "Next-event estimation").
+//   ray cannot pass it (docs/notation.md, "Next-event estimation"). With z > 0 its
+//   meeting points sample point and directional lights as a rough interface of alpha z
+//   would (path regularization, Kaplanyan and Dachsbacher 2013): the only way such
+//   lights reach through it, consistent as z -> 0 (docs/notation.md, "Regularization");
+//   the path itself goes on as on the smooth interface.
 // - Rough (alpha > 0): the microfacet BSDF of Walter et al. 2007 with GGX normals and
 //   Smith's separable masking (shared/ggx.h), reflection and transmission from both
 //   sides. A visible normal is sampled, then reflection or refraction about it with the
@@ -122,26 +127,38 @@ SSS_FN BoundaryEvent dielectric_boundary_cross(BoundaryData b, Vec3 d, Vec3 n,
 // The photon arrived along d; wo leaves the hit point. 0 for the smooth interface (its
 // lobes are deltas).
 SSS_FN BoundaryEval dielectric_boundary_eval(BoundaryData b, Vec3 d, Vec3 wo, Vec3 n) {
-    if (!(b.y > 0.f)) return no_boundary_eval();
+    // the rough interface's alpha, else the smooth one's regularization (0: none)
+    float alpha = b.y > 0.f ? b.y : b.z;
+    if (!(alpha > 0.f)) return no_boundary_eval();
     float eta;
     Frame f = dielectric_side_frame(b, d, n, eta);
     return rough_dielectric_eval_local(frame_to_local(f, -d), frame_to_local(f, wo), eta,
-                                       max(b.y, kMinGgxAlpha));
+                                       max(alpha, kMinGgxAlpha));
 }
 
 SSS_FN bool dielectric_boundary_passes_shadow_rays(BoundaryData b) { return false; }
 
-// Whether its vertices sample lights: the rough interface's.
-SSS_FN bool dielectric_boundary_samples_lights(BoundaryData b) { return b.y > 0.f; }
+// Which lights its vertices sample: a rough interface every light, a regularized smooth
+// one the point and directional lights (area and environment lights reach it along the
+// smooth interface's own directions, weighted 1).
+SSS_FN int dielectric_boundary_light_sampling(BoundaryData b) {
+    if (b.y > 0.f) return kSamplesAllLights;
+    return b.z > 0.f ? kSamplesDeltaLights : kSamplesNoLights;
+}
 
 #ifdef __cplusplus
+// The regularization alpha of a smooth interface unless the scene says otherwise
+// (docs/notation.md, "Regularization", has the bias it gives).
+constexpr float kDefaultRegularization = 0.05f;
+
 inline BoundaryKind dielectric_boundary_kind() {
     BoundaryKind k;
     k.name = "dielectric";
-    k.keys = {"ior", "roughness"};
+    k.keys = {"ior", "roughness", "regularization"};
     k.parse = [](const json_fields::json& j, const json_fields::Field& f) {
         BoundaryData b{};
         b.x = 1.5f;
+        b.z = kDefaultRegularization;
         if (j.contains("ior"))
             b.x = float(json_fields::number_in(j["ior"], f.at("ior"), 1e-3, 10.0,
                                                "a number in [0.001, 10]"));
@@ -149,8 +166,15 @@ inline BoundaryKind dielectric_boundary_kind() {
             b.y = float(json_fields::number_in(
                 j["roughness"], f.at("roughness"), 0.0, 1.0,
                 "a number in [0, 1] (the GGX alpha; 0 is a smooth interface)"));
+        if (j.contains("regularization"))
+            b.z = float(json_fields::number_in(
+                j["regularization"], f.at("regularization"), 0.0, 1.0,
+                "a number in [0, 1] (the GGX alpha with which a smooth interface passes "
+                "point and directional light; 0: it passes none)"));
         return b;
     };
+    // Mitsuba 3's smooth dielectric has no regularization: point and directional lights
+    // do not reach through it there.
     k.mitsuba = [](const json_fields::json& j) {
         const double alpha = j.value("roughness", 0.0);
         json_fields::json bsdf{{"type", alpha > 0.0 ? "roughdielectric" : "dielectric"},

@@ -28,8 +28,10 @@ SSS_FN BoundaryEval index_matched_boundary_eval(BoundaryData b, Vec3 d, Vec3 wo,
 // Whether a straight shadow ray may pass through it.
 SSS_FN bool index_matched_boundary_passes_shadow_rays(BoundaryData b) { return true; }
 
-// Whether its vertices sample lights (it has no vertices: the medium's events do).
-SSS_FN bool index_matched_boundary_samples_lights(BoundaryData b) { return false; }
+// Which lights its vertices sample: none (it has no vertices: the medium's events do).
+SSS_FN int index_matched_boundary_light_sampling(BoundaryData b) {
+    return kSamplesNoLights;
+}
 
 #ifdef __cplusplus
 inline BoundaryKind index_matched_boundary_kind() {

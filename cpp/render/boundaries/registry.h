@@ -30,8 +30,9 @@ SSS_FN BoundaryEvent boundary_cross(BoundaryData b, Vec3 d, Vec3 n,
     return no_boundary_event(d);  // no such type (cannot happen for a parsed scene)
 }
 
-// A rough boundary b's BSDF times |cos| and sampling pdf, for a photon that arrived along
-// d and leaves along wo (outward normal n); 0 for smooth and index-matched boundaries.
+// A rough (or regularized smooth) boundary b's BSDF times |cos| and sampling pdf, for a
+// photon that arrived along d and leaves along wo (outward normal n); 0 where
+// boundary_light_sampling is kSamplesNoLights.
 SSS_FN BoundaryEval boundary_eval(BoundaryData b, Vec3 d, Vec3 wo, Vec3 n) {
 #define SSS_BOUNDARY_CASE(name, type_id) \
     if (b.type == type_id) return name##_boundary_eval(b, d, wo, n);
@@ -40,13 +41,14 @@ SSS_FN BoundaryEval boundary_eval(BoundaryData b, Vec3 d, Vec3 wo, Vec3 n) {
     return no_boundary_eval();
 }
 
-// Whether a path vertex on boundary b samples lights through it (boundary_eval is not 0).
-SSS_FN bool boundary_samples_lights(BoundaryData b) {
+// Which lights a path vertex on boundary b samples through it (boundary_eval):
+// kSamplesNoLights, kSamplesAllLights or kSamplesDeltaLights.
+SSS_FN int boundary_light_sampling(BoundaryData b) {
 #define SSS_BOUNDARY_CASE(name, type_id) \
-    if (b.type == type_id) return name##_boundary_samples_lights(b);
+    if (b.type == type_id) return name##_boundary_light_sampling(b);
     SSS_BOUNDARY_TYPES(SSS_BOUNDARY_CASE)
 #undef SSS_BOUNDARY_CASE
-    return false;
+    return kSamplesNoLights;
 }
 
 // Whether a straight shadow ray may pass through boundary b.

@@ -1,0 +1,82 @@
+"""Path regularization of smooth dielectric boundaries (docs/notation.md, "Regularization"):
+a smooth interface lets point and directional lights through as a rough one of alpha
+`regularization` would, at the vertices where paths meet it, while the paths themselves go
+on as on the smooth interface."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats
+
+import sssphere
+
+Z_MAX = 4.0  # per image mean; blocks: a chi-square test and a Bonferroni bound at P_BLOCKS
+P_BLOCKS = 1e-4
+
+
+def _ball(boundary: dict, albedo: float, sigma_t: float, res: int = 32) -> dict:
+    """A unit ball lit by one point light and nothing else."""
+    return {
+        "camera": {"origin": [0, 0, 4], "target": [0, 0, 0], "up": [0, 1, 0], "fov": 32,
+                   "width": res, "height": res},
+        "shapes": [{"name": "ball", "sphere": {"center": [0, 0, 0], "radius": 1, "subdivisions": 4},
+                    "medium": {"sigma_t": sigma_t, "albedo": albedo, "g": 0.3},
+                    "boundary": {"type": "dielectric", "ior": 1.5, **boundary}}],
+        "lights": [{"type": "point", "position": [1.5, 2, 3], "intensity": [20, 20, 20]}],
+        "render": {"grid_resolution": 32},
+    }
+
+
+def _assert_same_expectation(a, b, what: str, block: int = 4) -> None:
+    """The two renders' image means (|z| < Z_MAX per channel) and block means (chi-square
+    of their z-scores and max |z|, Bonferroni) agree within their variance estimates."""
+    npix = a.image.shape[0] * a.image.shape[1]
+    diff = a.image.reshape(-1, 3).mean(axis=0, dtype=np.float64) - \
+        b.image.reshape(-1, 3).mean(axis=0, dtype=np.float64)
+    var = (a.variance.reshape(-1, 3).sum(axis=0, dtype=np.float64)
+           + b.variance.reshape(-1, 3).sum(axis=0, dtype=np.float64)) / npix ** 2
+    z = diff / np.sqrt(var)
+    assert np.all(np.abs(z) < Z_MAX), f"{what}: image means differ, z {z}"
+    h, w = a.image.shape[:2]
+
+    def blocks(x):
+        return np.asarray(x, np.float64).reshape(h // block, block, w // block, block, 3).sum(
+            axis=(1, 3))
+
+    d, v = blocks(a.image) - blocks(b.image), blocks(a.variance) + blocks(b.variance)
+    zb = d[v > 0] / np.sqrt(v[v > 0])
+    assert zb.size >= 8, what
+    assert stats.chi2.sf(float((zb ** 2).sum()), zb.size) > P_BLOCKS, what
+    assert np.abs(zb).max() < stats.norm.isf(P_BLOCKS / (2 * zb.size)), what
+
+
+@pytest.mark.parametrize("integrator,backend", [("pt", "cpu"), ("st", "cpu"), ("pt", "vulkan")])
+def test_a_regularized_vertex_is_the_rough_vertex(integrator, backend):
+    """Where a path's only light is what its first boundary vertex samples (a black,
+    absorbing ball under a point light: reflection off it is all there is), a smooth
+    interface regularized with alpha and a rough one of alpha give the same image in
+    expectation: the vertex evaluates the same BSDF. Each render's own variance estimate
+    bounds the difference."""
+    alpha = 0.15
+    kw = dict(integrator=integrator, backend=backend, spp=256)
+    smooth = sssphere.render_full(_ball({"regularization": alpha}, 0.0, 20.0), seed=1, **kw)
+    rough = sssphere.render_full(_ball({"roughness": alpha}, 0.0, 20.0), seed=2, **kw)
+    assert smooth.image.max() > 0.05  # the highlight is there
+    _assert_same_expectation(smooth, rough, f"{integrator} {backend}")
+
+
+@pytest.mark.parametrize("integrator", ["pt", "st"])
+def test_point_light_reaches_the_inside_only_when_regularized(integrator):
+    """Under a point light alone, a scattering ball behind a smooth interface is black
+    without regularization (no path can reach a delta light through it), and lit with it:
+    paths meeting the interface from inside sample the light through it."""
+    kw = dict(integrator=integrator, spp=16, seed=3)
+    dark = sssphere.render_full(_ball({"regularization": 0}, 0.9, 5.0), **kw)
+    assert not dark.image.any()
+    lit = sssphere.render_full(_ball({"regularization": 0.1}, 0.9, 5.0), **kw)
+    assert np.all(np.isfinite(lit.image))
+    # pixels whose camera rays miss the highlight's lobe still see light from inside: the
+    # darker half of the ball (left of the centre, the light is at upper right)
+    left = lit.image[8:24, 4:14]
+    assert (left > 0).mean() > 0.5
