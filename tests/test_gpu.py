@@ -31,6 +31,8 @@ import sssphere
 from sssphere import SceneError, _core
 from sssphere.model import DEFAULT_MODELS
 
+from render_stats import block_z, mean_z
+
 _AVAILABLE, _DEVICE, _SOFTWARE = _core.gpu_status()  # (available, device or reason, software)
 if not _AVAILABLE:
     pytest.skip(f"no Vulkan device: {_DEVICE}", allow_module_level=True)
@@ -381,33 +383,6 @@ def test_gpu_single_event_steps_follow_their_law(model_dir):
 # Renders: the GPU against the CPU.
 
 
-def _mean_z(a, b):
-    """Per channel, z-score of the difference of the two images' means, with their variance
-    estimates (sum of per-pixel variances of the mean / pixels^2)."""
-    npix = a.image.shape[0] * a.image.shape[1]
-    diff = a.image.reshape(-1, 3).astype(np.float64).mean(axis=0) - \
-        b.image.reshape(-1, 3).astype(np.float64).mean(axis=0)
-    var = (a.variance.reshape(-1, 3).astype(np.float64).sum(axis=0)
-           + b.variance.reshape(-1, 3).astype(np.float64).sum(axis=0)) / npix ** 2
-    return diff / np.sqrt(var)
-
-
-def _block_z(a, b, block=4):
-    """z-scores of 4x4-block means of two renders, one array per channel (blocks where both
-    are exact left out)."""
-    h, w = a.image.shape[:2]
-    h, w = h - h % block, w - w % block
-
-    def blocks(x):
-        x = np.asarray(x[:h, :w], np.float64)
-        return x.reshape(h // block, block, w // block, block, -1).sum(axis=(1, 3))
-
-    diff = blocks(a.image) - blocks(b.image)
-    var = blocks(a.variance) + blocks(b.variance)
-    return [diff[..., c][var[..., c] > 0] / np.sqrt(var[..., c][var[..., c] > 0])
-            for c in range(3)]
-
-
 def _count_z(a, b, counts):
     """z-score of the difference of the mean per-path count (`counts`: "path_events" or
     "path_steps") of two renders, from their recorded paths. The standard error uses the
@@ -434,9 +409,9 @@ def assert_renders_agree(cpu, gpu, what):
     events and sphere steps per path (|z| < Z_MAX)."""
     from scipy import stats
 
-    z = _mean_z(cpu, gpu)
+    z = mean_z(cpu, gpu)
     assert np.all(np.abs(z) < Z_MAX), f"{what}: image means differ, z per channel {z}"
-    for c, zc in enumerate(_block_z(cpu, gpu)):
+    for c, zc in enumerate(block_z(cpu, gpu)):
         n = zc.size
         assert n >= 8, (what, c, n)
         chi2 = float((zc ** 2).sum())
@@ -596,7 +571,7 @@ def test_gpu_delta_lights_agree_with_cpu(integrator, model_dir):
     # image is darker by many standard errors in every channel).
     dark = sssphere.render_full(scene, integrator=integrator, spp=128, seed=3, nee=False,
                                 backend="vulkan", models=model_dir)
-    z = _mean_z(gpu, dark)
+    z = mean_z(gpu, dark)
     assert np.all(z > 3 * Z_MAX), z
 
 

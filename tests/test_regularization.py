@@ -11,6 +11,8 @@ from scipy import stats
 
 import sssphere
 
+from render_stats import block_z, mean_z
+
 Z_MAX = 4.0  # per image mean; blocks: a chi-square test and a Bonferroni bound at P_BLOCKS
 P_BLOCKS = 1e-4
 
@@ -28,27 +30,18 @@ def _ball(boundary: dict, albedo: float, sigma_t: float, res: int = 32) -> dict:
     }
 
 
-def _assert_same_expectation(a, b, what: str, block: int = 4) -> None:
-    """The two renders' image means (|z| < Z_MAX per channel) and block means (chi-square
-    of their z-scores and max |z|, Bonferroni) agree within their variance estimates."""
-    npix = a.image.shape[0] * a.image.shape[1]
-    diff = a.image.reshape(-1, 3).mean(axis=0, dtype=np.float64) - \
-        b.image.reshape(-1, 3).mean(axis=0, dtype=np.float64)
-    var = (a.variance.reshape(-1, 3).sum(axis=0, dtype=np.float64)
-           + b.variance.reshape(-1, 3).sum(axis=0, dtype=np.float64)) / npix ** 2
-    z = diff / np.sqrt(var)
+def _assert_same_expectation(a, b, what: str) -> None:
+    """The two renders' image means (|z| < Z_MAX per channel) and 4x4-block means (per
+    channel, a chi-square test of their z-scores and a Bonferroni bound on max |z|, each at
+    P_BLOCKS) agree within their variance estimates."""
+    z = mean_z(a, b)
     assert np.all(np.abs(z) < Z_MAX), f"{what}: image means differ, z {z}"
-    h, w = a.image.shape[:2]
-
-    def blocks(x):
-        return np.asarray(x, np.float64).reshape(h // block, block, w // block, block, 3).sum(
-            axis=(1, 3))
-
-    d, v = blocks(a.image) - blocks(b.image), blocks(a.variance) + blocks(b.variance)
-    zb = d[v > 0] / np.sqrt(v[v > 0])
-    assert zb.size >= 8, what
-    assert stats.chi2.sf(float((zb ** 2).sum()), zb.size) > P_BLOCKS, what
-    assert np.abs(zb).max() < stats.norm.isf(P_BLOCKS / (2 * zb.size)), what
+    for c, zc in enumerate(block_z(a, b)):
+        assert zc.size >= 8, (what, c)
+        chi2 = float((zc ** 2).sum())
+        assert stats.chi2.sf(chi2, zc.size) > P_BLOCKS, f"{what}, channel {c}: chi2 {chi2:.1f}"
+        assert np.abs(zc).max() < stats.norm.isf(P_BLOCKS / (2 * zc.size)), \
+            f"{what}, channel {c}: max |z| {np.abs(zc).max():.2f}"
 
 
 @pytest.mark.parametrize("integrator,backend", [("pt", "cpu"), ("st", "cpu"), ("pt", "vulkan")])

@@ -9,6 +9,8 @@ import pytest
 
 import sssphere
 
+from render_stats import block_z
+
 
 def test_render_returns_linear_float_image(small_scene):
     img = sssphere.render(sssphere.load_scene(small_scene), spp=4)
@@ -124,21 +126,6 @@ def test_load_scene_from_file_resolves_mesh_relative_to_it(tmp_path, small_scene
     np.testing.assert_allclose(sssphere.render(s2), sssphere.render(scene), rtol=1e-5, atol=1e-6)
 
 
-def _block_z(a, b, block=4):
-    """z-scores of block means of two independent renders (RenderResult), one array per channel
-    (blocks of variance 0 left out). Channels are tested separately: in a grey medium, or under
-    one light, the three carry the same samples up to a factor."""
-    h, w = a.image.shape[:2]
-    h, w = h - h % block, w - w % block
-
-    def blocks(x):
-        return x[:h, :w].reshape(h // block, block, w // block, block, -1).sum(axis=(1, 3))
-
-    diff = blocks(a.image) - blocks(b.image)
-    var = blocks(a.variance) + blocks(b.variance)
-    return [diff[..., c][var[..., c] > 0] / np.sqrt(var[..., c][var[..., c] > 0]) for c in range(3)]
-
-
 AREA_LIGHT = {"type": "area", "corner": [-2, 1.5, 2], "edge1": [0, 0, -4], "edge2": [4, 0, 0],
               "radiance": [1, 1, 1]}
 ENVIRONMENT = {"type": "environment", "radiance": [1, 0.5, 0.25]}
@@ -172,7 +159,7 @@ def test_nee_with_mis_agrees_with_plain_path_tracing(small_scene, lights, floor)
     scene = sssphere.load_scene(small_scene)
     with_nee = sssphere.render_full(scene, spp=256, seed=1)
     without = sssphere.render_full(scene, spp=1024, seed=2, nee=False)
-    for c, z in enumerate(_block_z(with_nee, without)):
+    for c, z in enumerate(block_z(with_nee, without)):
         n = z.size
         assert n > 8
         chi2 = float((z ** 2).sum())
