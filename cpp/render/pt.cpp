@@ -30,6 +30,24 @@ bool survives_roulette(Vec3& beta, float beta_start, Rng& rng) {
     return survives_roulette(beta, beta_start, rng.state());  // shared/path.h
 }
 
+// Sphere tracing a shadow ray from a scattering event through its medium's distance grid
+// (query(t): the bound at the ray's point t along it): each bound is a ball free of the
+// surface, so the ray stays inside the medium for at least the t reached, where the
+// first bound r (at t = 0) is known. Returns shadow_keep_again for exp(-sigma t), t no
+// further than the light at dist.
+template <class Query>
+float shadow_march_keep(const Query& query, float r, float dist, float sigma,
+                        float kept) {
+    float t = r;
+    for (int i = 1; i < kShadowMarchQueries && t < dist && sigma * t < kShadowMarchDepth;
+         ++i) {
+        const float step = query(t);
+        if (!(step > 0.f)) break;
+        t += step;
+    }
+    return shadow_keep_again(std::exp(-sigma * std::min(t, dist)), kept);
+}
+
 }  // namespace
 
 PathTracer::PathTracer(const Scene& scene, int max_bounces, bool nee,
@@ -79,6 +97,11 @@ struct MediumScatter {
     const Phase& phase;
     Vec3 p, d;  // where, and the direction the photon arrived along
     int shape;  // the medium
+    // For the shadow-ray roulette: the medium's grid and the distance bound r at p, the
+    // extinction the bounds use, and the probability the roulette on exp(-sigma r)
+    // already kept this vertex's NEE with.
+    const DistanceGrid& grid;
+    float r, sigma, kept;
     SurfaceEval eval(const Vec3& w) const {
         SurfaceEval e;
         e.pdf = phase_eval(phase, dot(d, w));
@@ -88,6 +111,14 @@ struct MediumScatter {
     Vec3 origin(const Vec3&) const { return p; }
     int shape_along(const Vec3&) const { return shape; }
     const Phase* phase_function() const { return &phase; }
+    // The probability to trace the shadow ray along w to a light dist away: the ray's
+    // transmittance is at most exp(-sigma t) for the distance t it provably runs inside
+    // the medium, which sphere tracing the grid finds (docs/notation.md, "Shadow-ray
+    // Russian roulette"); kept again with that bound / kShadowRoulette over `kept`.
+    float shadow_keep(const Vec3& w, float dist) const {
+        return shadow_march_keep([&](float t) { return grid.query(p + w * t); }, r, dist,
+                                 sigma, kept);
+    }
 };
 
 // A reflection on an opaque surface, for sample_light: the BSDF times the cosine, and
@@ -103,6 +134,7 @@ struct SurfaceScatter {
     Vec3 origin(const Vec3& w) const { return leave(hit, w); }
     int shape_along(const Vec3&) const { return shape; }
     const Phase* phase_function() const { return nullptr; }
+    float shadow_keep(const Vec3&, float) const { return 1.f; }
 };
 
 // A vertex on a rough (or regularized) boundary, for sample_light: its BSDF (reflection
@@ -121,6 +153,7 @@ struct BoundaryScatter {
         return dot(w, hit.normal) < 0.f ? int(hit.mesh) : -1;
     }
     const Phase* phase_function() const { return nullptr; }
+    float shadow_keep(const Vec3&, float) const { return 1.f; }
 };
 
 }  // namespace
@@ -134,15 +167,17 @@ Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
     // Every shadow ray first travels at least r through this medium.
     float sigma_min =
         channel < 0 ? min_component(s.medium.sigma_t) : s.medium.sigma_t[channel];
-    if (r < 0.f) r = scene_.grid(shape).query(p);
-    float bound = std::exp(-sigma_min * r);
+    const DistanceGrid& grid = scene_.grid(shape);
+    if (r < 0.f) r = grid.query(p);
+    const float kept = shadow_keep_probability(std::exp(-sigma_min * r));
     float shadow_weight = 1.f;
-    if (bound < kShadowRoulette) {
-        shadow_weight = roulette_weight(bound / kShadowRoulette, rng.uniform());
+    if (kept < 1.f) {
+        shadow_weight = roulette_weight(kept, rng.uniform());
         if (shadow_weight == 0.f) return Vec3(0.f);
     }
-    return sample_light(p, MediumScatter{s.medium.phase, p, d, shape}, rng, mis,
-                        delta_only) *
+    return sample_light(
+               p, MediumScatter{s.medium.phase, p, d, shape, grid, r, sigma_min, kept},
+               rng, mis, delta_only) *
            shadow_weight;
 }
 
@@ -164,9 +199,15 @@ Vec3 PathTracer::sample_light(const Vec3& p, const Scatter& scatter, Rng& rng, b
         light_sample(l, p, u1, u2, scene_.light_floats());  // render/lights/registry.h
     Vec3 sum(0.f);
     const SurfaceEval f = scatter.eval(ls.w);
+    // A second shadow-ray roulette, on the bound along the light's direction.
+    float shadow_weight = 1.f;
     if (!is_black(ls.L) && !is_black(f.f)) {
-        const Vec3 tr =
-            transmittance(scatter.origin(ls.w), ls.w, ls.dist, scatter.shape_along(ls.w));
+        const float keep = scatter.shadow_keep(ls.w, ls.dist);
+        if (keep < 1.f) shadow_weight = roulette_weight(keep, rng.uniform());
+    }
+    if (shadow_weight > 0.f && !is_black(ls.L) && !is_black(f.f)) {
+        const Vec3 tr = shadow_weight * transmittance(scatter.origin(ls.w), ls.w, ls.dist,
+                                                      scatter.shape_along(ls.w));
         if (ls.pdf == 0.f) {
             sum += ls.L * tr * f.f;  // a delta light
         } else {

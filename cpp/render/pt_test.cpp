@@ -63,6 +63,14 @@ TEST(PathTracer, FurnaceGreyIndexMatched) {
     expect_furnace(furnace_scene(Vec3(4.f), 0.5f, BoundaryType::IndexMatched), 64);
 }
 
+TEST(PathTracer, FurnaceDenseIndexMatchedRoulettesMarchedShadowRays) {
+    // Optically thick (40 mean free paths across the radius): most shadow rays to the
+    // environment are sphere traced through the grid and rouletted on the transmittance
+    // bound they reach, twice (docs/notation.md, "Shadow-ray Russian roulette"); a kept
+    // ray that missed its weight would darken the furnace.
+    expect_furnace(furnace_scene(Vec3(40.f), 0.f, BoundaryType::IndexMatched), 4096);
+}
+
 TEST(PathTracer, FurnaceChromaticIndexMatched) {
     // Different extinction per channel: flights sampled with a hero channel, all three
     // carried with spectral MIS.

@@ -22,6 +22,24 @@ SSS_CONST float kRouletteThreshold = 0.1f;
 SSS_CONST float kShadowRoulette = 0.1f;
 // Shadow rays cross at most this many boundaries (then the light counts as blocked).
 SSS_CONST int kMaxShadowCrossings = 64;
+// A shadow ray from a scattering event is sphere traced through the distance grid, at
+// most this many queries in all (the one at the event included) and no further than this
+// optical depth, to bound its transmittance before it is traced (docs/notation.md,
+// "Shadow-ray Russian roulette").
+SSS_CONST int kShadowMarchQueries = 4;
+SSS_CONST float kShadowMarchDepth = 16.f;
+
+// The probability the shadow-ray roulette keeps a ray whose transmittance is at most
+// `bound`.
+SSS_FN float shadow_keep_probability(float bound) {
+    return bound < kShadowRoulette ? bound / kShadowRoulette : 1.f;
+}
+// The probability a second roulette keeps a ray that a first one kept with probability
+// `kept` (> 0) on a looser bound: both together keep it with
+// shadow_keep_probability(bound).
+SSS_FN float shadow_keep_again(float bound, float kept) {
+    return min(1.f, shadow_keep_probability(bound) / kept);
+}
 
 // Path Russian roulette after a scattering event or sphere step, once the throughput fell
 // below kRouletteThreshold of its start value (one uniform drawn then, none otherwise):

@@ -113,6 +113,8 @@ vec3 transmittance(vec3 p, vec3 w, float dist, int shape) {
 const int kMediumVertex = 0;
 const int kSurfaceVertex = 1;
 const int kBoundaryVertex = 2;
+// sample_light's `march` for vertices off a medium: no second shadow-ray roulette.
+const vec3 kNoMarch = vec3(0.0, 0.0, 1.0);
 
 // PathTracer::sample_light with MIS at a vertex at p, the photon arriving along d: a
 // scattering event in medium `shape` with phase function ph (kMediumVertex), a point of
@@ -120,8 +122,23 @@ const int kBoundaryVertex = 2;
 // a point of a rough boundary, the shape of `hit`'s (kBoundaryVertex). One light chosen
 // uniformly, weighted by the number of lights; with delta_only, one of the point and
 // directional lights (the first lighting.z of lights[]).
+// PathTracer's shadow_march_keep: the probability to trace a shadow ray from a scattering
+// event at p in `shape` along w to a light dist away, by sphere tracing it through the
+// shape's grid from the bound r at p (march: r, the extinction sigma of the bounds, and
+// the probability `kept` of the roulette on exp(-sigma r) before).
+float shadow_march_keep(int shape, vec3 p, vec3 w, float dist, vec3 march) {
+    float t = march.x;
+    for (int i = 1; i < kShadowMarchQueries && t < dist && march.y * t < kShadowMarchDepth;
+         ++i) {
+        float step = grid_query(shape, p + w * t);
+        if (!(step > 0.0)) break;
+        t += step;
+    }
+    return shadow_keep_again(exp(-march.y * min(t, dist)), march.z);
+}
+
 vec3 sample_light(vec3 p, vec3 d, int shape, PhaseData ph, int vertex, SurfaceData sf,
-                  Hit hit, bool delta_only, inout RngState rng) {
+                  Hit hit, bool delta_only, vec3 march, inout RngState rng) {
     uint count = delta_only ? lighting.z : lighting.x;
     if (count == 0u) return vec3(0.0);
     float n_lights = float(count);
@@ -145,9 +162,15 @@ vec3 sample_light(vec3 p, vec3 d, int shape, PhaseData ph, int vertex, SurfaceDa
         f = vec3(pdf);
     }
     vec3 sum = vec3(0.0);
-    if (!is_black(ls.L) && !is_black(f)) {
-        vec3 tr = transmittance(vertex == kMediumVertex ? p : leave(hit, ls.w), ls.w, ls.dist,
-                                shape);
+    // A second shadow-ray roulette, on the bound along the light's direction.
+    float shadow_weight = 1.0;
+    if (vertex == kMediumVertex && !is_black(ls.L) && !is_black(f)) {
+        float keep = shadow_march_keep(shape, p, ls.w, ls.dist, march);
+        if (keep < 1.0) shadow_weight = roulette_weight(keep, rng_uniform(rng));
+    }
+    if (shadow_weight > 0.0 && !is_black(ls.L) && !is_black(f)) {
+        vec3 tr = shadow_weight * transmittance(vertex == kMediumVertex ? p : leave(hit, ls.w),
+                                                ls.w, ls.dist, shape);
         sum = ls.pdf == 0.0  // a delta light
                   ? ls.L * tr * f
                   : ls.L * tr * f * (power_heuristic(ls.pdf / n_lights, pdf) / ls.pdf);
@@ -166,15 +189,15 @@ vec3 direct_light(vec3 p, float r, vec3 d, int shape, int channel, bool delta_on
     float sigma_min =
         channel < 0 ? min(s.sigma_t.x, min(s.sigma_t.y, s.sigma_t.z)) : s.sigma_t[channel];
     if (r < 0.0) r = grid_query(shape, p);
-    float bound = exp(-sigma_min * r);
+    float kept = shadow_keep_probability(exp(-sigma_min * r));
     float shadow_weight = 1.0;
-    if (bound < kShadowRoulette) {
-        shadow_weight = roulette_weight(bound / kShadowRoulette, rng_uniform(rng));
+    if (kept < 1.0) {
+        shadow_weight = roulette_weight(kept, rng_uniform(rng));
         if (shadow_weight == 0.0) return vec3(0.0);
     }
     Hit none;
     return sample_light(p, d, shape, phase_data(s), kMediumVertex, surface_data(s), none,
-                        delta_only, rng) *
+                        delta_only, vec3(r, sigma_min, kept), rng) *
            shadow_weight;
 }
 
@@ -226,7 +249,8 @@ void reflect_off(inout Path p, Hit hit) {
     if (NEE) {
         PhaseData none;
         p.L += path_weight(p) *
-               sample_light(hit.p, p.d, p.shape, none, kSurfaceVertex, sf, hit, false, p.rng);
+               sample_light(hit.p, p.d, p.shape, none, kSurfaceVertex, sf, hit, false,
+                            kNoMarch, p.rng);
     }
     float u1 = rng_uniform(p.rng), u2 = rng_uniform(p.rng);
     SurfaceSample ss = surface_sample(sf, -p.d, hit.normal, u1, u2);
@@ -258,7 +282,7 @@ void cross(inout Path p, Hit hit) {
         SurfaceData no_surface;
         p.L += path_weight(p) * sample_light(hit.p, p.d, p.shape, none, kBoundaryVertex,
                                              no_surface, hit, lights == kSamplesDeltaLights,
-                                             p.rng);
+                                             kNoMarch, p.rng);
     }
     BoundaryEvent b = boundary_cross(bd, p.d, hit.normal, p.rng);
     p.beta *= b.weight;
