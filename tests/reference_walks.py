@@ -1,7 +1,9 @@
 """A plain NumPy simulation of the canonical sphere problem (docs/notation.md, "The canonical sphere problem").
 
 It is the test oracle for the C++ generator `sssphere.sphere_walks` (same signature, same
-keys) and the training-data source of the learning tests. Written for clarity first: all walks
+keys) and the training-data source of the learning tests; `reference_cut_sphere_walks` is the
+oracle of `sssphere.walks.cut_sphere_walks` (the sphere cut by a plane, "The cut sphere
+problem"). Written for clarity first: all walks
 advance together one scattering event per loop iteration, and finished walks are dropped from
 the working arrays so that long walks do not drag the short ones along.
 """
@@ -49,6 +51,98 @@ def _scatter(d: np.ndarray, g: np.ndarray, rng: np.random.Generator) -> np.ndarr
     return out / np.linalg.norm(out, axis=1, keepdims=True)
 
 
+def _walks(sigma, g, albedo, n: int, seed: int, h, mu0):
+    """The walks of both problems in their common frame: the sphere cut by the plane z = h
+    (h >= 1: whole), the photon arriving at the centre along (√(1 − μ0²), 0, μ0). Returns N,
+    whether the walk left through the plane, the exit point and direction, X and W."""
+    n = int(n)
+    sigma = _per_walk(sigma, n, "sigma")
+    g = _per_walk(g, n, "g")
+    albedo = _per_walk(albedo, n, "albedo")
+    h = _per_walk(h, n, "h")
+    mu0 = _per_walk(mu0, n, "mu0")
+    if np.any(~(h > 0)):
+        raise ValueError("h must be > 0")
+    if np.any(~(np.abs(mu0) <= 1)):
+        raise ValueError("mu0 must lie in [-1, 1]")
+    if np.any(~np.isfinite(sigma)) or np.any(sigma < 0):
+        raise ValueError("sigma must be finite and >= 0")
+    if np.any(~(np.abs(g) < 1)):
+        raise ValueError("g must lie in (-1, 1)")
+    if np.any(~((albedo >= 0) & (albedo <= 1))):
+        raise ValueError("albedo must lie in [0, 1]")
+    rng = np.random.default_rng(seed)
+
+    N_out = np.ones(n, dtype=np.int64)
+    exit_pos = np.zeros((n, 3))
+    exit_dir = np.zeros((n, 3))
+    through_out = np.zeros(n, dtype=bool)
+    arrive = np.stack([np.sqrt(np.maximum(0.0, 1.0 - mu0 * mu0)), np.zeros(n), mu0], axis=1)
+    X_out = np.zeros((n, 3))
+    W_out = arrive.copy()
+
+    # Working state of the walks still inside. Event 1 is at the centre with arrival +z;
+    # the reservoir holds it with weight sum S = φ^0 (weights are φ^k / φ, which does not
+    # change the choice and stays finite for φ = 0: 0**0 = 1).
+    idx = np.arange(n)
+    pos = np.zeros((n, 3))
+    d = _scatter(arrive, g, rng)
+    count = np.ones(n, dtype=np.int64)
+    w_k = np.ones(n)  # φ^(k-1) for the current event k
+    w_sum = np.ones(n)  # Σ_{j≤k} φ^(j-1)
+    res_X = np.zeros((n, 3))
+    res_W = arrive.copy()
+    sig, gg, phi, hh = sigma, g, albedo, h
+
+    with np.errstate(divide="ignore"):
+        while idx.size:
+            m = idx.size
+            # Free flight: t = -ln(1 - ξ)/σ (σ = 0: infinite).
+            t = -np.log1p(-rng.random(m)) / sig
+            # Distance to the sphere along d from pos (|pos| < 1): the positive root of
+            # |pos + s d| = 1.
+            pd = np.einsum("ij,ij->i", pos, d)
+            pp = np.einsum("ij,ij->i", pos, pos)
+            s_ball = -pd + np.sqrt(np.maximum(0.0, pd * pd + 1.0 - pp))
+            # And to the plane z = h, moving up (the cut sphere; h >= 1: never first).
+            up = d[:, 2] > 0.0
+            s_plane = np.where(up, (hh - pos[:, 2]) / np.where(up, d[:, 2], 1.0), np.inf)
+            plane = s_plane < s_ball
+            s_exit = np.minimum(s_ball, s_plane)
+            leaves = t >= s_exit
+            if np.any(leaves):
+                j = idx[leaves]
+                p_exit = pos[leaves] + s_exit[leaves, None] * d[leaves]
+                on_plane = plane[leaves]
+                through_out[j] = on_plane
+                p_exit[on_plane, 2] = hh[leaves][on_plane]
+                ball = ~on_plane
+                p_exit[ball] /= np.linalg.norm(p_exit[ball], axis=1, keepdims=True)
+                exit_pos[j] = p_exit
+                exit_dir[j] = d[leaves]
+                N_out[j] = count[leaves]
+                X_out[j] = res_X[leaves]
+                W_out[j] = res_W[leaves]
+                keep = ~leaves
+                idx, pos, d, t = idx[keep], pos[keep], d[keep], t[keep]
+                count, w_k, w_sum = count[keep], w_k[keep], w_sum[keep]
+                res_X, res_W = res_X[keep], res_W[keep]
+                sig, gg, phi, hh = sig[keep], gg[keep], phi[keep], hh[keep]
+                if not idx.size:
+                    break
+            # A scattering event inside: event k = count + 1, arriving along d.
+            pos = pos + t[:, None] * d
+            count = count + 1
+            w_k = w_k * phi
+            w_sum = w_sum + w_k
+            take = rng.random(idx.size) * w_sum < w_k  # probability w_k / w_sum
+            res_X[take] = pos[take]
+            res_W[take] = d[take]
+            d = _scatter(d, gg, rng)
+
+    return N_out, through_out, exit_pos, exit_dir, X_out, W_out
+
+
 def reference_sphere_walks(sigma, g, albedo, n: int, seed: int = 0) -> dict:
     """Simulate n walks of the canonical sphere problem.
 
@@ -73,74 +167,7 @@ def reference_sphere_walks(sigma, g, albedo, n: int, seed: int = 0) -> dict:
         probability φ^k / Σ_j φ^j, its position and the direction arriving at it, in the exit
         frame (event 1: X = 0, W = +z).
     """
-    n = int(n)
-    sigma = _per_walk(sigma, n, "sigma")
-    g = _per_walk(g, n, "g")
-    albedo = _per_walk(albedo, n, "albedo")
-    if np.any(~np.isfinite(sigma)) or np.any(sigma < 0):
-        raise ValueError("sigma must be finite and >= 0")
-    if np.any(~(np.abs(g) < 1)):
-        raise ValueError("g must lie in (-1, 1)")
-    if np.any(~((albedo >= 0) & (albedo <= 1))):
-        raise ValueError("albedo must lie in [0, 1]")
-    rng = np.random.default_rng(seed)
-
-    N_out = np.ones(n, dtype=np.int64)
-    exit_pos = np.zeros((n, 3))
-    exit_dir = np.zeros((n, 3))
-    X_out = np.zeros((n, 3))
-    W_out = np.tile([0.0, 0.0, 1.0], (n, 1))
-
-    # Working state of the walks still inside. Event 1 is at the centre with arrival +z;
-    # the reservoir holds it with weight sum S = φ^0 (weights are φ^k / φ, which does not
-    # change the choice and stays finite for φ = 0: 0**0 = 1).
-    idx = np.arange(n)
-    pos = np.zeros((n, 3))
-    d = np.tile([0.0, 0.0, 1.0], (n, 1))
-    d = _scatter(d, g, rng)
-    count = np.ones(n, dtype=np.int64)
-    w_k = np.ones(n)  # φ^(k-1) for the current event k
-    w_sum = np.ones(n)  # Σ_{j≤k} φ^(j-1)
-    res_X = np.zeros((n, 3))
-    res_W = np.tile([0.0, 0.0, 1.0], (n, 1))
-    sig, gg, phi = sigma, g, albedo
-
-    with np.errstate(divide="ignore"):
-        while idx.size:
-            m = idx.size
-            # Free flight: t = -ln(1 - ξ)/σ (σ = 0: infinite).
-            t = -np.log1p(-rng.random(m)) / sig
-            # Distance to the sphere along d from pos (|pos| < 1): the positive root of
-            # |pos + s d| = 1.
-            pd = np.einsum("ij,ij->i", pos, d)
-            pp = np.einsum("ij,ij->i", pos, pos)
-            s_exit = -pd + np.sqrt(np.maximum(0.0, pd * pd + 1.0 - pp))
-            leaves = t >= s_exit
-            if np.any(leaves):
-                j = idx[leaves]
-                p_exit = pos[leaves] + s_exit[leaves, None] * d[leaves]
-                exit_pos[j] = p_exit / np.linalg.norm(p_exit, axis=1, keepdims=True)
-                exit_dir[j] = d[leaves]
-                N_out[j] = count[leaves]
-                X_out[j] = res_X[leaves]
-                W_out[j] = res_W[leaves]
-                keep = ~leaves
-                idx, pos, d, t = idx[keep], pos[keep], d[keep], t[keep]
-                count, w_k, w_sum = count[keep], w_k[keep], w_sum[keep]
-                res_X, res_W = res_X[keep], res_W[keep]
-                sig, gg, phi = sig[keep], gg[keep], phi[keep]
-                if not idx.size:
-                    break
-            # A scattering event inside: event k = count + 1, arriving along d.
-            pos = pos + t[:, None] * d
-            count = count + 1
-            w_k = w_k * phi
-            w_sum = w_sum + w_k
-            take = rng.random(idx.size) * w_sum < w_k  # probability w_k / w_sum
-            res_X[take] = pos[take]
-            res_W[take] = d[take]
-            d = _scatter(d, gg, rng)
-
+    N_out, _, exit_pos, exit_dir, X_out, W_out = _walks(sigma, g, albedo, n, seed, 2.0, 1.0)
     # The exit frame: rotate about z by -ψ, ψ the azimuth of the exit point, so that the exit
     # point lies in the half-plane y = 0, x ≥ 0 (at the poles ψ = atan2(0, ±0), fixed).
     psi = np.arctan2(exit_pos[:, 1], exit_pos[:, 0])
@@ -167,3 +194,12 @@ def reference_sphere_walks(sigma, g, albedo, n: int, seed: int = 0) -> dict:
         "X": rotate(X_out),
         "W": rotate(W_out),
     }
+
+
+def reference_cut_sphere_walks(sigma, g, h, mu0, albedo, n: int, seed: int = 0) -> dict:
+    """Simulate n walks of the cut sphere problem (docs/notation.md, "The cut sphere problem"):
+    the oracle of `sssphere.walks.cut_sphere_walks` (same keys, float64), in the walk's frame
+    (the plane z = h, the arriving direction (√(1 − μ0²), 0, μ0))."""
+    N, through, exit_pos, exit_dir, X, W = _walks(sigma, g, albedo, n, seed, h, mu0)
+    return {"N": N, "through_plane": through.astype(np.uint8), "exit_pos": exit_pos,
+            "exit_dir": exit_dir, "X": X, "W": W}

@@ -6,7 +6,7 @@ import pytest
 from scipy import stats
 
 import sssphere
-from reference_walks import reference_sphere_walks
+from reference_walks import reference_cut_sphere_walks, reference_sphere_walks
 
 KEYS = ("N", "cos_theta", "alpha", "beta", "X", "W")
 
@@ -117,3 +117,55 @@ def test_bad_input_is_named(kwargs, match):
     args.update(kwargs)
     with pytest.raises(ValueError, match=match):
         sssphere.sphere_walks(**args)
+
+
+# The cut sphere problem (docs/notation.md): the sphere cut by the plane z = h.
+
+
+@pytest.mark.parametrize("sigma,g,h,mu0,albedo", [(6.0, 0.9, 0.2, 1.0, 0.99),
+                                                 (10.0, 0.5, 0.5, -0.5, 0.9),
+                                                 (3.0, 0.0, 0.1, 0.3, 1.0)])
+def test_cut_walks_agree_with_the_numpy_reference(sigma, g, h, mu0, albedo):
+    from sssphere.walks import cut_sphere_walks
+
+    n = 20_000
+    ours = cut_sphere_walks(sigma, g, h, mu0, albedo, n, seed=11)
+    ref = reference_cut_sphere_walks(sigma, g, h, mu0, albedo, n, seed=12)
+    columns = {"N": lambda d: d["N"], "through_plane": lambda d: d["through_plane"]}
+    for k in range(3):
+        columns[f"exit_pos[{k}]"] = lambda d, k=k: d["exit_pos"][:, k]
+        columns[f"exit_dir[{k}]"] = lambda d, k=k: d["exit_dir"][:, k]
+    columns["|X|"] = lambda d: np.linalg.norm(d["X"], axis=1)
+    columns["W_z"] = lambda d: d["W"][:, 2]
+    # Two-sample KS per column (10 columns x 3 cases at family-wise level ~1e-3); rounded to
+    # 1e-6 so that the atoms (the plane z = h, X = 0) are not split by rounding noise.
+    for name, f in columns.items():
+        a, b = (np.round(np.asarray(f(d), np.float64), 6) for d in (ours, ref))
+        p = stats.ks_2samp(a, b).pvalue
+        assert p > 1e-3 / 30, f"{name}: KS p-value {p:.2e}"
+    # Both ways out occur, and the exits are on the surface they name.
+    plane = ours["through_plane"].astype(bool)
+    assert 0.02 < plane.mean() < 0.98
+    np.testing.assert_array_equal(ours["exit_pos"][plane, 2], np.float32(h))
+    np.testing.assert_allclose(np.linalg.norm(ours["exit_pos"][~plane], axis=1), 1.0, atol=1e-5)
+
+
+@pytest.mark.parametrize(
+    "kwargs,match",
+    [
+        (dict(h=0.0), "h"),
+        (dict(h=float("nan")), "h"),
+        (dict(mu0=1.5), "mu0"),
+        (dict(albedo=-0.1), "albedo"),
+        (dict(sigma_t=2000.0), "sigma_t"),
+        (dict(h=np.ones(3)), "length n"),
+        (dict(n=0), "n must be"),
+    ],
+)
+def test_cut_walks_bad_input_is_named(kwargs, match):
+    from sssphere.walks import cut_sphere_walks
+
+    args = dict(sigma_t=1.0, g=0.0, h=0.5, mu0=1.0, albedo=1.0, n=10)
+    args.update(kwargs)
+    with pytest.raises(ValueError, match=match):
+        cut_sphere_walks(**args)

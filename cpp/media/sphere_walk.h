@@ -55,4 +55,41 @@ SphereWalkBatch sphere_walks(const std::vector<float>& sigma, const std::vector<
                              const std::vector<float>& albedo, int64_t n, uint64_t seed,
                              uint64_t first_index = 0, int threads = 0);
 
+// The cut sphere problem (docs/notation.md, "The cut sphere problem"; issue 26): ground
+// truth for a step near a locally flat boundary. The unit sphere is cut by the plane
+// z = h (0 < h; h >= 1 leaves it whole) and the medium is the part z < h. The photon
+// arrived at the centre travelling w_in = (sqrt(1 - mu0^2), 0, mu0) and scatters there
+// (the first event, which counts); it alternates Henyey-Greenstein scattering and
+// exponential free flights with optical radius sigma until a flight leaves the region,
+// through the plane (the boundary) or through the spherical cap (into more medium).
+// With h >= 1 and mu0 = 1 it is sphere_walk's walk, random number for random number, and
+// the representative event (X, W) is chosen as there (in the walk's frame, not rotated).
+struct CutSphereWalk {
+    int64_t N = 1;               // scattering events, >= 1 (the centre counts)
+    bool through_plane = false;  // left through z = h (else through the cap)
+    Vec3 exit_pos;               // on the plane (z = h, |x| <= 1) or the cap (|x| = 1)
+    Vec3 exit_dir;               // unit; leaves the region there
+    Vec3 X;                      // representative event (the centre: X = 0, W = w_in)
+    Vec3 W;                      // direction arriving at X
+};
+
+// One walk. sigma >= 0, |g| < 1, h > 0, |mu0| <= 1, albedo in [0, 1].
+CutSphereWalk cut_sphere_walk(float sigma, float g, float h, float mu0, float albedo,
+                              Rng& rng);
+
+struct CutSphereWalkBatch {
+    std::vector<int64_t> N;
+    std::vector<uint8_t> through_plane;
+    std::vector<float> exit_pos, exit_dir, X, W;  // n x 3, row-major
+};
+
+// Walks first_index .. first_index + n - 1, as sphere_walks (the same streams).
+CutSphereWalkBatch cut_sphere_walks(const std::vector<float>& sigma,
+                                    const std::vector<float>& g,
+                                    const std::vector<float>& h,
+                                    const std::vector<float>& mu0,
+                                    const std::vector<float>& albedo, int64_t n,
+                                    uint64_t seed, uint64_t first_index = 0,
+                                    int threads = 0);
+
 }  // namespace sss

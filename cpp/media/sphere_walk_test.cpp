@@ -133,5 +133,95 @@ TEST(SphereWalk, RejectsInvalidParameters) {
     EXPECT_THROW(sphere_walks({1.f, 2.f}, {0.f}, {1.f}, 3, 0), Error);
 }
 
+// With the plane at or beyond the sphere (h >= 1) and the photon arriving along +z, the
+// cut sphere walk is the sphere walk: the same events, exit point and direction.
+TEST(CutSphereWalk, WithoutACutIsTheSphereWalk) {
+    const int64_t n = 20000;
+    SphereWalkBatch s = walks(6.f, 0.7f, 1.f, n);
+    CutSphereWalkBatch c =
+        cut_sphere_walks({6.f}, {0.7f}, {1.f}, {1.f}, {1.f}, n, /*seed=*/7);
+    for (int64_t i = 0; i < n; ++i) {
+        ASSERT_EQ(c.N[i], s.N[i]) << "walk " << i;
+        ASSERT_EQ(c.through_plane[i], 0);
+        // sphere_walk reports the exit in its exit frame: the point's z and, for the
+        // direction, its components along n = x and b, t.
+        ASSERT_EQ(c.exit_pos[3 * i + 2], s.cos_theta[i]);
+        // ... and the same representative event (sphere_walk's is rotated about z).
+        const Vec3 X{c.X[3 * i], c.X[3 * i + 1], c.X[3 * i + 2]};
+        ASSERT_NEAR(X.z, s.X[3 * i + 2], 1e-6f);
+        ASSERT_NEAR(X.x * X.x + X.y * X.y,
+                    s.X[3 * i] * s.X[3 * i] + s.X[3 * i + 1] * s.X[3 * i + 1], 1e-5f);
+        const Vec3 x{c.exit_pos[3 * i], c.exit_pos[3 * i + 1], c.exit_pos[3 * i + 2]};
+        const Vec3 w{c.exit_dir[3 * i], c.exit_dir[3 * i + 1], c.exit_dir[3 * i + 2]};
+        // The exit direction's tangential part, squared (rounding: a few ulps of 1).
+        if (s.N[i] > 1)
+            ASSERT_NEAR(1.f - dot(w, x) * dot(w, x),
+                        s.alpha[i] * s.alpha[i] + s.beta[i] * s.beta[i], 1e-5f);
+    }
+}
+
+// Without scattering after the centre (sigma = 0) the photon flies straight along its
+// first direction, which meets the plane z = h before the sphere exactly when its
+// cosine with +z exceeds h: P = 1 - F(h), F Henyey-Greenstein's distribution function
+// of the cosine about w_in = +z.
+TEST(CutSphereWalk, StraightFlightsLeaveThroughThePlaneWithTheirHgProbability) {
+    const int64_t n = 200000;
+    for (float g : {0.f, 0.5f, 0.9f})
+        for (float h : {0.1f, 0.5f, 0.9f}) {
+            CutSphereWalkBatch c = cut_sphere_walks({0.f}, {g}, {h}, {1.f}, {1.f}, n, 3);
+            int64_t plane = 0;
+            for (int64_t i = 0; i < n; ++i) plane += c.through_plane[i];
+            const double x = h;
+            const double F =
+                g == 0.f
+                    ? (1.0 + x) / 2.0
+                    : (1.0 - g * g) / (2.0 * g) *
+                          (1.0 / std::sqrt(1.0 + g * g - 2.0 * g * x) - 1.0 / (1.0 + g));
+            const double p = 1.0 - F, se = std::sqrt(p * (1.0 - p) / double(n));
+            EXPECT_NEAR(double(plane) / double(n), p, 4.5 * se)
+                << "g " << g << " h " << h;
+        }
+}
+
+// Every walk ends on the region's surface, leaving it: on the plane (z = h, inside the
+// unit disc's cut, moving up) or on the cap (|x| = 1, z <= h, moving out).
+TEST(CutSphereWalk, ExitsLieOnTheSurfaceAndLeaveIt) {
+    for (float mu0 : {-1.f, -0.3f, 0.4f, 1.f}) {
+        const int64_t n = 20000;
+        CutSphereWalkBatch c =
+            cut_sphere_walks({8.f}, {0.9f}, {0.3f}, {mu0}, {0.9f}, n, 5);
+        int64_t plane = 0;
+        for (int64_t i = 0; i < n; ++i) {
+            ASSERT_GE(c.N[i], 1);
+            const Vec3 x{c.exit_pos[3 * i], c.exit_pos[3 * i + 1], c.exit_pos[3 * i + 2]};
+            const Vec3 w{c.exit_dir[3 * i], c.exit_dir[3 * i + 1], c.exit_dir[3 * i + 2]};
+            ASSERT_NEAR(length(w), 1.f, 1e-5f);
+            if (c.through_plane[i]) {
+                ++plane;
+                ASSERT_EQ(x.z, 0.3f);
+                ASSERT_LE(x.x * x.x + x.y * x.y, 1.f - 0.09f + 1e-5f);
+                ASSERT_GT(w.z, 0.f);
+            } else {
+                ASSERT_NEAR(length(x), 1.f, 1e-5f);
+                ASSERT_LE(x.z, 0.3f + 1e-5f);
+                ASSERT_GE(dot(w, x), -1e-5f);
+            }
+        }
+        // Both ways out are taken (the plane is 0.3 radii away, the cap farther).
+        EXPECT_GT(plane, n / 20) << "mu0 " << mu0;
+        EXPECT_LT(plane, n - n / 20) << "mu0 " << mu0;
+    }
+}
+
+TEST(CutSphereWalk, RejectsInvalidParameters) {
+    EXPECT_THROW(cut_sphere_walks({1.f}, {0.f}, {0.f}, {1.f}, {1.f}, 10, 0), Error);
+    EXPECT_THROW(cut_sphere_walks({1.f}, {0.f}, {NAN}, {1.f}, {1.f}, 10, 0), Error);
+    EXPECT_THROW(cut_sphere_walks({1.f}, {0.f}, {0.5f}, {1.5f}, {1.f}, 10, 0), Error);
+    EXPECT_THROW(cut_sphere_walks({1.f}, {1.f}, {0.5f}, {1.f}, {1.f}, 10, 0), Error);
+    EXPECT_THROW(cut_sphere_walks({-1.f}, {0.f}, {0.5f}, {1.f}, {1.f}, 10, 0), Error);
+    EXPECT_THROW(cut_sphere_walks({1.f, 2.f}, {0.f}, {0.5f}, {1.f}, {1.f}, 3, 0), Error);
+    EXPECT_THROW(cut_sphere_walks({1.f}, {0.f}, {0.5f}, {1.f}, {1.5f}, 10, 0), Error);
+}
+
 }  // namespace
 }  // namespace sss

@@ -1,4 +1,4 @@
-// Bindings of media/: the canonical sphere walks (numpy in, numpy out).
+// Bindings of media/: the canonical and the cut sphere walks (numpy in, numpy out).
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
@@ -52,4 +52,31 @@ void bind_media(py::module_& m) {
         "Canonical unit-sphere walks (see media/sphere_walk.h); parameters are float32 "
         "arrays "
         "of length 1 or n.");
+    m.def(
+        "cut_sphere_walks",
+        [](const FloatArray& sigma, const FloatArray& g, const FloatArray& h,
+           const FloatArray& mu0, const FloatArray& albedo, int64_t n, uint64_t seed,
+           uint64_t first_index, int threads) {
+            std::vector<float> s = to_vector(sigma), gg = to_vector(g), hh = to_vector(h),
+                               m0 = to_vector(mu0), a = to_vector(albedo);
+            sss::CutSphereWalkBatch b;
+            {
+                py::gil_scoped_release release;
+                b = sss::cut_sphere_walks(s, gg, hh, m0, a, n, seed, first_index,
+                                          threads);
+            }
+            py::dict d;
+            d["N"] = to_array(std::move(b.N), {n});
+            d["through_plane"] = to_array(std::move(b.through_plane), {n});
+            d["exit_pos"] = to_array(std::move(b.exit_pos), {n, 3});
+            d["exit_dir"] = to_array(std::move(b.exit_dir), {n, 3});
+            d["X"] = to_array(std::move(b.X), {n, 3});
+            d["W"] = to_array(std::move(b.W), {n, 3});
+            return d;
+        },
+        py::arg("sigma_t"), py::arg("g"), py::arg("h"), py::arg("mu0"), py::arg("albedo"),
+        py::arg("n"), py::arg("seed") = 0, py::arg("first_index") = 0,
+        py::arg("threads") = 0,
+        "Walks in the unit sphere cut by the plane z = h (see media/sphere_walk.h); "
+        "parameters are float32 arrays of length 1 or n.");
 }

@@ -2,7 +2,9 @@
 
 See docs/notation.md ("The canonical sphere problem"): a photon starts at the centre travelling
 +z, scatters there (the first event counts) and alternates Henyey-Greenstein scattering with
-exponential flights of optical radius ``sigma_t`` until it leaves the sphere.
+exponential flights of optical radius ``sigma_t`` until it leaves the sphere. ``cut_sphere_walks``
+is the same walk in the sphere cut by a plane ("The cut sphere problem"), the ground truth for a
+step near a flat boundary (issue 26; no model is trained on it yet).
 """
 
 from __future__ import annotations
@@ -34,6 +36,14 @@ def _param(name: str, value: ArrayLike, n: int, lo: float, hi: float, closed_hi:
             allowed = "-1 < g < 1"
         raise ValueError(f"{name}[{i}] = {a[i]!r} is out of range (allowed: {allowed})")
     return a.astype(np.float32)
+
+
+def _count(name: str, v, lo: int) -> int:
+    """An integer argument >= lo (threads: 0 = all cores)."""
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+        note = " (0 = all cores)" if name == "threads" else ""
+        raise ValueError(f"{name} must be an integer >= {lo}{note}, got {v!r}")
+    return int(v)
 
 
 def sphere_walks(
@@ -70,21 +80,66 @@ def sphere_walks(
         ``cos_theta`` (n,) exit point's z, ``alpha``, ``beta`` (n,) exit direction along b and t,
         ``X`` (n, 3) representative event position, ``W`` (n, 3) direction arriving at it.
     """
-    for name, v, lo in (("n", n, 1), ("seed", seed, 0), ("first_index", first_index, 0)):
-        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
-            raise ValueError(f"{name} must be an integer >= {lo}, got {v!r}")
-    threads = 0 if threads is None else threads
-    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 0:
-        raise ValueError(f"threads must be an integer >= 0 (0 = all cores), got {threads!r}")
-    n = int(n)
+    n = _count("n", n, 1)
+    seed, first_index = _count("seed", seed, 0), _count("first_index", first_index, 0)
+    threads = _count("threads", 0 if threads is None else threads, 0)
     s = _param("sigma_t", sigma_t, n, 0.0, MAX_SIGMA_T, True)
     gg = _param("g", g, n, -1.0, 1.0, False)
     a = _param("albedo", albedo, n, 0.0, 1.0, True)
     if ray_address is not None:
         from sssphere.cluster import walks
 
-        parts, interrupted = walks(s, gg, a, int(seed), int(first_index), ray_address)
+        parts, interrupted = walks(s, gg, a, seed, first_index, ray_address)
         if interrupted:
             raise KeyboardInterrupt
         return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
-    return _core.sphere_walks(s, gg, a, n, int(seed), int(first_index), int(threads))
+    return _core.sphere_walks(s, gg, a, n, seed, first_index, threads)
+
+
+def cut_sphere_walks(
+    sigma_t: ArrayLike,
+    g: ArrayLike,
+    h: ArrayLike,
+    mu0: ArrayLike,
+    albedo: ArrayLike,
+    n: int,
+    seed: int = 0,
+    threads: Optional[int] = None,
+    first_index: int = 0,
+) -> dict:
+    """Simulate ``n`` walks in the unit sphere cut by the plane z = h (C++, multithreaded).
+
+    The medium is the part z < h. The photon arrived at the centre travelling
+    (sqrt(1 − mu0²), 0, mu0) and scatters there (the first event counts); it walks until a
+    flight leaves the region, through the plane (the boundary) or through the cap.
+
+    Parameters
+    ----------
+    sigma_t, g, albedo : float or (n,) arrays
+        As for :func:`sphere_walks`.
+    h : float or (n,) array
+        The plane's distance from the centre in radii, > 0 (h >= 1: no cut).
+    mu0 : float or (n,) array
+        Cosine between the arriving direction and the plane's normal +z, in [−1, 1].
+    n, seed, threads, first_index
+        As for :func:`sphere_walks` (the same random streams).
+
+    Returns
+    -------
+    dict of numpy arrays, in the walk's frame (the plane's normal +z, the arriving direction
+    in the x-z plane): ``N`` (n,) int64 >= 1, ``through_plane`` (n,) uint8 (1: left through
+    the plane), ``exit_pos`` and ``exit_dir`` (n, 3), ``X`` and ``W`` (n, 3) the
+    representative event and the direction arriving at it.
+    """
+    n = _count("n", n, 1)
+    seed, first_index = _count("seed", seed, 0), _count("first_index", first_index, 0)
+    threads = _count("threads", 0 if threads is None else threads, 0)
+    s = _param("sigma_t", sigma_t, n, 0.0, MAX_SIGMA_T, True)
+    gg = _param("g", g, n, -1.0, 1.0, False)
+    hh = _param("h", h, n, 0.0, np.inf, False)
+    if (hh <= 0).any():
+        i = int(np.argmax(hh <= 0))
+        raise ValueError(f"h[{i}] = {hh[i]!r} is out of range (allowed: h > 0)")
+    m0 = _param("mu0", mu0, n, -1.0, 1.0, True)
+    a = _param("albedo", albedo, n, 0.0, 1.0, True)
+    return _core.cut_sphere_walks(s, gg, hh, m0, a, n, seed, first_index, threads)
