@@ -22,10 +22,12 @@ measures with exact walks what such steps would save:
    Reported: events and steps per path, and a projected speed-up over ``pt`` for a step
    costing ``c`` events (the renderer's sphere step costs about 2; a cut step's model would be
    about as large).
+3. **How flat the bunny is** at the radii tried: the sagitta a cut plane loses to its
+   curvature, and the half-space runs again with the plane lowered by the median sagitta.
 
 Absorption is simulated: an event survives with probability φ, a step of N events with φ^N.
 
-    python -m bench.cut_sphere               # ~1 min on 2 cores
+    python -m bench.cut_sphere               # ~20 s on 2 cores
     python -m bench.cut_sphere --paths 2000  # a smoke run
 
 Writes bench/results/cut_sphere.json.
@@ -66,11 +68,12 @@ def perpendicular_frame(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return e1, np.cross(w, e1)
 
 
-def step(pos, d, radius_optical, depth_cut, g, albedo, rng, seed):
+def step(pos, d, radius_optical, depth_cut, g, albedo, rng, seed, sagitta=0.0):
     """Exact (cut) sphere steps at pos (depth = pos[:, 2] > 0, the boundary z = 0) with
-    arriving directions d: the sphere of optical radius `radius_optical`, cut by the boundary
-    if depth_cut (h = depth / radius), whole otherwise. Returns the exit positions and
-    directions, N, and whether the walk left through the boundary."""
+    arriving directions d: the sphere of optical radius `radius_optical`, cut by the plane at
+    depth `sagitta` if depth_cut (h = (depth - sagitta) / radius), whole otherwise. Returns the
+    exit positions and directions, N, and whether the walk left the medium (through the plane
+    when it is the boundary itself, sagitta 0)."""
     n = len(pos)
     zw = np.tile([0.0, 0.0, -1.0], (n, 1))  # the walk's +z: towards the boundary
     mu0 = np.clip(-d[:, 2], -1.0, 1.0)
@@ -79,7 +82,7 @@ def step(pos, d, radius_optical, depth_cut, g, albedo, rng, seed):
     fallback, _ = perpendicular_frame(zw)
     xw = np.where(norm > 1e-6, perp / np.maximum(norm, 1e-12), fallback)
     yw = np.cross(zw, xw)
-    h = np.where(depth_cut, pos[:, 2] / radius_optical, 2.0)
+    h = np.where(depth_cut, (pos[:, 2] - sagitta) / radius_optical, 2.0)
     w = cut_sphere_walks(radius_optical, g, h, mu0, albedo, n, seed=seed)
 
     def world(v):
@@ -89,13 +92,16 @@ def step(pos, d, radius_optical, depth_cut, g, albedo, rng, seed):
     exit_dir = world(w["exit_dir"].astype(np.float64))
     exit_dir /= np.linalg.norm(exit_dir, axis=1, keepdims=True)
     through = w["through_plane"].astype(bool)
-    exit_pos[through, 2] = 0.0
-    return exit_pos, exit_dir, w["N"], through
+    exit_pos[through, 2] = sagitta
+    return exit_pos, exit_dir, w["N"], through & (sagitta == 0.0)
 
 
 def half_space(mode: str, paths: int, tau: float, cut_radius: float, sigma_max: float, g: float,
-               albedo: float, seed: int) -> dict:
-    """One integrator's paths in the half-space; returns events, steps and exits per path."""
+               albedo: float, seed: int, sagitta: float = 0.0) -> dict:
+    """One integrator's paths in the half-space; returns events, steps and exits per path.
+    sagitta: how far below the boundary the cut plane lies (a curved surface's loss, mean free
+    paths); a walk leaving through such a plane is still inside and flies on from there, and a
+    collision whose plane would lie within a tenth of a mean free path is delta tracked."""
     rng = np.random.default_rng(seed)
     pos = np.zeros((paths, 3))
     d = np.tile([0.0, 0.0, 1.0], (paths, 1))
@@ -119,7 +125,7 @@ def half_space(mode: str, paths: int, tau: float, cut_radius: float, sigma_max: 
             break
         depth = pos[active, 2]
         sphere = (mode != "pt") & (depth >= tau)
-        cut = (mode == "st+cut") & ~sphere
+        cut = (mode == "st+cut") & ~sphere & (depth - sagitta > 0.1)
         stepping = sphere | cut
         # Delta tracking: one event, then absorption and an HG direction.
         dt = active[~stepping]
@@ -133,7 +139,7 @@ def half_space(mode: str, paths: int, tau: float, cut_radius: float, sigma_max: 
             radius = np.where(sphere[stepping], np.minimum(depth[stepping], sigma_max), cut_radius)
             call += 1
             p, w, N, through = step(pos[st], d[st], radius, cut[stepping], g, 1.0, rng,
-                                    seed * 1000003 + call)
+                                    seed * 1000003 + call, sagitta)
             pos[st], d[st] = p, w
             sphere_steps[st[sphere[stepping]]] += 1
             cut_steps[st[cut[stepping]]] += 1
@@ -146,6 +152,56 @@ def half_space(mode: str, paths: int, tau: float, cut_radius: float, sigma_max: 
             "cut_steps": float(cut_steps.mean()), "events_in_steps": float(replaced.mean()),
             "exit_fraction": float(exited.mean()),
             "exit_fraction_se": float(np.sqrt(exited.mean() * (1 - exited.mean()) / paths))}
+
+
+def bunny_sagitta(sigma_t: float, radii: list[float], points: int, tau: float, seed: int) -> dict:
+    """How flat the bunny (st_vs_pt.py's, largest side 1) is at the scale of a cut sphere step.
+
+    Points of the near-surface layer (depth uniform below tau mean free paths at sigma_t, under
+    area-weighted points of the surface); for each optical radius R, over the surface within
+    the ball of radius R about p, the smallest distance towards the surface along p's normal:
+    the cut plane's distance. Its shortfall against p's depth is the sagitta the plane loses to
+    curvature (mean free paths). Distances are to 4 million points sampled on the surface, not
+    to the triangles: their spacing (in the result) bounds the error of each distance to about
+    spacing² / depth, small against a mean free path except for the shallowest points."""
+    from scipy.spatial import cKDTree
+
+    from bench.st_vs_pt import scene_dict
+    from sssphere import load_scene
+
+    rng = np.random.default_rng(seed)
+    v, f = load_scene(scene_dict("bunny", "dielectric", sigma_t, 8)).shape_mesh(0)
+    tri = np.asarray(v, np.float64)[np.asarray(f)]
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    area = 0.5 * np.linalg.norm(cross, axis=1)
+    normal = cross / (2 * area[:, None])
+
+    def on_surface(n):
+        t = rng.choice(len(tri), n, p=area / area.sum())
+        a, b = rng.random(n), rng.random(n)
+        flip = a + b > 1
+        a[flip], b[flip] = 1 - a[flip], 1 - b[flip]
+        return tri[t, 0] + a[:, None] * (tri[t, 1] - tri[t, 0]) + b[:, None] * (tri[t, 2] - tri[t, 0]), t
+
+    surface, _ = on_surface(4_000_000)
+    tree = cKDTree(surface)
+    q, t = on_surface(points)
+    depth = rng.random(points) * tau / sigma_t
+    p = q - normal[t] * depth[:, None]
+    d, nearest = tree.query(p)
+    keep = d > 0.5 * depth  # not through a thin part to the far side
+    p, d, towards = p[keep], d[keep], (surface[nearest[keep]] - p[keep]) / d[keep, None]
+    out = {"sigma_t": sigma_t, "points": int(keep.sum()), "radii": {},
+           "sample_spacing_mfp": float(np.sqrt(area.sum() / len(surface)) * sigma_t)}
+    for R in radii:
+        sag = np.empty(len(p))
+        for i, ball in enumerate(tree.query_ball_point(p, R / sigma_t)):
+            # No surface within R (a point deeper than R): the sphere is whole, nothing lost.
+            sag[i] = d[i] - np.min((surface[ball] - p[i]) @ towards[i]) if ball else 0.0
+        sag *= sigma_t
+        out["radii"][f"{R:g}"] = {"median": float(np.median(sag)), "p90": float(np.quantile(sag, 0.9)),
+                                  "mean": float(sag.mean())}
+    return out
 
 
 def per_step_table(sigma_rs, hs, mu0s, g, n, seed) -> list[dict]:
@@ -170,6 +226,9 @@ def main() -> None:
     p.add_argument("--albedo", type=float, default=0.999)
     p.add_argument("--cost", type=float, nargs="+", default=[2.0, 3.0],
                    help="a step's cost in events, for the projected speed-ups")
+    p.add_argument("--bunny-sigma", type=float, default=1000.0,
+                   help="measure the bunny's sagitta at this sigma_t (0: skip)")
+    p.add_argument("--bunny-points", type=int, default=5000, help="points of the bunny's layer")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--output", type=Path, default=HERE / "results" / "cut_sphere.json")
     args = p.parse_args()
@@ -181,6 +240,16 @@ def main() -> None:
         print(f"  sigma R {r['sigma_r']:5.1f}  h {r['h']:.2f}  mu0 {r['mu0']:+.0f}:"
               f"  N {r['mean_N']:6.2f}  plane {r['through_plane']:.3f}")
 
+    bunny = None
+    if args.bunny_sigma > 0:
+        bunny = bunny_sagitta(args.bunny_sigma, args.cut_radius, args.bunny_points, args.tau,
+                              args.seed)
+        print(f"\nthe bunny at sigma_t {args.bunny_sigma:g}: sagitta of the cut plane (mean free "
+              f"paths) over {bunny['points']} points of its layer (surface samples "
+              f"{bunny['sample_spacing_mfp']:.2f} mean free paths apart)")
+        for r, v in bunny["radii"].items():
+            print(f"  R {r:>4s}: median {v['median']:.2f}  p90 {v['p90']:.2f}  mean {v['mean']:.2f}")
+
     runs = {"pt": half_space("pt", args.paths, args.tau, 0.0, args.sigma_max, args.g,
                              args.albedo, args.seed),
             "st": half_space("st", args.paths, args.tau, 0.0, args.sigma_max, args.g,
@@ -188,6 +257,11 @@ def main() -> None:
     for r in args.cut_radius:
         runs[f"st+cut {r:g}"] = half_space("st+cut", args.paths, args.tau, r, args.sigma_max,
                                            args.g, args.albedo, args.seed)
+        if bunny:  # the plane lowered by the bunny's median sagitta at this radius
+            sag = bunny["radii"][f"{r:g}"]["median"]
+            runs[f"st+cut {r:g}, sagitta {sag:.2f}"] = half_space(
+                "st+cut", args.paths, args.tau, r, args.sigma_max, args.g, args.albedo, args.seed,
+                sagitta=sag)
     pt_events = runs["pt"]["events"]
     print(f"\nhalf-space, {args.paths} paths per integrator, albedo {args.albedo}, g {args.g}")
     for name, r in runs.items():
@@ -204,7 +278,7 @@ def main() -> None:
         "date": datetime.datetime.now().isoformat(timespec="seconds"),
         "machine": platform.platform(),
         "settings": {k: v for k, v in vars(args).items() if k != "output"},
-        "per_step": table, "half_space": runs}, indent=1) + "\n")
+        "per_step": table, "bunny_sagitta": bunny, "half_space": runs}, indent=1) + "\n")
     print(f"wrote {args.output}")
 
 
