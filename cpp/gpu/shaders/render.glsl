@@ -116,12 +116,6 @@ const int kBoundaryVertex = 2;
 // sample_light's `march` for vertices off a medium: no second shadow-ray roulette.
 const vec3 kNoMarch = vec3(0.0, 0.0, 1.0);
 
-// PathTracer::sample_light with MIS at a vertex at p, the photon arriving along d: a
-// scattering event in medium `shape` with phase function ph (kMediumVertex), a point of
-// an opaque surface sf found by `hit` (in medium `shape`, -1: vacuum; kSurfaceVertex), or
-// a point of a rough boundary, the shape of `hit`'s (kBoundaryVertex). One light chosen
-// uniformly, weighted by the number of lights; with delta_only, one of the point and
-// directional lights (the first lighting.z of lights[]).
 // PathTracer's shadow_march_keep: the probability to trace a shadow ray from a scattering
 // event at p in `shape` along w to a light dist away, by sphere tracing it through the
 // shape's grid from the bound r at p (march: r, the extinction sigma of the bounds, and
@@ -137,6 +131,13 @@ float shadow_march_keep(int shape, vec3 p, vec3 w, float dist, vec3 march) {
     return shadow_keep_again(exp(-march.y * min(t, dist)), march.z);
 }
 
+// PathTracer::sample_light with MIS at a vertex at p, the photon arriving along d: a
+// scattering event in medium `shape` with phase function ph (kMediumVertex), a point of
+// an opaque surface sf found by `hit` (in medium `shape`, -1: vacuum; kSurfaceVertex), or
+// a point of a rough boundary, the shape of `hit`'s (kBoundaryVertex). One light chosen
+// uniformly, weighted by the number of lights; with delta_only, one of the point and
+// directional lights (the first lighting.z of lights[]). march: shadow_march_keep's for a
+// medium vertex, kNoMarch for the others.
 vec3 sample_light(vec3 p, vec3 d, int shape, PhaseData ph, int vertex, SurfaceData sf,
                   Hit hit, bool delta_only, vec3 march, inout RngState rng) {
     uint count = delta_only ? lighting.z : lighting.x;
