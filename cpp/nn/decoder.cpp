@@ -223,7 +223,7 @@ Decoder parse_decoder(const std::string& text, const std::string& source) {
     const json& training = require(j, "training", root);
     Field ft = root.at("training");
     if (!training.is_object()) ft.error("expected an object, got ", type_name(training));
-    for (const char* param : {"sigma", "g", "phi"}) {
+    for (const char* param : {"sigma", "g", "phi", "h", "mu0"}) {
         bool is_condition = false;
         for (const auto& c : d.conditions) is_condition |= c.name == param;
         auto it = training.find(param);

@@ -100,4 +100,27 @@ inline Decoder random_decoder(const std::string& name, uint64_t seed,
     return random_decoder(table1_shape(name), seed, weight_scale, logvar_bias);
 }
 
+// Random-weight cut sphere decoders ("CutLengthGen", "CutPathGen": the shapes of
+// spec.CUT_SPECS), "trained" for sigma in [0.5, 32], g in [-0.95, 0.95], h in [0.01, 1]
+// and mu0 in [-1, 1].
+inline Decoder random_cut_decoder(const std::string& name, uint64_t seed) {
+    DecoderShape shape =
+        name == "CutLengthGen"
+            ? DecoderShape{"CutLengthGen", {"sigma", "g", "h", "mu0"}, {"N"}, 2, 16, 2}
+            : DecoderShape{"CutPathGen",
+                           {"sigma", "g", "h", "mu0", "N"},
+                           {"cos_p", "cos_psi", "alpha", "beta"},
+                           5,
+                           32,
+                           2};
+    if (name != "CutLengthGen" && name != "CutPathGen")
+        fail("random_cut_decoder: unknown decoder '", name, "'");
+    Decoder d = random_decoder(shape, seed);
+    d.training_ranges = {{"sigma", {0.5, 32.0}},
+                         {"g", {-0.95, 0.95}},
+                         {"h", {0.01, 1.0}},
+                         {"mu0", {-1.0, 1.0}}};
+    return d;
+}
+
 }  // namespace sss

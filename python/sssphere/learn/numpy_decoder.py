@@ -30,7 +30,7 @@ TOP_LEVEL_KEYS = {"format", "format_version", "notation_version", "name", "condi
                   "latent_dim", "input_width", "layers", "outputs", "training", "metrics"}
 OPTIONAL_TOP_LEVEL_KEYS = {"metrics"}
 LAYER_KEYS = {"in", "out", "activation", "weight", "bias"}
-RANGED_CONDITIONS = ("sigma", "g", "phi")  # checked against training[...] = [lo, hi]
+RANGED_CONDITIONS = ("sigma", "g", "phi", "h", "mu0")  # checked against training[...] = [lo, hi]
 
 
 class ModelFileError(ValueError):

@@ -156,7 +156,18 @@ EVENTGEN = ModelSpec("EventGen", "eventgen",
                      ("sigma", "g", "phi", "N", "cos_theta", "alpha", "beta"),
                      ("X_x", "X_y", "X_z", "W_x", "W_y", "W_z"), latent_dim=5, width=16)
 SPECS = (LENGTHGEN, PATHGEN, EVENTGEN)
-SPECS_BY_NAME = {s.name: s for s in SPECS}
+# Steps in a sphere cut by a plane (docs/learning.md, "Learned cut sphere steps"; issue 26).
+# h is the plane's distance from the centre in radii, mu0 the arriving direction's cosine to
+# the plane's normal. The exit point seen from the centre is (sin, 0, cos_p) turned by
+# cos_psi about +z (mirrored to y >= 0: the problem is symmetric in y); the exit direction
+# is alpha t + beta b + sqrt(1 - alpha^2 - beta^2) n in the exit surface's frame
+# (sssphere.learn.cut.exit_frame).
+CUT_LENGTHGEN = ModelSpec("CutLengthGen", "cutlengthgen", ("sigma", "g", "h", "mu0"), ("N",),
+                          latent_dim=2, width=16)
+CUT_PATHGEN = ModelSpec("CutPathGen", "cutpathgen", ("sigma", "g", "h", "mu0", "N"),
+                        ("cos_p", "cos_psi", "alpha", "beta"), latent_dim=5, width=32)
+CUT_SPECS = (CUT_LENGTHGEN, CUT_PATHGEN)
+SPECS_BY_NAME = {s.name: s for s in SPECS + CUT_SPECS}
 
 # The fixed part of each variable's encoding (before standardization). ε keeps the logs
 # finite at the ends of the ranges and sets the finest scale they resolve.
@@ -173,6 +184,11 @@ _COMMON = {
     # decoder's Gaussian followed by W ← W/|W| is a projected normal, the natural family for W
     # (a logit encoding of W's components was much worse).
     **{f"{v}_{k}": Encoding("affine") for v in "XW" for k in "xyz"},
+    # Cut sphere conditions: h in (0, 1], mu0 in [-1, 1] through logits (ε = 1e-3).
+    "h": Encoding("logit", lo=0.0, hi=1.0, eps=1e-3),
+    "mu0": Encoding("logit", eps=1e-3),
+    "cos_p": Encoding("logit", eps=COS_THETA_EPS),
+    "cos_psi": Encoding("logit", eps=DIRECTION_EPS),
 }
 # The shipped choice: bounded variables through `logit` (docs/model-format.md). A uniform
 # variable on [−1, 1] becomes logistic (nearly Gaussian), a peak at an end is stretched.

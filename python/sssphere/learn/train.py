@@ -28,7 +28,7 @@ import torch
 from sssphere._progress import Progress
 from sssphere.learn.data import TrainingData, load_training_data
 from sssphere.learn.models import CVAE, gaussian_nll, kl_per_dim
-from sssphere.learn.spec import ENCODING_SETS, SPECS, Encoding, ModelSpec
+from sssphere.learn.spec import CUT_SPECS, ENCODING_SETS, SPECS, Encoding, ModelSpec
 
 # Share of a `max_minutes` budget per model, roughly their cost per sample.
 TIME_SHARES = {"LengthGen": 0.2, "PathGen": 0.35, "EventGen": 0.45}
@@ -61,7 +61,7 @@ class TrainConfig:
 def _columns(data: TrainingData, names) -> np.ndarray:
     cols = []
     for name in names:
-        if name in ("X_x", "X_y", "X_z", "W_x", "W_y", "W_z"):
+        if len(name) == 3 and name[1] == "_" and name[2] in "xyz":  # X_x: column x of X
             cols.append(getattr(data, name[0])[:, "xyz".index(name[2])])
         else:
             cols.append(np.asarray(getattr(data, name), dtype=np.float64))
@@ -80,10 +80,21 @@ def fit_encodings(spec: ModelSpec, data: TrainingData, rng: np.random.Generator,
         enc[name] = base[name].standardized(_columns(data, [name])[:, 0])
     for name in spec.outputs:
         x = _columns(data, [name])[:, 0]
-        if spec.name == "LengthGen":
+        if _dequantized(spec):
             x = x + rng.random(x.shape[0])
         enc[name] = base[name].standardized(x)
     return enc
+
+
+def _dequantized(spec: ModelSpec) -> bool:
+    """Models of N alone (LengthGen, CutLengthGen) learn the dequantized N + ξ."""
+    return spec.outputs == ("N",)
+
+
+def _seed_index(spec: ModelSpec) -> int:
+    """Distinct per model: its place in SPECS, then in CUT_SPECS (seeds of the shipped three
+    unchanged)."""
+    return (SPECS + CUT_SPECS).index(spec)
 
 
 def _encode_torch(e: Encoding, x: torch.Tensor) -> torch.Tensor:
@@ -113,7 +124,7 @@ class _Batches:
 
     def get(self, idx: torch.Tensor, gen: torch.Generator) -> tuple[torch.Tensor, torch.Tensor]:
         x = self.x_raw[idx]
-        if self.spec.name == "LengthGen":
+        if _dequantized(self.spec):
             x = x + torch.rand(x.shape, generator=gen, dtype=x.dtype)
         elif self.jitter > 0:
             x = x + self.jitter * torch.randn(x.shape, generator=gen, dtype=x.dtype)
@@ -160,11 +171,11 @@ def train_cvae(spec: ModelSpec, data: TrainingData, cfg: TrainConfig, seed: int,
     if len(data) < 2:
         raise ValueError(f"{data.path}: fewer than 2 walks to train {spec.name} on (it needs "
                          f"N >= 2{' and X != 0' if spec.name == 'EventGen' else ''})")
-    rng = np.random.default_rng([seed, SPECS.index(spec)])
-    torch.manual_seed(seed * 7919 + SPECS.index(spec))
+    rng = np.random.default_rng([seed, _seed_index(spec)])
+    torch.manual_seed(seed * 7919 + _seed_index(spec))
     enc = fit_encodings(spec, data, rng, cfg.encodings)
     batches = _Batches(spec, data, enc, cfg)
-    gen = torch.Generator().manual_seed(seed * 104729 + SPECS.index(spec))
+    gen = torch.Generator().manual_seed(seed * 104729 + _seed_index(spec))
     perm = torch.randperm(len(batches), generator=gen)
     n_val = min(cfg.max_val, max(1, int(round(cfg.val_fraction * len(batches)))))
     if len(batches) - n_val < 1:
