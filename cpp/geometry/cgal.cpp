@@ -26,6 +26,7 @@
 #include "core/check.h"
 #include "core/files.h"
 #include "core/parallel.h"
+#include "geometry/cut_planes.h"
 #include "geometry/distance_grid.h"
 #include "geometry/mesh.h"
 #include "geometry/polygon_readers.h"
@@ -403,6 +404,90 @@ DistanceGrid DistanceGrid::build(const TriangleMesh& mesh, int resolution, int t
         }
     });
     return grid;
+}
+
+CutPlanes CutPlanes::build(const TriangleMesh& mesh, const DistanceGrid& grid,
+                           float radius, int threads) {
+    if (!(radius > 0.f) || !std::isfinite(radius))
+        fail("cut planes: radius must be a finite number > 0, got ", radius);
+    SSS_CHECK(!grid.empty());
+    CutPlanes cp;
+    cp.cell_ = grid.cell_size();
+    cp.inv_cell_ = 1.f / cp.cell_;
+    cp.origin_ = grid.origin();
+    cp.radius_ = radius;
+    cp.n_[0] = grid.nx() - 1, cp.n_[1] = grid.ny() - 1, cp.n_[2] = grid.nz() - 1;
+    // Rounding in s(p): p - c and the dot product (a few ulps of the coordinates, which
+    // the grid's guard covers) and m's own rounding (down, below).
+    cp.guard_ = 4.f * grid.guard() + 1e-6f * radius;
+    const double half_diagonal = 0.5 * std::sqrt(3.0) * double(cp.cell_);
+    const double reach = double(radius) * (1.0 + 1e-6) + half_diagonal;
+    const size_t count = size_t(cp.n_[0]) * cp.n_[1] * cp.n_[2];
+    cp.index_.assign(count, -1);
+
+    std::vector<Triangle> tris = cgal_triangles(mesh);
+    Tree tree(tris.begin(), tris.end());
+    tree.accelerate_distance_queries();
+    tree.closest_point(Point(0, 0, 0));  // builds the search structure before the threads
+
+    std::vector<std::vector<std::pair<size_t, Entry>>> found(size_t(cp.n_[2]));
+    parallel_chunks(threads, cp.n_[2], 1, [&](int64_t k0, int64_t k1) {
+        std::vector<Tree::Primitive_id> ids;
+        for (int k = int(k0); k < int(k1); ++k) {
+            for (int j = 0; j < cp.n_[1]; ++j) {
+                for (int i = 0; i < cp.n_[0]; ++i) {
+                    bool any_inside = false;
+                    float nearest = INFINITY;
+                    for (int c = 0; c < 8; ++c) {
+                        const int a = i + (c & 1), b = j + ((c >> 1) & 1),
+                                  e = k + (c >> 2);
+                        any_inside |= grid.node_inside(a, b, e);
+                        nearest = std::min(nearest, grid.node_distance(a, b, e));
+                    }
+                    if (!any_inside || !(double(nearest) < reach + 2.0 * half_diagonal))
+                        continue;
+                    Entry entry;
+                    entry.centre = grid.node_position(i, j, k) + Vec3(0.5f * cp.cell_);
+                    const Point c = to_point(entry.centre);
+                    const auto [q, id] = tree.closest_point_and_primitive(c);
+                    const Vec3 face = mesh.normal(size_t(id - tris.begin()));
+                    const Vec3 to_q(float(q.x() - c.x()), float(q.y() - c.y()),
+                                    float(q.z() - c.z()));
+                    const float l = length(to_q);
+                    entry.n =
+                        dot(to_q, face) > 0.f && l > 1e-6f * cp.cell_ ? to_q / l : face;
+                    const K::Iso_cuboid_3 box(c.x() - reach, c.y() - reach, c.z() - reach,
+                                              c.x() + reach, c.y() + reach,
+                                              c.z() + reach);
+                    ids.clear();
+                    tree.all_intersected_primitives(box, std::back_inserter(ids));
+                    double m = reach;
+                    for (const auto& t : ids) {
+                        // Triangles in the box but not in the ball cannot matter.
+                        if (CGAL::squared_distance(c, *t) > reach * reach) continue;
+                        for (int v = 0; v < 3; ++v) {
+                            const Point& p = t->vertex(v);
+                            m = std::min(m, (p.x() - c.x()) * entry.n.x +
+                                                (p.y() - c.y()) * entry.n.y +
+                                                (p.z() - c.z()) * entry.n.z);
+                        }
+                    }
+                    m = std::max(m, -reach);
+                    float mf = float(m);
+                    if (double(mf) > m) mf = std::nextafter(mf, -INFINITY);
+                    entry.m = mf;
+                    found[size_t(k)].emplace_back(
+                        (size_t(k) * cp.n_[1] + j) * cp.n_[0] + i, entry);
+                }
+            }
+        }
+    });
+    for (const auto& slab : found)
+        for (const auto& [idx, entry] : slab) {
+            cp.index_[idx] = int32_t(cp.entries_.size());
+            cp.entries_.push_back(entry);
+        }
+    return cp;
 }
 
 bool point_inside_mesh(const TriangleMesh& mesh, Vec3 p) {

@@ -96,6 +96,7 @@ py::dict options_dict(const RenderOptions& r) {
     d["nee"] = r.nee;
     d["sphere_threshold"] = r.sphere_threshold;
     d["models"] = r.models;
+    d["cut_models"] = r.cut_models;
     d["sphere_sampler"] = to_string(r.sphere_sampler);
     d["step_nee"] = to_string(r.step_nee);
     d["record_paths"] = r.record_paths;

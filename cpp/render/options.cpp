@@ -134,6 +134,17 @@ const std::vector<OptionSpec>& render_option_specs() {
          "scene's render.models, else the shipped models)",
          true,
          "a directory path"},
+        {"cut_models",
+         Kind::Text,
+         {},
+         "DIR",
+         "st, experimental: cut sphere steps near the boundary, sampled by "
+         "cutlengthgen.json and cutpathgen.json in DIR (models/cut; CPU only; media "
+         "whose scattering events get no light sampling, e.g. behind a smooth "
+         "dielectric; "
+         "default: none)",
+         true,
+         "a directory path"},
         {"sphere_sampler",
          Kind::Choice,
          {"model", "walk"},
@@ -200,6 +211,7 @@ void set_override(RenderOverrides& o, const std::string& name, const OptionValue
         fail("internal: render option '", name, "' set with a value of another kind");
     if (name == "integrator") o.integrator = std::get<std::string>(v);
     if (name == "models") o.models = std::get<std::string>(v);
+    if (name == "cut_models") o.cut_models = std::get<std::string>(v);
     if (name == "sphere_sampler") o.sphere_sampler = std::get<std::string>(v);
     if (name == "step_nee") o.step_nee = std::get<std::string>(v);
     if (name == "backend") o.backend = std::get<std::string>(v);
@@ -268,6 +280,7 @@ RenderOptions resolve_render_options(const RenderSettings& scene,
     r.models = o.models                ? *o.models
                : !scene.models.empty() ? scene.models
                                        : default_models;
+    r.cut_models = o.cut_models.value_or("");
     r.sphere_sampler =
         checked_choice("sphere_sampler", o.sphere_sampler.value_or("model")) == "walk"
             ? SphereSampler::Walk
@@ -302,7 +315,12 @@ void check_render_options(const RenderOptions& r, const std::string& source) {
         fail(where, "max_bounces ", r.max_bounces,
              " is not supported by integrator 'st' (allowed: -1): a sphere step stands "
              "for many scattering events at once");
+    if (!r.cut_models.empty() && r.integrator != "st")
+        fail(where, "cut_models is an option of integrator 'st' (the integrator is '",
+             r.integrator, "')");
     if (r.backend == Backend::Vulkan) {
+        if (!r.cut_models.empty())
+            fail("cut_models is CPU-only for now (backend 'vulkan' takes no cut steps)");
         if (r.threads != 0)
             fail("threads=", r.threads,
                  " is CPU-only (backend 'vulkan' uses the GPU's own; allowed: 0)");

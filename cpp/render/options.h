@@ -53,6 +53,8 @@ struct RenderOptions {
     // (>= 0; infinity: never, the image is then bit-identical to "pt").
     float sphere_threshold = kDefaultSphereThreshold;
     std::string models;  // "st": the directory of lengthgen/pathgen/eventgen.json
+    // "st": the directory of cutlengthgen/cutpathgen.json; empty: no cut sphere steps.
+    std::string cut_models;
     SphereSampler sphere_sampler = SphereSampler::Model;
     StepNee step_nee = StepNee::Hits;  // "st" with nee
     // Keep every path's event and step counts (8 bytes per path, at most
@@ -81,7 +83,8 @@ struct RenderOptions {
 // "render" block, else RenderOptions' defaults. Values are as given, checked when
 // resolved.
 struct RenderOverrides {
-    std::optional<std::string> integrator, models, sphere_sampler, step_nee, backend;
+    std::optional<std::string> integrator, models, cut_models, sphere_sampler, step_nee,
+        backend;
     std::optional<int64_t> spp, seed, threads, max_bounces;
     std::optional<double> sphere_threshold, time_limit;
     std::optional<bool> nee, record_paths;

@@ -316,6 +316,7 @@ void PathTracer::request_step(PathState& ps, float r) const {
     SSS_CHECK(!ps.spectral);
     ++ps.out.sphere_steps;
     StepRequest& req = ps.step;
+    req.cut = false;
     req.p = ps.o;
     req.w_in = ps.d;
     req.sigma = std::min(sigma_t * r, st_->sigma_max());
@@ -334,6 +335,16 @@ void PathTracer::request_step(PathState& ps, float r) const {
         req.nee_weight = Vec3(0.f);
         req.nee_weight[c] = 3.f;
     }
+}
+
+void PathTracer::request_cut_step(PathState& ps, Vec3 n, float s) const {
+    const Medium& m = scene_.desc().shapes[ps.shape].medium;
+    SSS_CHECK(!ps.spectral);
+    ++ps.out.sphere_steps;
+    StepRequest& req = ps.step;
+    st_->cut_request(ps.shape, ps.o, ps.d, n, s, extinction(m, ps.channel), &req);
+    req.phi = m.albedo[ps.channel < 0 ? 0 : ps.channel];
+    req.nee_weight = Vec3(1.f);
 }
 
 template <bool kSphereTracing>
@@ -525,18 +536,33 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
                 // "Colour").
                 const float sigma_step = spectral ? min_component(s.medium.sigma_t)
                                                   : extinction(s.medium, channel);
+                auto to_one_channel = [&]() {
+                    if (!spectral) return;
+                    const Vec3 w = weight();
+                    channel = std::min(2, int(rng.uniform() * 3.f));
+                    beta = Vec3(0.f);
+                    beta[channel] = 3.f * w[channel];
+                    ratio = Vec3(1.f);
+                    spectral = false;
+                    beta_start = 3.f;
+                };
                 if (sigma_step * r >= st_->threshold()) {
-                    if (spectral) {
-                        const Vec3 w = weight();
-                        channel = std::min(2, int(rng.uniform() * 3.f));
-                        beta = Vec3(0.f);
-                        beta[channel] = 3.f * w[channel];
-                        ratio = Vec3(1.f);
-                        spectral = false;
-                        beta_start = 3.f;
-                    }
+                    to_one_channel();
                     suspend();
                     request_step(ps, r);
+                    return false;
+                }
+                // Too close to the boundary for a sphere: a cut sphere step where a plane
+                // certifies the region between it and the boundary
+                // (docs/sphere-tracing.md, "Cut sphere steps"). The collision at o is the
+                // step's first event. The decision depends on o alone, so it is taken
+                // before the channel is.
+                Vec3 cut_n;
+                float cut_s;
+                if (st_->cuts(shape) && st_->cut_certificate(shape, o, &cut_n, &cut_s)) {
+                    to_one_channel();
+                    suspend();
+                    request_cut_step(ps, cut_n, cut_s);
                     return false;
                 }
             }

@@ -86,6 +86,9 @@ private:
     // "st": fills state.step, the request for a step at the path's position, where the
     // grid gives r.
     void request_step(PathState& state, float r) const;
+    // "st" with cut_models: fills state.step, the request for a cut sphere step at the
+    // path's position, where the plane certificate gives normal n and distance s.
+    void request_cut_step(PathState& state, Vec3 n, float s) const;
     // Scattering x transmittance x emitted radiance / pdf at the path vertex p from one
     // light chosen uniformly (weighted by the number of lights; delta_only: among the
     // point and directional lights), with MIS against the vertex's own sampled

@@ -5,7 +5,9 @@
 #include <sstream>
 
 #include "core/check.h"
+#include "geometry/cut_planes.h"
 #include "media/sphere_walk.h"
+#include "nn/cut_step_model.h"
 #include "nn/scattering_model.h"
 #include "shared/sphere_step.h"
 
@@ -27,7 +29,8 @@ float float_above(double x) {
 }  // namespace
 
 SphereTracing::SphereTracing(const Scene& scene, float threshold, SphereSampler sampler,
-                             const std::string& models, bool nee, StepNee step_nee)
+                             const std::string& models, bool nee, StepNee step_nee,
+                             const std::string& cut_models)
     : scene_(scene),
       threshold_(threshold),
       sampler_(sampler),
@@ -51,6 +54,7 @@ SphereTracing::SphereTracing(const Scene& scene, float threshold, SphereSampler 
                      "': integrator 'st' takes steps trained for Henyey-Greenstein phase "
                      "functions, not phase '",
                      s.medium.phase.kind().name, "' (use integrator 'pt')");
+    if (!cut_models.empty()) load_cuts(cut_models);
     if (sampler_ == SphereSampler::Walk || std::isinf(threshold)) return;
     if (models.empty())
         fail(
@@ -114,6 +118,92 @@ SphereTracing::SphereTracing(const Scene& scene, float threshold, SphereSampler 
 
 SphereTracing::~SphereTracing() = default;
 
+void SphereTracing::load_cuts(const std::string& dir) {
+    cut_model_ = std::make_unique<CutStepModel>(CutStepModel::load(dir));
+    const Range sigma = cut_model_->range("sigma"), g = cut_model_->range("g"),
+                h = cut_model_->range("h"), mu0 = cut_model_->range("mu0");
+    if (!(mu0.lo <= -1.0 && mu0.hi >= 1.0))
+        fail(dir, ": the cut models were trained for mu0 in [", mu0.lo, ", ", mu0.hi,
+             "], not all of [-1, 1]");
+    if (!(h.hi >= 1.0))
+        fail(dir, ": the cut models were trained for h up to ", h.hi, ", not up to 1");
+    cut_sigma_lo_ = float_above(sigma.lo);
+    cut_sigma_hi_ = float_below(sigma.hi);
+    cut_h_lo_ = float_above(h.lo);
+    // The smallest step: kCutMinDepth / kCutRadiusMfp of the radius away from the plane.
+    if (!(kCutMinDepth / kCutRadiusMfp >= cut_h_lo_) || !(kCutRadiusMfp >= cut_sigma_lo_))
+        fail(dir, ": the cut models' training ranges (sigma from ", sigma.lo, ", h from ",
+             h.lo, ") do not cover the cut steps' radius of ", kCutRadiusMfp,
+             " mean free paths and planes from ", kCutMinDepth, " mean free paths");
+    const auto& shapes = scene_.desc().shapes;
+    cut_planes_.resize(shapes.size());
+    cut_sigma_min_.assign(shapes.size(), 0.f);
+    for (size_t i = 0; i < shapes.size(); ++i) {
+        const Shape& s = shapes[i];
+        if (s.is_surface() || wants_event(int(i)) || !s.medium.phase.kind().sphere_steps)
+            continue;
+        const float sigma_min = min_component(s.medium.sigma_t);
+        if (!(sigma_min > 0.f)) continue;
+        if (!g.contains(s.medium.phase.x))
+            fail(scene_.desc().source, ": shapes[", i, "] ('", s.name,
+                 "'): g = ", s.medium.phase.x,
+                 " is outside the cut models' training range [", g.lo, ", ", g.hi,
+                 "] (models in ", dir, ")");
+        cut_sigma_min_[i] = sigma_min;
+        cut_planes_[i] = std::make_unique<CutPlanes>(
+            CutPlanes::build(s.mesh, scene_.grid(int(i)), kCutRadiusMfp / sigma_min));
+        if (cut_planes_[i]->empty())
+            cut_planes_[i].reset();
+        else
+            may_step_ = true;
+    }
+}
+
+bool SphereTracing::cut_certificate(int shape, Vec3 p, Vec3* n, float* s) const {
+    return cut_planes_[size_t(shape)]->query(p, n, s) &&
+           *s * cut_sigma_min_[size_t(shape)] >= kCutMinDepth;
+}
+
+void SphereTracing::cut_request(int shape, Vec3 p, Vec3 w_in, Vec3 n, float s,
+                                float sigma_t, StepRequest* r) const {
+    r->p = p;
+    r->w_in = w_in;
+    r->radius = std::min(cut_planes_[size_t(shape)]->radius(), cut_sigma_hi_ / sigma_t);
+    // sigma >= min(kCutRadiusMfp, the models' upper end) and h >= kCutMinDepth /
+    // kCutRadiusMfp, inside the models' ranges (load_cuts checked). A plane beyond the
+    // ball cuts nothing: h = 1 is the same region.
+    r->sigma = std::min(sigma_t * r->radius, cut_sigma_hi_);
+    r->g = scene_.desc().shapes[size_t(shape)].medium.phase.x;
+    r->cut = true;
+    r->cut_n = n;
+    r->cut_h = std::min(s / r->radius, 1.f);
+    r->cut_mu0 = std::clamp(dot(w_in, n), -1.f, 1.f);
+    r->with_event = false;
+}
+
+namespace {
+
+// A cut step in the walk's frame mapped to the world: z = the plane's normal n, x the
+// part of w_in across n (any direction across n if none), lengths times the radius.
+WorldSphereStep cut_to_world(const StepRequest& r, const CutStep& c) {
+    const Vec3 n = r.cut_n;
+    Vec3 x = r.w_in - n * r.cut_mu0;
+    const float lx = length(x);
+    x = lx > 1e-6f ? x / lx : frame_from_z(n).s;
+    const Vec3 y = cross(n, x);
+    auto to_world = [&](Vec3 v) { return x * v.x + y * v.y + n * v.z; };
+    WorldSphereStep out;
+    out.N = c.N;
+    out.exit_pos = r.p + to_world(c.exit_pos) * r.radius;
+    out.exit_dir = normalize(to_world(c.exit_dir));
+    out.X = r.p;
+    out.W = r.w_in;
+    out.first_event = true;
+    return out;
+}
+
+}  // namespace
+
 bool SphereTracing::wants_event(int shape) const {
     if (!nee_ || !scene_.desc().shapes[shape].boundary.passes_shadow_rays()) return false;
     const auto& lights = scene_.desc().lights;
@@ -163,9 +253,43 @@ void SphereTracing::sample_group(int count, const StepRequest* const* requests,
     for (int b = 0; b < count; b += kMaxGroup) {
         const int K = std::min(kMaxGroup, count - b);
         const StepRequest* const* req = requests + b;
+        // Cut steps first: one model call for all of them.
+        {
+            int idx[kMaxGroup], n = 0;
+            float sigma[kMaxGroup], g[kMaxGroup], h[kMaxGroup], mu0[kMaxGroup];
+            Rng rng[kMaxGroup];
+            for (int k = 0; k < K; ++k) {
+                if (!req[k]->cut) continue;
+                idx[n] = k;
+                sigma[n] = req[k]->sigma;
+                g[n] = req[k]->g;
+                h[n] = req[k]->cut_h;
+                mu0[n] = req[k]->cut_mu0;
+                rng[n++] = *rngs[b + k];
+            }
+            CutStep c[kMaxGroup];
+            if (n > 0 &&
+                sampler_ == SphereSampler::Walk) {  // exact walks for the networks
+                for (int j = 0; j < n; ++j) {
+                    const CutSphereWalk w =
+                        cut_sphere_walk(sigma[j], g[j], h[j], mu0[j], 1.f, rng[j]);
+                    c[j].N = w.N;
+                    c[j].exit_pos = w.exit_pos;
+                    c[j].exit_dir = w.exit_dir;
+                }
+            } else if (n > 0) {
+                SSS_CHECK(cut_model_ != nullptr);
+                cut_model_->sample_group(n, sigma, g, h, mu0, rng, c);
+            }
+            for (int j = 0; j < n; ++j) {
+                *rngs[b + idx[j]] = rng[j];
+                out[b + idx[j]] = cut_to_world(*req[idx[j]], c[j]);
+            }
+        }
         SphereStep s[kMaxGroup];
         if (sampler_ == SphereSampler::Walk) {
             for (int k = 0; k < K; ++k) {
+                if (req[k]->cut) continue;
                 SphereWalk w =
                     sphere_walk(req[k]->sigma, req[k]->g, req[k]->phi, *rngs[b + k]);
                 s[k].N = w.N;
@@ -184,7 +308,7 @@ void SphereTracing::sample_group(int count, const StepRequest* const* requests,
                 float sigma[kMaxGroup], g[kMaxGroup], phi[kMaxGroup];
                 Rng rng[kMaxGroup];
                 for (int k = 0; k < K; ++k) {
-                    if (req[k]->with_event != bool(event)) continue;
+                    if (req[k]->cut || req[k]->with_event != bool(event)) continue;
                     idx[n] = k;
                     sigma[n] = req[k]->sigma;
                     g[n] = req[k]->g;
@@ -201,7 +325,8 @@ void SphereTracing::sample_group(int count, const StepRequest* const* requests,
                 }
             }
         }
-        for (int k = 0; k < K; ++k) out[b + k] = to_world(*req[k], s[k], *rngs[b + k]);
+        for (int k = 0; k < K; ++k)
+            if (!req[k]->cut) out[b + k] = to_world(*req[k], s[k], *rngs[b + k]);
     }
 }
 

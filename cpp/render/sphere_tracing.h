@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "core/rng.h"
 #include "core/vec.h"
@@ -15,6 +16,15 @@
 namespace sss {
 
 class ScatteringModel;
+class CutStepModel;
+class CutPlanes;
+
+// Cut sphere steps (integrator "st" with cut_models; docs/sphere-tracing.md, "Cut sphere
+// steps"): the ball's radius in mean free paths of the medium's smallest extinction, and
+// the least optical depth (same extinction) between a collision and its certified plane
+// for a cut step to be taken there. By measurement (bench/README.md, "Cut sphere steps").
+constexpr float kCutRadiusMfp = 6.f;
+constexpr float kCutMinDepth = 0.5f;
 
 // The largest optical radius of a step when exact walks stand in for the models (the same
 // as the models' training range, docs/notation.md).
@@ -44,6 +54,11 @@ struct StepRequest {
           phi = 0.f;  // the medium's anisotropy; the albedo EventGen is asked about
     bool with_event = false;  // sample the representative event (NEE)
     Vec3 nee_weight{1.f};     // channel weights of its light connection (before Lambda)
+    // A cut sphere step instead (sigma, radius and g as above; never with_event): the
+    // plane's unit normal, its distance h in radii and the cosine mu0 of w_in to it.
+    bool cut = false;
+    Vec3 cut_n{0.f, 0.f, 1.f};
+    float cut_h = 1.f, cut_mu0 = 0.f;
 };
 
 class SphereTracing {
@@ -53,8 +68,13 @@ public:
     // ranges: g, sigma from max(threshold, lower end) to the upper end, and (with NEE,
     // for media that get NEE) every channel's albedo. Throws sss::Error naming the shape,
     // the value and the range.
+    //
+    // With `cut_models` (a directory; empty: none) it also loads the cut sphere models
+    // and builds plane certificates (geometry/cut_planes.h) for every medium whose events
+    // get no light sampling (wants_event false): those media take cut steps (cut_step).
     SphereTracing(const Scene& scene, float threshold, SphereSampler sampler,
-                  const std::string& models, bool nee, StepNee step_nee = StepNee::Hits);
+                  const std::string& models, bool nee, StepNee step_nee = StepNee::Hits,
+                  const std::string& cut_models = "");
     ~SphereTracing();
     SphereTracing(const SphereTracing&) = delete;
     SphereTracing& operator=(const SphereTracing&) = delete;
@@ -83,11 +103,32 @@ public:
     // `count` steps, step k for *requests[k] with *rngs[k]: the same samples as `count`
     // calls of sample(), faster per step for the learned models (their decoders run on
     // all the steps at once; at most kMaxGroup per call of the model, more are split).
+    // Cut step requests get cut steps (WorldSphereStep's N, exit_pos, exit_dir).
     void sample_group(int count, const StepRequest* const* requests, Rng* const* rngs,
                       WorldSphereStep* out) const;
     static constexpr int kMaxGroup = 16;
 
+    // Whether collisions in `shape` may take cut steps (cut_models given, and the shape
+    // has plane certificates).
+    bool cuts(int shape) const {
+        return size_t(shape) < cut_planes_.size() &&
+               cut_planes_[size_t(shape)] != nullptr;
+    }
+    // A cut step's certificate at collision p in `shape` (cuts(shape)): the unit normal n
+    // towards the surface and the distance s to the plane along it, if the plane lies at
+    // least kCutMinDepth mean free paths (smallest extinction) from p. Depends on p only,
+    // not on a path's channel.
+    bool cut_certificate(int shape, Vec3 p, Vec3* n, float* s) const;
+    // The request of a cut step at collision p (certificate n, s) for a photon that
+    // arrived along w_in, with extinction sigma_t (one channel), in `shape`: the ball's
+    // radius is the shape's, shrunk so that sigma_t R stays in the models' range. Sets
+    // r's geometry and cut fields (the caller sets the rest as for a sphere step).
+    void cut_request(int shape, Vec3 p, Vec3 w_in, Vec3 n, float s, float sigma_t,
+                     StepRequest* r) const;
+
 private:
+    void load_cuts(const std::string& dir);
+
     const Scene& scene_;
     float threshold_;
     SphereSampler sampler_;
@@ -97,6 +138,10 @@ private:
     bool may_step_ = false;
     float phi_lo_ = 0.f, phi_hi_ = 1.f;
     std::unique_ptr<ScatteringModel> model_;
+    std::unique_ptr<CutStepModel> cut_model_;
+    std::vector<std::unique_ptr<CutPlanes>> cut_planes_;  // per shape; null: no cut steps
+    std::vector<float> cut_sigma_min_;                    // per shape: min sigma_t
+    float cut_sigma_lo_ = 0.f, cut_sigma_hi_ = 0.f, cut_h_lo_ = 0.f;
 };
 
 }  // namespace sss

@@ -205,6 +205,81 @@ TEST(SphereTracer, ExactWalksUnderAllKindsOfLightMatchPt) {
     }
 }
 
+TEST(SphereTracer, CutStepsWithExactWalksMatchPt) {
+    // Cut sphere steps with exact cut walks in place of the networks: st must agree with
+    // pt up to noise (4x4 block means by chi-square, the sum over the image within 4
+    // sigma, per channel). A smooth dielectric sphere, dense enough (R = 6 mean free
+    // paths of 0.2 in a sphere of radius 1) for certified planes: this checks the
+    // certificates, the walk's frame in the world, the weights and the channel choice,
+    // not the models. Chromatic: spectral MIS until the first step.
+    test::ModelDir cut;
+    cut.write_random_cut(3);
+    SceneDesc d = sphere_scene(Vec3(30.f, 40.f, 60.f), Vec3(0.9f, 0.95f, 0.85f), 0.6f,
+                               BoundaryType::Dielectric);
+    d.camera.width = d.camera.height = 24;
+    Scene scene(d, 2);
+    RenderOptions pt;
+    pt.spp = 256;
+    pt.threads = 2;
+    pt.seed = 5;
+    const std::vector<BlockSum> sa = block_sums(render(scene, pt), false);
+    // tau = 6: collisions up to 6 mean free paths deep are left to delta tracking or cut
+    // steps (with tau = 1 the sphere's curvature would leave no room for certified planes
+    // in the thinner layer).
+    RenderOptions st = exact_walks(StepNee::Hits, 256, 6);
+    st.sphere_threshold = 6.f;
+    st.cut_models = cut.path();
+    const RenderResult b = render(scene, st);
+    const std::vector<BlockSum> sb = block_sums(b, false);
+    expect_agreement(per_channel(sa.size(),
+                                 [&](size_t k) {
+                                     return std::pair(sa[k].value - sb[k].value,
+                                                      sa[k].variance + sb[k].variance);
+                                 }),
+                     10);
+    // Cut steps were taken: they stand for many of the ordinary events near the surface.
+    RenderOptions no_cuts = st;
+    no_cuts.cut_models.clear();
+    const RenderResult without = render(scene, no_cuts);
+    EXPECT_LT(b.total_events, without.total_events * 3 / 4)
+        << b.total_events << " ordinary events with cut steps, " << without.total_events
+        << " without";
+}
+
+TEST(SphereTracer, FurnaceWithCutStepsIsExactPerPathForAnyModel) {
+    // Albedo 1 in a uniform environment, no NEE: whatever (random) cut models say, every
+    // path keeps weight 1 and leaves: every pixel is 1.
+    test::ModelDir models, cut("_cut");
+    models.write_random(2);
+    cut.write_random_cut(4);
+    Scene scene(sphere_scene(Vec3(40.f), Vec3(1.f), 0.6f, BoundaryType::Dielectric), 2);
+    RenderOptions opt = st_options(models.path(), 6.f);
+    opt.cut_models = cut.path();
+    opt.nee = false;
+    opt.spp = 4;
+    const RenderResult r = render(scene, opt);
+    for (float v : r.image) ASSERT_NEAR(v, 1.f, 1e-5f);
+}
+
+TEST(SphereTracer, CutStepsRefuseModelsThatDoNotCoverThem) {
+    test::ModelDir cut;
+    Decoder length = random_cut_decoder("CutLengthGen", 1);
+    Decoder path = random_cut_decoder("CutPathGen", 2);
+    for (Decoder* dec : {&length, &path}) dec->training_ranges[2].second.lo = 0.2;  // h
+    cut.write(length);
+    cut.write(path);
+    Scene scene(sphere_scene(Vec3(40.f), Vec3(0.9f), 0.6f, BoundaryType::Dielectric), 2);
+    RenderOptions opt = exact_walks(StepNee::Hits, 1, 1);
+    opt.cut_models = cut.path();
+    try {
+        render(scene, opt);
+        FAIL() << "accepted cut models without the planes the steps need";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("do not cover"), std::string::npos)
+            << e.what();
+    }
+}
+
 TEST(SphereTracer, InfiniteThresholdGivesPtBitForBit) {
     // tau = inf runs st's code (a grid query at every collision) but never steps: the
     // image, its variance and the event counts are pt's exactly. No models are needed.

@@ -48,6 +48,11 @@ public:
     void write_random(uint64_t seed = 1) {
         write_random(seed, [](Decoder&) {});
     }
+    // The two random cut sphere decoders (cutlengthgen.json, cutpathgen.json).
+    void write_random_cut(uint64_t seed = 1) {
+        write(random_cut_decoder("CutLengthGen", seed));
+        write(random_cut_decoder("CutPathGen", seed + 1));
+    }
     std::string path() const { return path_.string(); }
 
 private:

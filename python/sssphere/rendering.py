@@ -91,7 +91,7 @@ class RenderResult:
         estimate that ``variance`` describes.
     options : the options the render used, resolved (defaults < the scene's render block <
         the arguments): integrator, spp, seed, threads, max_bounces, nee, sphere_threshold,
-        models, sphere_sampler, step_nee, record_paths, backend, time_limit.
+        models, cut_models, sphere_sampler, step_nee, record_paths, backend, time_limit.
     """
 
     image: np.ndarray
@@ -194,6 +194,7 @@ def render_full(
     nee: Optional[bool] = None,
     sphere_threshold: Optional[float] = None,
     models: Union[str, os.PathLike, None] = None,
+    cut_models: Union[str, os.PathLike, None] = None,
     sphere_sampler: Optional[str] = None,
     step_nee: Optional[str] = None,
     record_paths: Optional[bool] = None,
@@ -222,7 +223,11 @@ def render_full(
     default) from the step's exit flight when it reaches an area light or the environment,
     with EventGen's representative event connecting only to point and directional lights;
     ``"event"`` (the paper's) from EventGen's event connecting to every kind of light
-    (docs/sphere-tracing.md, "NEE for a sphere step").
+    (docs/sphere-tracing.md, "NEE for a sphere step"). ``cut_models`` (experimental, CPU
+    only, not with ``ray_address``): the directory of cutlengthgen.json and cutpathgen.json
+    (the repository's ``models/cut``); collisions too close to the boundary for a sphere step
+    then take cut sphere steps where a plane certifies the region, in media whose scattering
+    events get no light sampling (docs/sphere-tracing.md, "Cut sphere steps").
 
     ``time_limit=S`` stops the render after S seconds of rendering (the scene's
     ``render.time_limit``, else none) with the passes every pixel has finished, at least one
@@ -255,7 +260,11 @@ def render_full(
     options = dict(integrator=integrator, spp=spp, seed=seed, threads=threads,
                    max_bounces=max_bounces, nee=nee, sphere_threshold=sphere_threshold,
                    models=models, sphere_sampler=sphere_sampler, step_nee=step_nee,
-                   record_paths=record_paths, backend=backend, time_limit=time_limit)
+                   record_paths=record_paths, backend=backend, time_limit=time_limit,
+                   cut_models=None if cut_models is None else os.fspath(cut_models))
+    if cut_models is not None and ray_address is not None:
+        raise ValueError("cut_models is not supported with ray_address yet (the cluster "
+                         "ships the sphere-step models only)")
     if denoise:
         _denoiser()  # before the render: a missing extra should not cost one
     return with_aovs(scene, _result(_render(scene, progress, options, ray_address=ray_address)),

@@ -76,7 +76,8 @@ public:
     explicit SphereTracingIntegrator(const IntegratorSetup& setup)
         : setup_(setup),
           st_(setup.scene, setup.options.sphere_threshold, setup.options.sphere_sampler,
-              setup.options.models, setup.options.nee, setup.options.step_nee),
+              setup.options.models, setup.options.nee, setup.options.step_nee,
+              setup.options.cut_models),
           // Where no step can happen, "st" is "pt" path for path: trace it as "pt".
           stepper_(st_.may_step() ? &st_ : nullptr),
           tracer_(setup.scene, setup.options.max_bounces, setup.options.nee, stepper_) {}
