@@ -174,40 +174,54 @@ void CutStepModel::sample_group(int count, const float* sigma, const float* g,
         }
     }
     if (m > 0) {
-        // 2. The networks on the paths in lanes: x[i * L + j] is input i of lane j.
-        alignas(64) float x[kMaxWidth * L] = {0.f}, eps[4 * L] = {0.f}, u[4 * L];
+        // 2. The networks on the paths in lanes: x[i * L + j] is input i of lane j. The
+        // encodings and decodings run on the lanes too, in float (code_lanes, as the
+        // sphere step's). Lanes from m on hold valid values too (the kernels may read
+        // whole vectors): copies of lane 0's, N = 2, u = 0.
+        alignas(64) float x[kMaxWidth * L] = {0.f}, eps[4 * L] = {0.f}, u[4 * L] = {0.f};
+        float raw[4][L], n_lanes[L], dec[4][L];
+        for (int j = 0; j < L; ++j) {
+            const int k = net[j < m ? j : 0];
+            raw[0][j] = sigma[k], raw[1][j] = g[k], raw[2][j] = h[k], raw[3][j] = mu0[k];
+            n_lanes[j] = 2.f;
+        }
+        for (int i = 0; i < 4; ++i)
+            code_lanes(length_.conditions[i].encoding, false, raw[i], x + i * L, m,
+                       DecoderImpl::Simd);
         for (int j = 0; j < m; ++j) {
-            const int k = net[j];
-            const float cond[4] = {sigma[k], g[k], h[k], mu0[k]};
-            for (int i = 0; i < 4; ++i)
-                x[i * L + j] = length_.conditions[i].encoding.encode(cond[i]);
             for (int i = 0; i < nl; ++i) x[(4 + i) * L + j] = z[j][i];
             eps[j] = z[j][nl];
         }
         lanes(length_simd_, length_.input_width, 1, x, eps, u, m);
+        for (int j = 0; j < m; ++j) u[j] = finite_or(u[j], 0.f);
+        code_lanes(length_.outputs[0].encoding, true, u, dec[0], m, DecoderImpl::Simd);
         std::fill(x, x + kMaxWidth * L, 0.f);
         for (int j = 0; j < m; ++j) {
-            const int k = net[j];
-            const float n_raw =
-                finite_or(length_.outputs[0].encoding.decode(finite_or(u[j], 0.f)), 2.f);
-            out[k].N = int64_t(
+            const float n_raw = finite_or(dec[0][j], 2.f);
+            out[net[j]].N = int64_t(
                 std::clamp(std::floor(double(n_raw)), 2.0, double(kMaxScatterCount)));
-            const float cond[4] = {sigma[k], g[k], h[k], mu0[k]};
-            for (int i = 0; i < 4; ++i)
-                x[i * L + j] = path_.conditions[i].encoding.encode(cond[i]);
-            x[4 * L + j] = path_.conditions[4].encoding.encode(float(out[k].N));
+            n_lanes[j] = float(out[net[j]].N);
+        }
+        for (int i = 0; i < 4; ++i)
+            code_lanes(path_.conditions[i].encoding, false, raw[i], x + i * L, m,
+                       DecoderImpl::Simd);
+        code_lanes(path_.conditions[4].encoding, false, n_lanes, x + 4 * L, m,
+                   DecoderImpl::Simd);
+        for (int j = 0; j < m; ++j) {
             for (int i = 0; i < np; ++i) x[(5 + i) * L + j] = z[j][nl + 1 + i];
             for (int i = 0; i < 4; ++i) eps[i * L + j] = z[j][nl + 1 + np + i];
         }
         lanes(path_simd_, path_.input_width, 4, x, eps, u, m);
+        for (int i = 0; i < 4; ++i) {
+            for (int j = 0; j < m; ++j) u[i * L + j] = finite_or(u[i * L + j], 0.f);
+            code_lanes(path_.outputs[i].encoding, true, u + i * L, dec[i], m,
+                       DecoderImpl::Simd);
+        }
         for (int j = 0; j < m; ++j) {
             const int k = net[j];
-            float o[4];
-            for (int i = 0; i < 4; ++i)
-                o[i] = path_.outputs[i].encoding.decode(finite_or(u[i * L + j], 0.f));
-            const float cos_p = std::clamp(finite_or(o[0], 1.f), -1.f, 1.f);
-            const float cos_psi = std::clamp(finite_or(o[1], 1.f), -1.f, 1.f);
-            float alpha = finite_or(o[2], 0.f), beta = finite_or(o[3], 0.f);
+            const float cos_p = std::clamp(finite_or(dec[0][j], 1.f), -1.f, 1.f);
+            const float cos_psi = std::clamp(finite_or(dec[1][j], 1.f), -1.f, 1.f);
+            float alpha = finite_or(dec[2][j], 0.f), beta = finite_or(dec[3][j], 0.f);
             project_into_disc(alpha, beta);
             const float sin_p = std::sqrt(std::max(0.f, 1.f - cos_p * cos_p));
             const float sin_psi = std::sqrt(std::max(0.f, 1.f - cos_psi * cos_psi));

@@ -23,7 +23,9 @@
 //   where
 //      P.z > h, else P). D leaves the region there by construction; a D that rounding
 //      turned inwards is reflected about the tangent plane.
-// The same rules as sssphere.learn.cut.CutSampler (NumPy), which tests compare it with.
+// The same rules as sssphere.learn.cut.CutSampler (NumPy), which tests compare it with
+// (tests/test_cut_model.py, through _core.cut_steps); the encodings run in float on lanes
+// (code_lanes), as the sphere step's.
 #pragma once
 
 #include <cstdint>

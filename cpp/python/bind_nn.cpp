@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "core/check.h"
+#include "nn/cut_step_model.h"
 #include "nn/scattering_model.h"
 
 namespace py = pybind11;
@@ -104,6 +105,58 @@ py::tuple evaluate_py(const ScatteringModel& m, const std::string& name,
 }  // namespace
 
 void bind_nn(py::module_& m) {
+    m.def(
+        "cut_steps",
+        [](const std::string& models, float sigma, float g, float h, float mu0, int64_t n,
+           uint64_t seed) {
+            if (n < 1) sss::fail("cut_steps: n must be >= 1, got ", n);
+            const sss::CutStepModel model = sss::CutStepModel::load(models);
+            std::vector<int64_t> N(size_t(n), 0);
+            std::vector<uint8_t> plane(size_t(n), 0);
+            std::vector<float> pos(size_t(n) * 3), dir(size_t(n) * 3);
+            {
+                py::gil_scoped_release release;
+                constexpr int L = sss::SimdDecoder::kLanes;
+                float s[L], gg[L], hh[L], m0[L];
+                std::fill(s, s + L, sigma), std::fill(gg, gg + L, g);
+                std::fill(hh, hh + L, h), std::fill(m0, m0 + L, mu0);
+                for (int64_t i = 0; i < n; i += L) {
+                    const int K = int(std::min<int64_t>(L, n - i));
+                    sss::Rng rng[L];
+                    for (int k = 0; k < K; ++k) rng[k] = sss::Rng(seed, uint64_t(i + k));
+                    sss::CutStep out[L];
+                    model.sample_group(K, s, gg, hh, m0, rng, out);
+                    for (int k = 0; k < K; ++k) {
+                        const size_t r = size_t(i + k);
+                        N[r] = out[k].N;
+                        plane[r] = out[k].through_plane;
+                        for (int a = 0; a < 3; ++a) {
+                            pos[3 * r + a] = out[k].exit_pos[a];
+                            dir[3 * r + a] = out[k].exit_dir[a];
+                        }
+                    }
+                }
+            }
+            py::dict d;
+            auto arr = [](auto&& v, std::vector<py::ssize_t> shape) {
+                using T = typename std::decay_t<decltype(v)>::value_type;
+                py::array_t<T> a(shape);
+                std::copy(v.begin(), v.end(), a.mutable_data());
+                return a;
+            };
+            d["N"] = arr(N, {n});
+            d["through_plane"] = arr(plane, {n});
+            d["exit_pos"] = arr(pos, {n, 3});
+            d["exit_dir"] = arr(dir, {n, 3});
+            return d;
+        },
+        py::arg("models"), py::arg("sigma"), py::arg("g"), py::arg("h"), py::arg("mu0"),
+        py::arg("n"), py::arg("seed") = 0,
+        "n cut sphere steps from the C++ sampler (nn/cut_step_model.h) with the models "
+        "in "
+        "`models`, in groups of 16, step i with Rng(seed, i): for tests against the "
+        "NumPy "
+        "sampler.");
     py::class_<ScatteringModel, std::shared_ptr<ScatteringModel>>(m, "ScatteringModel")
         .def_static(
             "load",
