@@ -59,7 +59,7 @@ void lanes(const SimdDecoder& d, int width, int outputs, const float* x, const f
            float* u, int count) {
     constexpr int L = SimdDecoder::kLanes;
     if (count > kCutLanesFrom) return d.sample_lanes(x, eps, u, count);
-    float xr[kMaxWidth * L], er[4 * L], ur[4 * L];
+    alignas(64) float xr[kMaxWidth * L], er[4 * L], ur[4 * L];
     for (int k = 0; k < count; ++k) {
         for (int i = 0; i < width; ++i) xr[k * width + i] = x[i * L + k];
         for (int i = 0; i < outputs; ++i) er[k * outputs + i] = eps[i * L + k];
@@ -179,7 +179,8 @@ void CutStepModel::sample_group(int count, const float* sigma, const float* g,
         // sphere step's). Lanes from m on hold valid values too (the kernels may read
         // whole vectors): copies of lane 0's, N = 2, u = 0.
         alignas(64) float x[kMaxWidth * L] = {0.f}, eps[4 * L] = {0.f}, u[4 * L] = {0.f};
-        float raw[4][L], n_lanes[L], dec[4][L];
+        // code_lanes and the kernels load whole aligned vectors.
+        alignas(64) float raw[4][L], n_lanes[L], dec[4][L];
         for (int j = 0; j < L; ++j) {
             const int k = net[j < m ? j : 0];
             raw[0][j] = sigma[k], raw[1][j] = g[k], raw[2][j] = h[k], raw[3][j] = mu0[k];
