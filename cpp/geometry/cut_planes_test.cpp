@@ -6,20 +6,11 @@
 
 #include "core/check.h"
 #include "core/rng.h"
+#include "testing/meshes.h"
 
 using namespace sss;
 
 namespace {
-
-// A closed mesh with concavities and thin parts (as distance_grid_test's).
-TriangleMesh lumpy_mesh() {
-    TriangleMesh m = make_icosphere({0, 0, 0}, 1.f, 3);
-    for (Vec3& p : m.positions) {
-        float bump = 1.f + 0.35f * std::sin(5.f * p.x) * std::cos(4.f * p.y);
-        p = Vec3(p.x * bump, 0.3f * p.y * bump, p.z * bump);
-    }
-    return m;
-}
 
 // Points spread over every triangle (its vertices, edge midpoints and random interior
 // points): a dense sample of the surface.
@@ -58,7 +49,7 @@ TriangleMesh cube_mesh() {
 // plane, (y - p) . n < s. Checked against a dense sample of the surface at random points
 // inside.
 TEST(CutPlanes, NoSurfacePointInTheCertifiedRegion) {
-    const TriangleMesh mesh = lumpy_mesh();
+    const TriangleMesh mesh = test::lumpy_mesh();
     const DistanceGrid grid = DistanceGrid::build(mesh, 48, 2);
     const float radius = 0.12f;
     const CutPlanes planes = CutPlanes::build(mesh, grid, radius, 2);

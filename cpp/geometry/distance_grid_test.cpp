@@ -3,20 +3,11 @@
 #include <gtest/gtest.h>
 
 #include "core/rng.h"
+#include "testing/meshes.h"
 
 using namespace sss;
 
 namespace {
-
-// A closed mesh with concavities and thin parts: a flattened, twisted icosphere.
-TriangleMesh lumpy_mesh() {
-    TriangleMesh m = make_icosphere({0, 0, 0}, 1.f, 3);
-    for (Vec3& p : m.positions) {
-        float bump = 1.f + 0.35f * std::sin(5.f * p.x) * std::cos(4.f * p.y);
-        p = Vec3(p.x * bump, 0.3f * p.y * bump, p.z * bump);
-    }
-    return m;
-}
 
 struct Stats {
     double worst_excess = 0;  // max over points of r(p) - d(p) and of r(p) - max_query();
@@ -83,7 +74,7 @@ TEST(DistanceGrid, NeverExceedsExactDistanceOnSphere) {
 
 TEST(DistanceGrid, NeverExceedsExactDistanceOnLumpyMesh) {
     for (int res : {8, 24, 64}) {
-        Stats s = check_conservative(lumpy_mesh(), res, 20000, uint64_t(res));
+        Stats s = check_conservative(test::lumpy_mesh(), res, 20000, uint64_t(res));
         EXPECT_LE(s.worst_excess, 0.0) << "resolution " << res;
     }
 }
@@ -103,7 +94,7 @@ TEST(DistanceGrid, InsideOutsideAndOutOfGrid) {
 // in the grid's box, many of them near the surface.
 TEST(DistanceGrid, SideIsExactWhereItAnswers) {
     for (int res : {8, 32}) {
-        const TriangleMesh m = lumpy_mesh();
+        const TriangleMesh m = test::lumpy_mesh();
         const DistanceGrid g = DistanceGrid::build(m, res, 1);
         Rng rng(7, uint64_t(res));
         std::vector<Vec3> pts;

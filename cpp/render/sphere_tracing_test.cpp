@@ -97,6 +97,26 @@ void expect_agreement(const std::array<ChannelTest, 3>& t, int min_blocks) {
     }
 }
 
+// Both renders' block sums agree (expect_agreement over the blocks of their difference).
+void expect_same_image(const std::vector<BlockSum>& a, const std::vector<BlockSum>& b,
+                       int min_blocks) {
+    expect_agreement(per_channel(a.size(),
+                                 [&](size_t k) {
+                                     return std::pair(a[k].value - b[k].value,
+                                                      a[k].variance + b[k].variance);
+                                 }),
+                     min_blocks);
+}
+
+// pt with NEE, 2 threads.
+RenderOptions pt_options(int spp, uint64_t seed) {
+    RenderOptions opt;
+    opt.spp = spp;
+    opt.threads = 2;
+    opt.seed = seed;
+    return opt;
+}
+
 RenderOptions st_options(const std::string& models, float threshold) {
     RenderOptions opt;
     opt.integrator = "st";
@@ -182,23 +202,13 @@ TEST(SphereTracer, ExactWalksUnderAllKindsOfLightMatchPt) {
             "edge1": [0, 0, -2], "edge2": [2, 0, 0], "radiance": 5})"));
         d.camera.width = d.camera.height = 32;
         Scene scene(d, 2);
-        RenderOptions pt;
-        pt.spp = 256;
-        pt.threads = 2;
-        pt.seed = 5;
-        const std::vector<BlockSum> sa = block_sums(render(scene, pt), false);
+        const std::vector<BlockSum> sa =
+            block_sums(render(scene, pt_options(256, 5)), false);
         for (StepNee mode : {StepNee::Event, StepNee::Hits}) {
             SCOPED_TRACE(mode == StepNee::Event ? "event" : "hits");
             const RenderResult b = render(scene, exact_walks(mode, 256, 6));
-            const std::vector<BlockSum> sb = block_sums(b, false);
             // Blocks of background in both (the environment exactly) have variance 0.
-            expect_agreement(per_channel(sa.size(),
-                                         [&](size_t k) {
-                                             return std::pair(
-                                                 sa[k].value - sb[k].value,
-                                                 sa[k].variance + sb[k].variance);
-                                         }),
-                             20);
+            expect_same_image(sa, block_sums(b, false), 20);
             EXPECT_GT(b.total_sphere_steps, b.total_paths / 10);
             EXPECT_EQ(b.variance[0], 0.f);  // the corner pixel sees the environment only
         }
@@ -218,11 +228,7 @@ TEST(SphereTracer, CutStepsWithExactWalksMatchPt) {
                                BoundaryType::Dielectric);
     d.camera.width = d.camera.height = 24;
     Scene scene(d, 2);
-    RenderOptions pt;
-    pt.spp = 256;
-    pt.threads = 2;
-    pt.seed = 5;
-    const std::vector<BlockSum> sa = block_sums(render(scene, pt), false);
+    const std::vector<BlockSum> sa = block_sums(render(scene, pt_options(256, 5)), false);
     // tau = 6: collisions up to 6 mean free paths deep are left to delta tracking or cut
     // steps (with tau = 1 the sphere's curvature would leave no room for certified planes
     // in the thinner layer).
@@ -230,13 +236,7 @@ TEST(SphereTracer, CutStepsWithExactWalksMatchPt) {
     st.sphere_threshold = 6.f;
     st.cut_models = cut.path();
     const RenderResult b = render(scene, st);
-    const std::vector<BlockSum> sb = block_sums(b, false);
-    expect_agreement(per_channel(sa.size(),
-                                 [&](size_t k) {
-                                     return std::pair(sa[k].value - sb[k].value,
-                                                      sa[k].variance + sb[k].variance);
-                                 }),
-                     10);
+    expect_same_image(sa, block_sums(b, false), 10);
     // Cut steps were taken: they stand for many of the ordinary events near the surface.
     RenderOptions no_cuts = st;
     no_cuts.cut_models.clear();

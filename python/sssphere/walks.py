@@ -4,7 +4,7 @@ See docs/notation.md ("The canonical sphere problem"): a photon starts at the ce
 +z, scatters there (the first event counts) and alternates Henyey-Greenstein scattering with
 exponential flights of optical radius ``sigma_t`` until it leaves the sphere. ``cut_sphere_walks``
 is the same walk in the sphere cut by a plane ("The cut sphere problem"), the ground truth for a
-step near a flat boundary (issue 26; no model is trained on it yet).
+step near a flat boundary (issue 26; its models: `sssphere.learn.cut`).
 """
 
 from __future__ import annotations

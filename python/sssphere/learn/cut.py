@@ -1,5 +1,6 @@
 """Learned steps in a sphere cut by a plane (issue 26; docs/learning.md, "Learned cut sphere
-steps"). Trained and checked here; the renderer does not take such steps yet.
+steps"). The renderer takes such steps with the render option ``cut_models``
+(docs/sphere-tracing.md, "Cut sphere steps"; C++ `cpp/nn/cut_step_model.h`).
 
 The walk is the cut sphere problem of docs/notation.md: the unit sphere cut by the plane z = h,
 the medium z < h, the photon arriving at the centre with direction (√(1 − μ0²), 0, μ0) and
