@@ -12,9 +12,9 @@ namespace sss {
 
 // Free-flight distance in a homogeneous medium: t = -ln(1 - u) / sigma_t, pdf sigma_t
 // e^{-sigma_t t}. For the stream's uniforms (multiples of 2^-24) 1 - u is exact, so the
-// CPU takes the log of it: as accurate as log1p(-u) and a third of its time in glibc (a
-// flight is a tenth of a pt event). GLSL's log is not accurate near 1: the shaders keep
-// log1p (core/portable.h).
+// CPU takes the log of it: as accurate as log1p(-u) and a third of its time in glibc
+// (bench/README.md, "Free flights by logf"). GLSL's log is not accurate near 1: the
+// shaders keep log1p (gpu/shaders/portable.glsl).
 SSS_FN float sample_exponential(float u, float sigma_t) {
 #ifdef __cplusplus
     return -std::log(1.f - u) / sigma_t;
