@@ -27,7 +27,6 @@ import datetime
 import json
 import math
 import os
-import platform
 import re
 import statistics
 import subprocess
@@ -36,6 +35,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from bench.machine import machine
 
 REPO = Path(__file__).resolve().parent.parent
 SCALES = (0.25, 0.5, 1.0, 2.0)
@@ -143,7 +143,7 @@ def main() -> None:
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps({
         "date": datetime.datetime.now().isoformat(timespec="seconds"),
-        "machine": platform.platform(), "a": args.a, "b": args.b, "spp": args.spp,
+        "machine": machine(), "a": args.a, "b": args.b, "spp": args.spp,
         "size": args.size, "threads": args.threads, "repeats": args.repeats,
         "boundary": args.boundary or "dielectric (the scene's)",
         "geomean_ratio": summary, "rows": rows}, indent=1) + "\n")

@@ -37,8 +37,6 @@ import datetime
 import json
 import heapq
 import math
-import os
-import platform
 import time
 from pathlib import Path
 
@@ -46,6 +44,7 @@ import numpy as np
 
 import sssphere
 from bench.st_vs_pt import BASE_SIGMA, SCALES, scene_dict
+from bench.machine import machine
 from sssphere import cluster
 from sssphere.cluster import TASKS_PER_SLOT, group_size
 
@@ -172,7 +171,7 @@ def main() -> None:
     scene = sssphere.load_scene(scene_dict("bunny", "dielectric", BASE_SIGMA * args.scale,
                                            args.resolution))
     out: dict = {"date": datetime.datetime.now().isoformat(timespec="seconds"),
-                 "machine": {"cpu_count": os.cpu_count(), "platform": platform.platform()},
+                 "machine": machine(),
                  "scene": {"shape": "bunny", "boundary": "dielectric",
                            "sigma_t": BASE_SIGMA * args.scale, "resolution": args.resolution},
                  "spp": args.spp}

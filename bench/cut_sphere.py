@@ -38,12 +38,12 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
-import platform
 from pathlib import Path
 
 import numpy as np
 
 from sssphere.walks import cut_sphere_walks
+from bench.machine import machine
 
 HERE = Path(__file__).resolve().parent
 
@@ -276,7 +276,7 @@ def main() -> None:
     args.output.parent.mkdir(parents=True, exist_ok=True)
     args.output.write_text(json.dumps({
         "date": datetime.datetime.now().isoformat(timespec="seconds"),
-        "machine": platform.platform(),
+        "machine": machine(),
         "settings": {k: v for k, v in vars(args).items() if k != "output"},
         "per_step": table, "bunny_sagitta": bunny, "half_space": runs}, indent=1) + "\n")
     print(f"wrote {args.output}")

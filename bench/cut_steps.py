@@ -21,7 +21,6 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
-import platform
 import time
 from pathlib import Path
 
@@ -29,6 +28,7 @@ import numpy as np
 
 import sssphere
 from bench.st_vs_pt import errors, reference_error, scene_dict
+from bench.machine import machine
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
@@ -96,7 +96,7 @@ def main() -> None:
             for n, v in it.items())
             + f"; cut set-up {row['cut_setup_seconds']:.2f}s", flush=True)
     out = {"date": datetime.datetime.now().isoformat(timespec="seconds"),
-           "machine": platform.machine(), "processor": platform.processor(),
+           "machine": machine(),
            "spp": args.spp, "repeats": args.repeats, "threads": args.threads, "rows": rows}
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text(json.dumps(out, indent=1) + "\n", encoding="utf-8")

@@ -19,13 +19,13 @@ import argparse
 import datetime
 import json
 import os
-import platform
 import time
 from pathlib import Path
 
 import numpy as np
 
 from sssphere.learn import datagen
+from bench.machine import machine
 
 
 def main() -> None:
@@ -47,8 +47,7 @@ def main() -> None:
     result = {
         "benchmark": "datagen",
         "date": datetime.datetime.now().isoformat(timespec="seconds"),
-        "machine": {"cpus": os.cpu_count(), "platform": platform.platform(),
-                    "load_average_at_start": load_at_start},
+        "machine": {**machine(), "load_average_at_start": load_at_start},
         "samples": args.samples,
         "seed": args.seed,
         "threads": args.threads or os.cpu_count(),

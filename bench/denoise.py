@@ -27,14 +27,13 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
-import os
-import platform
 import time
 from pathlib import Path
 
 import numpy as np
 
 import sssphere
+from bench.machine import machine
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
@@ -91,7 +90,7 @@ def main() -> None:
                   f"{denoised_error:.2e}; the same error without: {equal_error_spp:,.0f} spp, "
                   f"{speedup:.1f}x the time")
     result = {"date": datetime.date.today().isoformat(),
-              "machine": {"platform": platform.platform(), "cpus": os.cpu_count()},
+              "machine": machine(),
               "scene": "scenes/marble.json", "width": args.width, "height": args.height,
               "reference": {"integrator": "pt", "spp": args.ref_spp, "seconds": ref.seconds,
                             "noise": reference_noise},

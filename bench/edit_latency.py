@@ -20,13 +20,12 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
-import os
-import platform
 import statistics
 import time
 from pathlib import Path
 
 import sssphere
+from bench.machine import machine
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
@@ -77,7 +76,7 @@ def main() -> None:
                   f"{row['render_setup_ms']:5.1f} ms = {row['to_first_sample_ms']:5.1f} ms to "
                   "the first sample; nothing rebuilt")
     result = {"date": datetime.date.today().isoformat(),
-              "machine": {"platform": platform.platform(), "cpus": os.cpu_count()},
+              "machine": machine(),
               "scene": "scenes/bunny.json", "load_ms": 1e3 * load_seconds,
               "repeat": args.repeat, "rows": rows}
     Path(args.out).write_text(json.dumps(result, indent=2) + "\n")

@@ -24,13 +24,13 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
-import platform
 from pathlib import Path
 
 import numpy as np
 
 import sssphere
 from bench.st_vs_pt import errors, reference, reference_error, scene_dict, timed
+from bench.machine import machine
 
 HERE = Path(__file__).resolve().parent
 
@@ -150,7 +150,7 @@ def main() -> None:
     args.output.parent.mkdir(parents=True, exist_ok=True)
     args.output.write_text(json.dumps({
         "date": datetime.datetime.now().isoformat(timespec="seconds"),
-        "machine": platform.platform(), "threads": args.threads, "resolution": args.resolution,
+        "machine": machine(), "threads": args.threads, "resolution": args.resolution,
         "results": results}, indent=1) + "\n")
     print(f"wrote {args.output}")
     plot(results, args.output.with_suffix(".png"))

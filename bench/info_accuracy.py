@@ -15,12 +15,11 @@ import argparse
 import copy
 import datetime
 import json
-import os
-import platform
 from pathlib import Path
 
 import sssphere
 from sssphere.info import scene_info
+from bench.machine import machine
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
@@ -66,7 +65,7 @@ def main() -> None:
               f"   st steps {expected['st_steps']:5.2f} / {st.mean_sphere_steps_per_path:5.2f}"
               "   (expected / measured)")
     result = {"date": datetime.date.today().isoformat(),
-              "machine": {"platform": platform.platform(), "cpus": os.cpu_count()},
+              "machine": machine(),
               "res": args.res, "spp": args.spp, "rows": rows}
     Path(args.out).write_text(json.dumps(result, indent=2) + "\n")
     print(f"wrote {args.out}")

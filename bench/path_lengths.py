@@ -38,7 +38,6 @@ import argparse
 import datetime
 import json
 import os
-import platform
 import sys
 import time
 from pathlib import Path
@@ -49,6 +48,7 @@ HERE = Path(__file__).resolve().parent
 
 import sssphere  # noqa: E402
 from bench.st_vs_pt import BASE_SIGMA, BOUNDARIES, SCALES, SHAPES, pyplot, scene_dict, timed  # noqa: E402
+from bench.machine import machine  # noqa: E402
 
 WARP = (4, 8)  # lanes of one warp: 4 rows x 8 columns of pixels, one sample index
 STEP_COSTS = (1.0, 3.0)  # lane units per sphere step, one pt event = 1
@@ -198,7 +198,7 @@ def main(argv=None) -> int:
         p.error(f"--resolution {args.resolution} is not a multiple of 8 (warps are 8x4 pixels)")
     threads = args.threads if args.threads > 0 else (os.cpu_count() or 1)
     results = {"date": datetime.datetime.now().isoformat(timespec="seconds"),
-               "machine": {"platform": platform.platform(), "cpus": os.cpu_count()},
+               "machine": machine(),
                "settings": {**{k: (str(v) if isinstance(v, Path) else v) for k, v in vars(args).items()},
                             "threads_used": threads, "warp_pixels": list(WARP),
                             "step_costs": list(STEP_COSTS), "seed": 1},

@@ -37,7 +37,6 @@ import argparse
 import datetime
 import json
 import os
-import platform
 import sys
 import tempfile
 import time
@@ -49,6 +48,7 @@ HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 
 import sssphere  # noqa: E402
+from bench.machine import machine  # noqa: E402
 
 BUNNY = "/usr/share/glmark2/models/bunny.obj"
 SIGMAS = (1.0, 10.0, 100.0, 1000.0)
@@ -237,8 +237,7 @@ def main(argv=None) -> int:
                     "max_depth": -1, "rr_depth": mu.RR_DEPTH, "film": "hdrfilm, box filter",
                     "sampler": "independent"},
         "ours": {"integrator": "pt", "version": sssphere.__version__},
-        "machine": {"cpu_count": os.cpu_count(), "processor": platform.processor(),
-                    "platform": platform.platform(), "python": platform.python_version()},
+        "machine": machine(),
         "date": datetime.datetime.now().isoformat(timespec="seconds"),
         "timing": "our render_full and Mitsuba's mi.render, wall clock, scene loading excluded",
     }

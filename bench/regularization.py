@@ -26,12 +26,12 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
-import platform
 from pathlib import Path
 
 import numpy as np
 
 import sssphere
+from bench.machine import machine
 
 HERE = Path(__file__).resolve().parent
 BUNNY = "/usr/share/glmark2/models/bunny.obj"
@@ -118,8 +118,8 @@ def main(argv=None) -> None:
               f"sRGB RMSE {c['srgb_rmse']:.4f} (noise alone {c['srgb_rmse_noise']:.4f})")
     st = rows[f"smooth, regularization {DEFAULT:g}, st"]
     pt = rows[f"smooth, regularization {DEFAULT:g}"]
-    out = {"date": datetime.date.today().isoformat(), "machine": platform.machine(),
-           "processor": platform.processor(), "res": a.res, "spp": a.spp,
+    out = {"date": datetime.date.today().isoformat(), "machine": machine(),
+           "res": a.res, "spp": a.spp,
            "sigma_t": a.sigma_t, "pixels": int(mask.sum()), "renders": rows,
            "comparisons": comparisons, "st_speedup": pt["seconds"] / st["seconds"]}
     a.output.parent.mkdir(parents=True, exist_ok=True)

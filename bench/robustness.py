@@ -25,12 +25,12 @@ import argparse
 import datetime
 import json
 import math
-import platform
 from pathlib import Path
 
 import numpy as np
 
 import sssphere
+from bench.machine import machine
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -140,7 +140,7 @@ def main(argv=None) -> int:
     moves = [(1.0, t) for t in ([1e3] if args.quick else [1e2, 1e3, 1e4])]
     result = {
         "date": datetime.datetime.now().isoformat(timespec="seconds"),
-        "machine": platform.processor() or platform.machine(),
+        "machine": machine(),
         "version": sssphere.__version__,
         "framed_sphere": framed_sphere(ds, integrators, spp, args.backend),
         "scale": [row for i in integrators

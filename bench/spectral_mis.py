@@ -30,7 +30,6 @@ import argparse
 import datetime
 import json
 import os
-import platform
 import re
 import subprocess
 import sys
@@ -43,6 +42,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 
 import sssphere  # noqa: E402
+from bench.machine import machine  # noqa: E402
 
 BUNNY = "/usr/share/glmark2/models/bunny.obj"
 MITSUBA_SPLITS = 4
@@ -152,8 +152,7 @@ def main(argv=None) -> int:
         "spp": args.spp, "resolution": args.resolution, "preset": args.preset,
         "scale_mm_per_unit": args.scale, "medium": medium, "threads": threads,
         "seed": args.seed, "scene": sd, "ours": {"integrator": "pt", "version": sssphere.__version__},
-        "machine": {"cpu_count": os.cpu_count(), "processor": platform.processor(),
-                    "platform": platform.platform(), "python": platform.python_version()},
+        "machine": machine(),
         "date": datetime.datetime.now().isoformat(timespec="seconds"),
     }
     if not args.no_mitsuba:

@@ -20,7 +20,6 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
-import platform
 import statistics
 import sys
 from pathlib import Path
@@ -30,6 +29,7 @@ HERE = Path(__file__).resolve().parent
 import sssphere  # noqa: E402
 from sssphere.rendering import render_full  # noqa: E402
 from bench.st_vs_pt import BASE_SIGMA, BOUNDARIES, scene_dict  # noqa: E402
+from bench.machine import machine  # noqa: E402
 
 
 def main(argv=None) -> int:
@@ -70,8 +70,7 @@ def main(argv=None) -> int:
 
     out = {"settings": {"resolution": args.resolution, "spp": args.spp, "repeats": args.repeats,
                         "threads": args.threads, "timing": "render_full seconds, medians",
-                        "machine": {"platform": platform.platform(),
-                                    "python": platform.python_version()},
+                        "machine": machine(),
                         "date": datetime.datetime.now().isoformat(timespec="seconds")},
            "cases": cases}
     args.output.parent.mkdir(parents=True, exist_ok=True)

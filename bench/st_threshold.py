@@ -27,8 +27,6 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
-import os
-import platform
 import sys
 from pathlib import Path
 
@@ -38,6 +36,7 @@ HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 
 import sssphere  # noqa: E402
+from bench.machine import machine  # noqa: E402
 
 # name -> (scene file, overrides of shapes[0]: medium keys, or "boundary")
 CASES = {
@@ -146,7 +145,7 @@ def main() -> int:
 
     out = {
         "date": datetime.datetime.now().isoformat(timespec="seconds"),
-        "machine": {"platform": platform.platform(), "cpus": os.cpu_count()},
+        "machine": machine(),
         "settings": {k: v for k, v in vars(args).items() if k not in ("output", "cache")},
         "models": str(args.models) if args.models else "models/ (repository default)",
         "rows": rows,

@@ -42,7 +42,6 @@ import datetime
 import json
 import math
 import os
-import platform
 import sys
 import tempfile
 import time
@@ -56,6 +55,7 @@ REPO = HERE.parent
 import sssphere  # noqa: E402
 from sssphere.rendering import DEFAULT_SPHERE_THRESHOLD as DEFAULT_TAU  # noqa: E402
 from bench.st_threshold import rmse_srgb, srgb  # noqa: E402
+from bench.machine import machine  # noqa: E402
 
 SHAPES = {"bunny": "scenes/bunny.json", "thin_torus": "scenes/thin_torus.json"}
 BOUNDARIES = ("dielectric", "index_matched")
@@ -564,8 +564,7 @@ def main(argv=None) -> int:
         "timing": "render_full's own wall clock (scene loading excluded); Mitsuba: mi.render",
     })
     results = {"date": datetime.datetime.now().isoformat(timespec="seconds"),
-               "machine": {"platform": platform.platform(), "processor": platform.processor(),
-                           "cpus": os.cpu_count()},
+               "machine": machine(),
                "settings": settings, "scenes": [], "mitsuba": [], "step_cost": {}}
     args.output.parent.mkdir(parents=True, exist_ok=True)
 
