@@ -17,8 +17,12 @@
 #include <cmath>
 #include <cstdlib>
 #include <memory>
+#include <mutex>
 #include <new>
 #include <vector>
+#if defined(__x86_64__) || defined(__i386__)
+#include <cpuid.h>
+#endif
 
 #include "core/check.h"
 #include "core/rng.h"
@@ -379,12 +383,17 @@ HWY_EXPORT(SoftplusArray);
 
 using namespace simd_detail;
 
+namespace {
+void use_default_target_once();  // below, with the targets
+}  // namespace
+
 void SimdDecoder::FreeAligned::operator()(float* p) const {
     ::operator delete[](p, std::align_val_t(64));
 }
 
 SimdDecoder::SimdDecoder(const Decoder& d)
     : input_width_(d.input_width), num_outputs_(d.num_outputs()) {
+    use_default_target_once();
     auto pad4 = [](int n) { return (n + 3) / 4 * 4; };
     output_half_ = pad4(num_outputs_);
     // Offsets first, then one aligned allocation.
@@ -505,7 +514,33 @@ void softplus_simd(const float* x, float* y, size_t n) {
     }
 }
 
-const char* simd_target_name() { return HWY_DYNAMIC_DISPATCH(TargetName)(); }
+namespace {
+
+// Pins `name` ("": every target this CPU has, the best chosen).
+void pin_target(const std::string& name) {
+    hwy::SetSupportedTargetsForTest(0);  // the real CPU again
+    int64_t mask = 0;
+    for (int64_t t : hwy::SupportedAndGeneratedTargets())
+        if (name == hwy::TargetName(t)) mask = t;
+    if (!name.empty() && mask == 0)
+        fail("SIMD target '", name, "' is not available here");
+    hwy::SetSupportedTargetsForTest(mask);
+    hwy::GetChosenTarget().Update(hwy::SupportedTargets());
+}
+
+// The default target, pinned once before the decoders first run (SimdDecoder's
+// constructor) or are asked about.
+void use_default_target_once() {
+    static std::once_flag once;
+    std::call_once(once, [] { pin_target(simd_default_target()); });
+}
+
+}  // namespace
+
+const char* simd_target_name() {
+    use_default_target_once();
+    return HWY_DYNAMIC_DISPATCH(TargetName)();
+}
 
 std::vector<std::string> simd_targets() {
     std::vector<std::string> names;
@@ -515,14 +550,39 @@ std::vector<std::string> simd_targets() {
 }
 
 void simd_use_target(const std::string& name) {
-    hwy::SetSupportedTargetsForTest(0);  // the real CPU again
-    int64_t mask = 0;
-    for (int64_t t : hwy::SupportedAndGeneratedTargets())
-        if (name == hwy::TargetName(t)) mask = t;
-    if (!name.empty() && mask == 0)
-        fail("SIMD target '", name, "' is not available here");
-    hwy::SetSupportedTargetsForTest(mask);
-    hwy::GetChosenTarget().Update(hwy::SupportedTargets());
+    use_default_target_once();
+    pin_target(name.empty() ? simd_default_target() : name);
+}
+
+CpuId this_cpu_id() {
+    CpuId id;
+#if defined(__x86_64__) || defined(__i386__)
+    unsigned a = 0, b = 0, c = 0, d = 0;
+    if (__get_cpuid(0, &a, &b, &c, &d))
+        id.intel =
+            b == 0x756e6547u && d == 0x49656e69u && c == 0x6c65746eu;  // GenuineIntel
+    if (__get_cpuid(1, &a, &b, &c, &d)) {
+        const int family = int((a >> 8) & 0xf), model = int((a >> 4) & 0xf);
+        id.family = family == 0xf ? family + int((a >> 20) & 0xff) : family;
+        id.model = family == 6 || family == 0xf ? model | int((a >> 12) & 0xf0) : model;
+    }
+#endif
+    return id;
+}
+
+std::string default_simd_target(const CpuId& cpu,
+                                const std::vector<std::string>& available) {
+    if (available.empty()) return "";
+    const bool throttles = cpu.intel && cpu.family == 6 && cpu.model == 85;
+    if (throttles && available.front() == "AVX3")
+        for (const std::string& t : available)
+            if (t == "AVX2") return t;
+    return available.front();
+}
+
+std::string simd_default_target() {
+    static const std::string name = default_simd_target(this_cpu_id(), simd_targets());
+    return name;
 }
 
 }  // namespace sss

@@ -107,9 +107,28 @@ void softplus_simd(const float* x, float* y, size_t n);
 // The Highway target the SIMD code runs on here ("AVX2", "AVX3", "SSE4", ...).
 const char* simd_target_name();
 // The targets compiled into the SIMD decoder that this CPU can run, best first, and a way
-// to pin one of them ("" returns to the best). For tests that cover every target; not
-// thread-safe: call it only while no other thread uses the decoders.
+// to pin one of them ("" returns to the default, simd_default_target). For tests and
+// benchmarks that cover every target; not thread-safe: call it only while no other thread
+// uses the decoders.
 std::vector<std::string> simd_targets();
 void simd_use_target(const std::string& name);
+
+// What the default target depends on: x86's vendor, family and model (CPUID leaf 1).
+struct CpuId {
+    bool intel = false;
+    int family = 0, model = 0;
+};
+CpuId this_cpu_id();  // zeros on other architectures
+// The decoders' default target on `cpu` among `available` (best first): the best, except
+// AVX2 where the best is AVX-512 ("AVX3") on Intel's family 6, model 85 (Skylake-SP,
+// Cascade Lake, Cooper Lake). Those cores lower their clock for about a millisecond after
+// 512-bit floating-point work, and a render samples steps more often than that, so the
+// rest of it (the path loop, libm) runs slower: `st` is 7-10 % faster with AVX2 there
+// although AVX2's decoders alone are slower (bench/README.md, "Which CPU").
+std::string default_simd_target(const CpuId& cpu,
+                                const std::vector<std::string>& available);
+// default_simd_target for this CPU; the decoders run on it until simd_use_target pins
+// another.
+std::string simd_default_target();
 
 }  // namespace sss

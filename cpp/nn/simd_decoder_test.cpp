@@ -22,7 +22,7 @@ double rel_err(double a, double b, double floor = 1e-30) {
 }
 
 // Runs body once for every SIMD target compiled in and supported here (SSE4 at least, the
-// build's baseline), then returns to the best one.
+// build's baseline), then returns to the default one.
 template <class F>
 void for_each_target(F&& body) {
     std::vector<std::string> targets = simd_targets();
@@ -37,14 +37,31 @@ void for_each_target(F&& body) {
 }
 
 // The x86-64-v2 baseline compiles Highway's SSSE3 target (its SSE4 target also wants AES
-// and CLMUL, which v2 lacks); one of the two always runs, and the best target is chosen.
+// and CLMUL, which v2 lacks); one of the two always runs, and the default target is
+// chosen.
 TEST(SimdDecoder, TargetsIncludeTheBaseline) {
     std::vector<std::string> targets = simd_targets();
     ASSERT_FALSE(targets.empty());
     bool baseline = std::find(targets.begin(), targets.end(), "SSSE3") != targets.end() ||
                     std::find(targets.begin(), targets.end(), "SSE4") != targets.end();
     EXPECT_TRUE(baseline);
-    EXPECT_EQ(std::string(simd_target_name()), targets.front());
+    EXPECT_EQ(std::string(simd_target_name()), simd_default_target());
+    EXPECT_NE(std::find(targets.begin(), targets.end(), simd_default_target()),
+              targets.end());
+}
+
+// The best target, except AVX2 instead of AVX-512 on Intel's family 6, model 85.
+TEST(SimdDecoder, DefaultTargetAvoidsAvx512WhereItLowersTheClock) {
+    const std::vector<std::string> all = {"AVX3", "AVX2", "SSE4"};
+    EXPECT_EQ(default_simd_target({true, 6, 85}, all), "AVX2");    // Cascade Lake
+    EXPECT_EQ(default_simd_target({true, 6, 106}, all), "AVX3");   // Ice Lake-SP
+    EXPECT_EQ(default_simd_target({true, 6, 143}, all), "AVX3");   // Sapphire Rapids
+    EXPECT_EQ(default_simd_target({false, 25, 97}, all), "AVX3");  // AMD Zen 4
+    EXPECT_EQ(default_simd_target({true, 6, 85}, {"AVX2", "SSE4"}), "AVX2");
+    EXPECT_EQ(default_simd_target({true, 6, 85}, {"AVX3", "SSE4"}), "AVX3");  // no AVX2
+    EXPECT_EQ(default_simd_target({true, 6, 85}, {}), "");
+    // This CPU's default is the rule applied to its own id and targets.
+    EXPECT_EQ(simd_default_target(), default_simd_target(this_cpu_id(), simd_targets()));
 }
 
 // Scalar reference and SIMD decoder on random inputs for random-weight models of each

@@ -197,9 +197,12 @@ void bind_nn(py::module_& m) {
             "simd_target", [](py::object) { return std::string(simd_target_name()); })
         .def_static("simd_targets", &simd_targets,
                     "The SIMD targets compiled in that this CPU runs, best first.")
+        .def_static("simd_default_target", &simd_default_target,
+                    "The SIMD target the decoders run on unless pinned: the best here, "
+                    "except AVX2 on Intel's family 6, model 85.")
         .def_static("use_simd_target", &simd_use_target, py::arg("name"),
-                    "Pin the decoders' SIMD target ('' = the best here); for benchmarks, "
-                    "between renders only.")
+                    "Pin the decoders' SIMD target ('' = the default here); for "
+                    "benchmarks, between renders only.")
         .def("__repr__", [](const ScatteringModel& m) {
             std::ostringstream os;
             Range r = m.sigma_range();

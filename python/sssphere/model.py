@@ -161,9 +161,17 @@ class ScatteringModel:
         return _core.ScatteringModel.simd_target
 
     @staticmethod
+    def simd_default_target() -> str:
+        """The SIMD target the decoders run on unless pinned: the best this CPU has, except
+        "AVX2" where that is AVX-512 on Intel's family 6, model 85 (Skylake-SP, Cascade
+        Lake, Cooper Lake), whose clock drops after 512-bit arithmetic and slows the rest of
+        a render more than the wider vectors gain (bench/README.md, "Which CPU")."""
+        return _core.ScatteringModel.simd_default_target()
+
+    @staticmethod
     def use_simd_target(name: str = "") -> None:
         """Pin the decoders (in renders too) to one of ``simd_targets()``; ``""`` returns to
-        the best this CPU has. For benchmarks of other CPUs' instruction sets: it is global
+        ``simd_default_target()``. For benchmarks of other CPUs' instruction sets: it is global
         to the process, so call it only while nothing renders or samples. Raises ValueError
         naming the target when this CPU or build does not have it."""
         if not isinstance(name, str):
