@@ -383,6 +383,61 @@ def test_gpu_single_event_steps_follow_their_law(model_dir):
 # Renders: the GPU against the CPU.
 
 
+CUT_MODELS = str(REPO / "models" / "cut")
+
+
+# (sigma, g, h, mu0, whether the exact N = 1 branch is common): a plane close ahead of the
+# photon makes it so (e^-(sigma h / mu0) of the first flights reach it), one behind it or
+# none (h = 1) leaves the networks nearly every step.
+CUT_CASES = [(6.0, 0.9, 0.08, 0.2, True), (6.0, 0.0, 0.15, 0.3, True), (12.0, 0.5, 0.2, 0.9, True),
+             (24.0, 0.9, 0.1, 0.7, True), (6.0, 0.9, 1.0, -1.0, False), (24.0, 0.9, 0.3, -0.5, False)]
+
+
+@pytest.mark.parametrize("sigma, g, h, mu0, exact_too", CUT_CASES)
+def test_gpu_cut_steps_match_cpu_on_the_same_streams(sigma, g, h, mu0, exact_too):
+    """Cut step i from Rng(5, i) on both sides (cut_model.glsl and CutStepModel on lanes):
+    the same N (floor of a decoded float: up to 1 % of the steps may differ by one, a
+    rounding flip), and where N agrees the same side of exit (plane or cap) and the same exit
+    point and direction to 1e-3 in the walk's frame (float rounding through two networks; a
+    wrong weight, encoding or normal's place is off by O(0.1)). The networks are exercised
+    in every case, the exact first flight (N = 1) where exact_too."""
+    n = 3000
+    full = [np.full(n, v, np.float32) for v in (sigma, g, h, mu0)]
+    gpu = _core.gpu_sample_cut_steps(CUT_MODELS, *full, 5)
+    cpu = _core.cut_steps(CUT_MODELS, sigma, g, h, mu0, n, seed=5)
+    assert gpu.shape == (n, 12) and gpu.dtype == np.float32
+    gpu_n = gpu[:, 0].astype(np.int64)
+    assert np.all(gpu[:, 0] == gpu_n), "N is not an integer"
+    agree = gpu_n == cpu["N"]
+    assert agree.mean() >= 0.99, f"N agrees for {agree.mean():.4f} of the steps"
+    off = np.abs(gpu_n - cpu["N"])[~agree]
+    assert np.all(off == 1), f"N differs by {off.max()} (not a rounding flip of floor)"
+    assert np.count_nonzero(agree & (gpu_n >= 2)) >= 500
+    if exact_too:
+        assert np.count_nonzero(agree & (gpu_n == 1)) >= 50
+    plane = gpu[:, 1] == 1
+    assert np.all(plane[agree] == cpu["through_plane"][agree].astype(bool))
+    for name, cols in (("exit_pos", slice(4, 7)), ("exit_dir", slice(8, 11))):
+        err = np.abs(gpu[agree, cols].astype(np.float64) - cpu[name][agree]).max(axis=1)
+        i = int(np.flatnonzero(agree)[err.argmax()])
+        assert err.max() <= 1e-3, f"{name}: |gpu - cpu| = {err.max():.3g} at step {i}, N {gpu_n[i]}"
+    # The exit is on the region's boundary and leaves it: on the plane z = h with D.z >= 0,
+    # or on the cap (unit length) with D . P >= 0.
+    pos, d = gpu[:, 4:7].astype(np.float64), gpu[:, 8:11].astype(np.float64)
+    np.testing.assert_allclose(np.linalg.norm(d, axis=1), 1, atol=1e-5)
+    np.testing.assert_allclose(pos[plane, 2], h, atol=1e-6)
+    assert np.all(d[plane, 2] >= 0)
+    np.testing.assert_allclose(np.linalg.norm(pos[~plane], axis=1), 1, atol=1e-5)
+    assert np.all(np.einsum("ij,ij->i", pos[~plane], d[~plane]) >= -1e-6)
+
+
+def test_gpu_cut_steps_refuse_inputs_outside_the_training_ranges():
+    with pytest.raises(ValueError, match="outside the training range"):
+        _core.gpu_sample_cut_steps(CUT_MODELS, *[np.full(4, v, np.float32) for v in (6.0, 0.9, 0.5, 1.5)], 5)
+    with pytest.raises(ValueError, match="one length"):
+        _core.gpu_sample_cut_steps(CUT_MODELS, *[np.full(k, 0.5, np.float32) for k in (4, 4, 4, 3)], 5)
+
+
 def _count_z(a, b, counts):
     """z-score of the difference of the mean per-path count (`counts`: "path_events" or
     "path_steps") of two renders, from their recorded paths. The standard error uses the

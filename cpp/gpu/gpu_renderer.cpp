@@ -21,6 +21,9 @@ static const uint32_t kRenderSt[] =
 static const uint32_t kSampleSteps[] =
 #include "shaders/sample_steps.spv.h"
     ;
+static const uint32_t kSampleCutSteps[] =
+#include "shaders/sample_cut_steps.spv.h"
+    ;
 static const uint32_t kTraceRays[] =
 #include "shaders/trace_rays.spv.h"
     ;
@@ -230,6 +233,26 @@ std::vector<float> gpu_sample_steps(VulkanCompute& vk, const std::vector<float>&
     const double t =
         vk.run(pipe, {m, bin, bout}, push, sizeof(push), uint32_t((n + 63) / 64));
     if (gpu_seconds) *gpu_seconds = t;
+    vk.download(bout, out.data(), out.size() * 4);
+    return out;
+}
+
+std::vector<float> gpu_sample_cut_steps(VulkanCompute& vk,
+                                        const std::vector<float>& model,
+                                        const float* sigma, const float* g,
+                                        const float* h, const float* mu0, size_t n,
+                                        uint64_t seed) {
+    if (n == 0) return {};
+    std::vector<float> in(4 * n), out(12 * n);
+    for (size_t i = 0; i < n; ++i)
+        in[4 * i] = sigma[i], in[4 * i + 1] = g[i], in[4 * i + 2] = h[i],
+               in[4 * i + 3] = mu0[i];
+    auto m = upload_array(vk, model, "gpu_sample_cut_steps", "cut decoders");
+    auto bin = upload_array(vk, in, "gpu_sample_cut_steps", "inputs");
+    auto bout = vk.create_buffer(out.size() * 4);
+    auto pipe = vk.create_pipeline(kSampleCutSteps, sizeof(kSampleCutSteps) / 4, 3, 12);
+    const uint32_t push[3] = {uint32_t(seed), uint32_t(seed >> 32), uint32_t(n)};
+    vk.run(pipe, {m, bin, bout}, push, sizeof(push), uint32_t((n + 63) / 64));
     vk.download(bout, out.data(), out.size() * 4);
     return out;
 }

@@ -52,6 +52,15 @@ std::vector<float> gpu_sample_steps(VulkanCompute& vk, const std::vector<float>&
                                     const float* sigma, const float* g, const float* phi,
                                     size_t n, uint64_t seed, bool with_event,
                                     double* gpu_seconds = nullptr);
+// n cut sphere steps from packed cut decoders (pack_gpu_cut_model) for per-step sigma[i],
+// g[i], h[i] and mu0[i], step i drawn from Rng(seed, i) as the binding's cut_steps draws
+// them: per step (N, through_plane (1/0), 0, 0, exit_pos, 0, exit_dir, 0) in the walk's
+// frame.
+std::vector<float> gpu_sample_cut_steps(VulkanCompute& vk,
+                                        const std::vector<float>& model,
+                                        const float* sigma, const float* g,
+                                        const float* h, const float* mu0, size_t n,
+                                        uint64_t seed);
 // Closest hits of n rays (origin xyz, 0, unit direction xyz, tfar: 8 floats each) in the
 // scene's BVH: (t or -1, mesh index, normal x, normal y) per ray.
 std::vector<float> gpu_trace_rays(VulkanCompute& vk, const GpuSceneData& scene,

@@ -1,8 +1,10 @@
 #include "gpu/gpu_scene_bake.h"
 
 #include <cmath>
+#include <initializer_list>
 
 #include "core/check.h"
+#include "nn/cut_step_model.h"
 #include "nn/scattering_model.h"
 #include "render/sphere_tracing.h"
 
@@ -16,23 +18,27 @@ void put3(float* dst, Vec3 v, float w) {
 
 }  // namespace
 
-std::vector<float> pack_gpu_model(const ScatteringModel& m) {
-    const Decoder* decoders[3] = {&m.length_gen(), &m.path_gen(), &m.event_gen()};
-    std::vector<float> out(3 * kGpuDecoderHeader, 0.f);
+namespace {
+
+// Decoders in the layout of gpu_scene.h ("Packed decoders"): their headers, then their
+// layers; each of kGpuLayers layers of at most max_width units.
+std::vector<float> pack_decoders(std::initializer_list<const Decoder*> decoders,
+                                 int max_width) {
+    std::vector<float> out(decoders.size() * kGpuDecoderHeader, 0.f);
     auto put_encoding = [&](size_t at, const Encoding& e) {
         out[at] = float(int(e.kind));
         out[at + 1] = e.a, out[at + 2] = e.b, out[at + 3] = e.s, out[at + 4] = e.c;
         out[at + 5] = e.lo, out[at + 6] = e.hi, out[at + 7] = e.eps;
     };
-    for (int k = 0; k < 3; ++k) {
-        const Decoder& d = *decoders[k];
-        const size_t h = size_t(k) * kGpuDecoderHeader;
+    size_t h = 0;
+    for (const Decoder* dp : decoders) {
+        const Decoder& d = *dp;
         if (int(d.layers.size()) != kGpuLayers || d.num_conditions() > 7 ||
-            d.num_outputs() > 6 || d.input_width > kGpuMaxWidth)
+            d.num_outputs() > 6 || d.input_width > max_width)
             fail(d.source, ": ", d.name, " has ", d.layers.size(),
                  " layers and input width ", d.input_width, "; the GPU path supports ",
-                 kGpuLayers, " layers (two hidden, paper Table 1) of at most ",
-                 kGpuMaxWidth, " units");
+                 kGpuLayers, " layers (two hidden, paper Table 1) of at most ", max_width,
+                 " units");
         out[h] = float(d.layers.size());
         out[h + 1] = float(d.input_width);
         out[h + 2] = float(d.latent_dim);
@@ -40,9 +46,9 @@ std::vector<float> pack_gpu_model(const ScatteringModel& m) {
         out[h + 4] = float(d.num_outputs());
         for (size_t l = 0; l < d.layers.size(); ++l) {
             const DenseLayer& L = d.layers[l];
-            if (L.in > kGpuMaxWidth || L.out > kGpuMaxWidth)
+            if (L.in > max_width || L.out > max_width)
                 fail(d.source, ": ", d.name, " layer ", l, " (", L.in, " -> ", L.out,
-                     ") is wider than the GPU path supports (", kGpuMaxWidth, ")");
+                     ") is wider than the GPU path supports (", max_width, ")");
             out[h + 8 + 4 * l] = float(L.in);
             out[h + 9 + 4 * l] = float(L.out);
             out[h + 10 + 4 * l] = L.softplus ? 1.f : 0.f;
@@ -54,7 +60,16 @@ std::vector<float> pack_gpu_model(const ScatteringModel& m) {
             put_encoding(h + 32 + 8 * size_t(i), d.conditions[i].encoding);
         for (int o = 0; o < d.num_outputs(); ++o)
             put_encoding(h + 32 + 8 * size_t(7 + o), d.outputs[o].encoding);
+        h += kGpuDecoderHeader;
     }
+    return out;
+}
+
+}  // namespace
+
+std::vector<float> pack_gpu_model(const ScatteringModel& m) {
+    std::vector<float> out =
+        pack_decoders({&m.length_gen(), &m.path_gen(), &m.event_gen()}, kGpuMaxWidth);
     // The step's normals live in 12 registers, EventGen's in 16 (model.glsl).
     if (m.length_gen().latent_dim + 1 + m.path_gen().latent_dim + 3 > 12)
         fail(m.where(), ": LengthGen and PathGen need more than the 12 normals per step ",
@@ -66,6 +81,18 @@ std::vector<float> pack_gpu_model(const ScatteringModel& m) {
     if (out.size() > size_t(kGpuModelFloats))
         fail(m.where(), ": the decoders take ", out.size(),
              " floats; the GPU path holds at most ", kGpuModelFloats);
+    return out;
+}
+
+std::vector<float> pack_gpu_cut_model(const CutStepModel& m) {
+    std::vector<float> out =
+        pack_decoders({&m.length_gen(), &m.path_gen()}, kGpuCutMaxWidth);
+    // cut_model.glsl draws a step's normals in one set of at most 16 (CutStepModel
+    // checked the outputs: one of CutLengthGen, four of CutPathGen).
+    if (m.length_gen().latent_dim + 1 + m.path_gen().latent_dim + 4 > 16)
+        fail(m.where(),
+             ": CutLengthGen and CutPathGen need more than the 16 normals per ",
+             "step the GPU path supports");
     return out;
 }
 

@@ -9,11 +9,15 @@
 
 namespace sss {
 
+class CutStepModel;
 class ScatteringModel;
 
 // The decoders in the layout of gpu_scene.h ("Packed decoders"); throws sss::Error when
 // they are larger than the GPU path supports.
 std::vector<float> pack_gpu_model(const ScatteringModel& model);
+// CutLengthGen and CutPathGen in the same layout (two decoders, layers of at most
+// kGpuCutMaxWidth units), for cut_model.glsl.
+std::vector<float> pack_gpu_cut_model(const CutStepModel& model);
 
 // Checks that the GPU path can render `scene` as asked and throws sss::Error naming the
 // field and what is allowed otherwise: at most kGpuMaxShapes shapes and kGpuMaxLights

@@ -6,6 +6,7 @@
 
 #include "core/check.h"
 #include "nn/scattering_model.h"
+#include "shared/cut_step.h"
 #include "shared/hg.h"
 #include "shared/sphere_step.h"
 
@@ -43,13 +44,6 @@ void expect(const Decoder& d, const char* name,
              want(outputs), "]");
 }
 
-// v / |v|, or `fallback` for a zero or non-finite v.
-Vec3 unit_or(Vec3 v, Vec3 fallback) {
-    const double x = v.x, y = v.y, z = v.z, l = std::sqrt(x * x + y * y + z * z);
-    if (!(l > 0.0) || !std::isfinite(l)) return fallback;
-    return Vec3(float(x / l), float(y / l), float(z / l));
-}
-
 float finite_or(float x, float fallback) { return std::isfinite(x) ? x : fallback; }
 
 // SimdDecoder::sample_lanes's contract (x, eps, u in lanes) for `count` paths; a few
@@ -70,19 +64,6 @@ void lanes(const SimdDecoder& d, int width, int outputs, const float* x, const f
 }
 
 }  // namespace
-
-CutExitFrame cut_exit_frame(Vec3 P, bool plane) {
-    const float rho = std::sqrt(P.x * P.x + P.y * P.y);
-    const Vec3 radial =
-        rho > 1e-12f ? Vec3(P.x / rho, P.y / rho, 0.f) : Vec3(1.f, 0.f, 0.f);
-    CutExitFrame f;
-    f.b = Vec3(-radial.y, radial.x, 0.f);  // z x radial
-    f.n = plane ? Vec3(0.f, 0.f, 1.f) : P;
-    f.t = plane ? radial : cross(f.b, P);
-    return f;
-}
-
-namespace {}  // namespace
 
 CutStepModel CutStepModel::load(const std::string& dir) {
     namespace fs = std::filesystem;
@@ -166,7 +147,7 @@ void CutStepModel::sample_group(int count, const float* sigma, const float* g,
         const float u1 = rng[k].uniform(), u2 = rng[k].uniform();
         const Vec3 w = hg_sample(w_in, g[k], u1, u2);
         const float t = -std::log1p(-rng[k].uniform()) / sigma[k];
-        const float d = w.z > h[k] ? h[k] / w.z : 1.f;
+        const float d = cut_first_exit(w, h[k]);
         P[k] = D[k] = w;
         if (!(t >= d)) {
             sample_normals(rng[k], z[m], n_normals, DecoderImpl::Simd);
@@ -224,13 +205,7 @@ void CutStepModel::sample_group(int count, const float* sigma, const float* g,
             const float cos_psi = std::clamp(finite_or(dec[1][j], 1.f), -1.f, 1.f);
             float alpha = finite_or(dec[2][j], 0.f), beta = finite_or(dec[3][j], 0.f);
             project_into_disc(alpha, beta);
-            const float sin_p = std::sqrt(std::max(0.f, 1.f - cos_p * cos_p));
-            const float sin_psi = std::sqrt(std::max(0.f, 1.f - cos_psi * cos_psi));
-            P[k] = Vec3(sin_p * cos_psi, sin_p * sin_psi, cos_p);
-            const CutExitFrame f = cut_exit_frame(P[k], cos_p > h[k]);
-            const float gamma =
-                std::sqrt(std::max(0.f, 1.f - alpha * alpha - beta * beta));
-            D[k] = unit_or(f.t * alpha + f.b * beta + f.n * gamma, f.n);
+            cut_network_exit(cos_p, cos_psi, alpha, beta, h[k], P[k], D[k]);
             if (rng[k].uniform() < 0.5f) {  // the mirror image in y (the networks' half)
                 P[k].y = -P[k].y;
                 D[k].y = -D[k].y;
@@ -239,18 +214,10 @@ void CutStepModel::sample_group(int count, const float* sigma, const float* g,
     }
     // 3. The exit point in direction P and the direction made to leave there.
     for (int k = 0; k < count; ++k) {
-        CutStep& c = out[k];
-        c.through_plane = P[k].z > h[k];
-        Vec3 normal = P[k];
-        if (c.through_plane) {
-            c.exit_pos = P[k] * (h[k] / P[k].z);
-            c.exit_pos.z = h[k];
-            normal = Vec3(0.f, 0.f, 1.f);
-        } else {
-            c.exit_pos = P[k];
-        }
-        const float dn = dot(D[k], normal);
-        c.exit_dir = dn < 0.f ? unit_or(D[k] - normal * (2.f * dn), normal) : D[k];
+        const CutExit e = cut_exit(P[k], D[k], h[k]);
+        out[k].through_plane = e.through_plane;
+        out[k].exit_pos = e.pos;
+        out[k].exit_dir = e.dir;
     }
 }
 

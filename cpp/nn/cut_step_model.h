@@ -35,6 +35,7 @@
 #include "core/vec.h"
 #include "nn/decoder.h"
 #include "nn/simd_decoder.h"
+#include "shared/cut_step.h"
 
 namespace sss {
 
@@ -44,14 +45,6 @@ struct CutStep {
     Vec3 exit_pos{0.f, 0.f, 1.f};
     Vec3 exit_dir{0.f, 0.f, 1.f};
 };
-
-// The frame of the exit surface at the exit point in direction P (unit): on the plane n =
-// +z, t the radial direction (P.x, P.y, 0) / rho, b = n x t; on the cap n = P, b = (-P.y,
-// P.x, 0) / rho, t = b x n; (+x, +y) for the radial direction where rho = 0.
-struct CutExitFrame {
-    Vec3 t, b, n;
-};
-CutExitFrame cut_exit_frame(Vec3 P, bool plane);
 
 class CutStepModel {
 public:
@@ -75,6 +68,8 @@ public:
     // The intersection of both decoders' training ranges of `param` (sigma, g, h, mu0).
     Range range(const std::string& param) const;
     const std::string& where() const { return where_; }
+    const Decoder& length_gen() const { return length_; }
+    const Decoder& path_gen() const { return path_; }
 
 private:
     std::string where_;

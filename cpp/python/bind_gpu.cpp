@@ -17,6 +17,7 @@
 #ifdef SSSPHERE_HAVE_VULKAN
 #include "gpu/gpu_renderer.h"
 #include "gpu/gpu_scene_bake.h"
+#include "nn/cut_step_model.h"
 #include "nn/scattering_model.h"
 #endif
 
@@ -88,6 +89,31 @@ void bind_gpu(py::module_& m) {
         "Sphere steps on the GPU: per step (N, cos_theta, alpha, beta, X, 0, W, 0); with "
         "phi (the albedos), EventGen's representative event X, W too.");
     m.def(
+        "gpu_sample_cut_steps",
+        [](const std::string& models, FloatArray sigma, FloatArray g, FloatArray h,
+           FloatArray mu0, uint64_t seed) {
+            for (const FloatArray* a : {&g, &h, &mu0})
+                if (sigma.ndim() != 1 || a->ndim() != 1 || a->size() != sigma.size())
+                    fail("sigma, g, h and mu0 must be 1-d arrays of one length");
+            const CutStepModel model = CutStepModel::load(models);
+            for (py::ssize_t i = 0; i < sigma.size(); ++i)
+                model.check_inputs(sigma.data()[i], g.data()[i], h.data()[i],
+                                   mu0.data()[i]);
+            std::vector<float> packed = pack_gpu_cut_model(model);
+            std::vector<float> out;
+            {
+                py::gil_scoped_release release;
+                VulkanCompute vk;
+                out = gpu_sample_cut_steps(vk, packed, sigma.data(), g.data(), h.data(),
+                                           mu0.data(), size_t(sigma.size()), seed);
+            }
+            return to_array(out, {py::ssize_t(sigma.size()), 12});
+        },
+        py::arg("models"), py::arg("sigma"), py::arg("g"), py::arg("h"), py::arg("mu0"),
+        py::arg("seed"),
+        "Cut sphere steps on the GPU: per step (N, through_plane, 0, 0, exit_pos, 0, "
+        "exit_dir, 0) in the walk's frame.");
+    m.def(
         "gpu_trace_rays",
         [](const Scene& scene, FloatArray origins, FloatArray directions, float tfar) {
             if (origins.ndim() != 2 || origins.shape(1) != 3 || directions.ndim() != 2 ||
@@ -116,7 +142,8 @@ void bind_gpu(py::module_& m) {
         },
         py::arg("scene"), py::arg("origins"), py::arg("directions"), py::arg("tfar"));
 #else
-    for (const char* name : {"bake_gpu_scene", "gpu_sample_steps", "gpu_trace_rays"})
+    for (const char* name :
+         {"bake_gpu_scene", "gpu_sample_steps", "gpu_sample_cut_steps", "gpu_trace_rays"})
         m.def(name, [](py::args, py::kwargs) { no_vulkan(); });
 #endif
 }

@@ -8,6 +8,8 @@
 // invocation reads the same weights, which NVIDIA's compiler then takes straight from its
 // constant cache as operands.
 
+#include "gpu/shaders/decoder_common.glsl"
+
 // The decoders' shapes are specialization constants (set by the host from the model
 // file, gpu_renderer.cpp), so the driver compiles the loops below unrolled and keeps the
 // activations in registers: two hidden layers (paper Table 1), each at most kW wide.
@@ -24,11 +26,8 @@ layout(constant_id = 9) const int E_H1 = 16;
 layout(constant_id = 10) const int E_H2 = 16;
 layout(constant_id = 11) const int E_LAT = 5;  //   (6 outputs)
 
-const int kDecoderHeader = 160;  // floats per decoder header
 const int kLengthGen = 0, kPathGen = 1, kEventGen = 2;
 const int kW = 16;  // the widest layer or input (checked on the host)
-const float kMaxScatterCount = 1099511627776.0;  // 2^40, as in scattering_model.h
-const float kFloatMax = 3.402823466e38;
 
 float mval(int i) { return model_v[i >> 2][i & 3]; }
 int mhead(int d, int i) { return int(mval(d * kDecoderHeader + i)); }
@@ -47,13 +46,8 @@ const int kE2 = kE1 + E_H1 * E_H2 + E_H2;
 
 // e(x) (decode false) or its inverse; the encoding's 8 floats start at `at`.
 float code(int at, float x, bool decode) {
-    int kind = int(mval(at));
-    float a = mval(at + 1), b = mval(at + 2), s = mval(at + 3), c = mval(at + 4);
-    float lo = mval(at + 5), hi = mval(at + 6), eps = mval(at + 7);
-    if (kind == 0) return decode ? (x - b) / a : a * x + b;
-    if (kind == 1) return decode ? (exp((x - b) / a) - c) / s : a * log(s * x + c) + b;
-    return decode ? lo - eps + (hi - lo + 2.0 * eps) / (1.0 + exp(-(x - b) / a))
-                  : a * log((x - lo + eps) / (hi - x + eps)) + b;
+    return code_value(mval(at), mval(at + 1), mval(at + 2), mval(at + 3), mval(at + 4),
+                      mval(at + 5), mval(at + 6), mval(at + 7), x, decode);
 }
 int condition_code(int d, int i) { return d * kDecoderHeader + 32 + 8 * i; }
 int output_code(int d, int o) { return d * kDecoderHeader + 32 + 8 * (7 + o); }
@@ -85,32 +79,6 @@ void decoder_sample(int w0, int w1, int w2, int n_in, int h1, int h2, int n_out,
     [[unroll]] for (int o = 0; o < 6; ++o)
         u[o] = o < n_out ? a[o] + exp(0.5 * a[n_out + o]) * eps[o] : 0.0;
 }
-
-// n <= 16 standard normals by Box-Muller, drawn in the blocks of draw_normal_uniforms /
-// assemble_normals (simd_decoder.cpp): block b takes the radii's uniforms of its k pairs,
-// then the angles', and holds its k cosines, then its k sines.
-void draw_normals(inout RngState rng, int n, out float z[16]) {
-    const int pairs = (n + 1) / 2, blocks = (pairs + 3) / 4;
-    [[unroll]] for (int i = 0; i < 16; ++i) z[i] = 0.0;
-    [[unroll]] for (int blk = 0; blk < 2; ++blk) {
-        if (blk < blocks) {
-            int k = min(4, pairs - 4 * blk);
-            float xr[4], xa[4];
-            [[unroll]] for (int j = 0; j < 4; ++j) xr[j] = j < k ? rng_uniform(rng) : 0.0;
-            [[unroll]] for (int j = 0; j < 4; ++j) xa[j] = j < k ? rng_uniform(rng) : 0.0;
-            [[unroll]] for (int j = 0; j < 4; ++j) {
-                float r = sqrt(-2.0 * log(1.0 - xr[j]));
-                float ang = 2.0 * kPi * xa[j];
-                if (j < k) {
-                    z[8 * blk + j] = r * cos(ang);
-                    z[8 * blk + k + j] = r * sin(ang);
-                }
-            }
-        }
-    }
-}
-
-float finite_value(float x) { return isnan(x) ? 0.0 : clamp(x, -kFloatMax, kFloatMax); }
 
 struct SphereStepSample {
     float N;  // events (>= 1; an integer, exact in float up to 2^24 and rounded beyond)

@@ -1,0 +1,111 @@
+// The learned cut sphere step (cpp/nn/cut_step_model.h) on the GPU: CutLengthGen and
+// CutPathGen evaluated per invocation from the packed decoders in `cut_f`
+// (gpu_scene_bake.h's pack_gpu_cut_model: decoder_common.glsl's layout, two decoders),
+// consuming the random stream as CutStepModel::sample does, so that a stream gives the
+// same step on both up to float rounding (tests/test_gpu.py compares them).
+// The includer declares `float cut_f[]` (a storage buffer) first, includes math.glsl, and
+// enables GL_EXT_control_flow_attributes.
+//
+// The layers' shapes are read from the headers at run time (at most kCutW wide), not
+// specialized as the sphere step's: the loops are not unrolled.
+
+#include "gpu/shaders/decoder_common.glsl"
+#include "shared/cut_step.h"
+
+const int kCutLengthGen = 0, kCutPathGen = 1;
+const int kCutW = 32;  // the widest layer or input (kGpuCutMaxWidth, checked on the host)
+
+float cval(int i) { return cut_f[i]; }
+int chead(int d, int i) { return int(cval(d * kDecoderHeader + i)); }
+
+// Condition i (decode false) or output o (decode true) of decoder d.
+float cut_code(int d, int i, float x, bool decode) {
+    int at = d * kDecoderHeader + 32 + 8 * (decode ? 7 + i : i);
+    return code_value(cval(at), cval(at + 1), cval(at + 2), cval(at + 3), cval(at + 4),
+                      cval(at + 5), cval(at + 6), cval(at + 7), x, decode);
+}
+
+// Decoder d on its encoded input x: the outputs (at most 4) u_o = mean_o + exp(logvar_o /
+// 2) eps_o, the exponent capped at 88 as the CPU's lanes cap it, and made finite (0
+// otherwise) as CutStepModel does.
+void cut_decoder_sample(int d, float x[kCutW], float eps[4], out float u[4]) {
+    float a[kCutW], b[kCutW];
+    for (int i = 0; i < kCutW; ++i) a[i] = x[i];
+    for (int l = 0; l < 3; ++l) {
+        int n_in = chead(d, 8 + 4 * l), n_out = chead(d, 9 + 4 * l);
+        bool act = chead(d, 10 + 4 * l) != 0;
+        int w = chead(d, 11 + 4 * l), bias = w + n_in * n_out;
+        for (int o = 0; o < kCutW; ++o) {
+            float acc = 0.0;
+            if (o < n_out) {
+                acc = cval(bias + o);
+                for (int i = 0; i < n_in; ++i) acc += cval(w + o * n_in + i) * a[i];
+                if (act) acc = softplus(acc);
+            }
+            b[o] = acc;
+        }
+        for (int i = 0; i < kCutW; ++i) a[i] = b[i];
+    }
+    int n_out = chead(d, 4);
+    for (int o = 0; o < 4; ++o)
+        u[o] = o < n_out ? finite_or(a[o] + exp(min(0.5 * a[n_out + o], 88.0)) * eps[o], 0.0)
+                         : 0.0;
+}
+
+struct CutStepSample {
+    float N;  // events (>= 1; an integer, exact in float up to 2^24 and rounded beyond)
+    bool through_plane;
+    vec3 exit_pos, exit_dir;  // in the walk's frame (the unit ball, the plane z = h)
+};
+
+// One cut step for optical radius sigma, anisotropy g, the plane at h and the arriving
+// direction's cosine mu0 with the plane's normal (CutStepModel::sample_group, one path).
+CutStepSample sample_cut_step(float sigma, float g, float h, float mu0, inout RngState rng) {
+    CutStepSample s;
+    s.N = 1.0;
+    // 1. The first flight, exactly: leaving the region before it scatters is N = 1.
+    vec3 w_in = vec3(sqrt(max(0.0, 1.0 - mu0 * mu0)), 0.0, mu0);
+    float u1 = rng_uniform(rng), u2 = rng_uniform(rng);
+    vec3 w = hg_sample(w_in, g, u1, u2);
+    float t = -log1p(-rng_uniform(rng)) / sigma;
+    vec3 P = w, D = w;
+    if (!(t >= cut_first_exit(w, h))) {
+        // 2. The networks: CutLengthGen's latent and noise, then CutPathGen's.
+        int nl = chead(kCutLengthGen, 2), np = chead(kCutPathGen, 2);
+        float z[16];
+        draw_normals(rng, nl + 1 + np + 4, z);
+        float x[kCutW], eps[4], u[4];
+        float cond[4] = float[4](sigma, g, h, mu0);
+        for (int i = 0; i < kCutW; ++i) x[i] = 0.0;
+        for (int i = 0; i < 4; ++i) x[i] = cut_code(kCutLengthGen, i, cond[i], false);
+        for (int i = 0; i < nl; ++i) x[4 + i] = z[i];
+        eps[0] = z[nl];
+        eps[1] = eps[2] = eps[3] = 0.0;
+        cut_decoder_sample(kCutLengthGen, x, eps, u);
+        float n_raw = finite_or(cut_code(kCutLengthGen, 0, u[0], true), 2.0);
+        s.N = clamp(floor(n_raw), 2.0, kMaxScatterCount);
+
+        for (int i = 0; i < kCutW; ++i) x[i] = 0.0;
+        for (int i = 0; i < 4; ++i) x[i] = cut_code(kCutPathGen, i, cond[i], false);
+        x[4] = cut_code(kCutPathGen, 4, s.N, false);
+        for (int i = 0; i < np; ++i) x[5 + i] = z[nl + 1 + i];
+        for (int o = 0; o < 4; ++o) eps[o] = z[nl + 1 + np + o];
+        cut_decoder_sample(kCutPathGen, x, eps, u);
+        float cos_p = clamp(finite_or(cut_code(kCutPathGen, 0, u[0], true), 1.0), -1.0, 1.0);
+        float cos_psi = clamp(finite_or(cut_code(kCutPathGen, 1, u[1], true), 1.0), -1.0, 1.0);
+        float alpha = finite_or(cut_code(kCutPathGen, 2, u[2], true), 0.0);
+        float beta = finite_or(cut_code(kCutPathGen, 3, u[3], true), 0.0);
+        project_into_disc(alpha, beta);  // shared/sphere_step.h
+        cut_network_exit(cos_p, cos_psi, alpha, beta, h, P, D);  // shared/cut_step.h
+        if (rng_uniform(rng) < 0.5) {  // the mirror image in y (the networks' half)
+            P.y = -P.y;
+            D.y = -D.y;
+        }
+    }
+    // 3. The exit point in direction P and the direction made to leave there.
+    CutExit e = cut_exit(P, D, h);
+    s.through_plane = e.through_plane;
+    s.exit_pos = e.pos;
+    s.exit_dir = e.dir;
+    return s;
+}
