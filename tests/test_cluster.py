@@ -316,11 +316,14 @@ def _task_pids() -> list[int]:
 def test_a_killed_worker_process_and_a_lost_node_cost_only_their_tasks(small_scene):
     """Killing a worker process mid-task, then removing a whole node mid-render: Ray re-runs
     the lost tasks and the image is the local one."""
+    spp = 128
     ray.shutdown()  # this test takes nodes away: a cluster of its own
     c = _start(2)
     try:
         scene = _scene(small_scene, sigma_t=60.0)
-        local = sssphere.render_full(scene, spp=32, seed=9, threads=1)
+        # Enough samples that both nodes are still busy after the first fault: with 32 the
+        # render sometimes ended before a progress call saw them so (CI, 2026-11-27).
+        local = sssphere.render_full(scene, spp=spp, seed=9, threads=1)
         events = []
 
         def faults(fraction):
@@ -335,7 +338,7 @@ def test_a_killed_worker_process_and_a_lost_node_cost_only_their_tasks(small_sce
                 events.append("removed node")
             return True
 
-        remote = sssphere.render_full(scene, spp=32, seed=9, progress=faults,
+        remote = sssphere.render_full(scene, spp=spp, seed=9, progress=faults,
                                       ray_address=c.address)
         assert events == ["killed worker", "removed node"]
         _assert_same_render(local, remote)
