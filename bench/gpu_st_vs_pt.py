@@ -7,7 +7,9 @@ sigma_t = 500 x {0.25, 0.5, 1, 2}, and the bunny's dense sweep 4, 8, 16), render
 ``nee=False``: for the dielectric scenes that is the same estimator as the CPU's `pt` with NEE
 (no shadow ray leaves them), for the index-matched ones a noisier one of the same image. The
 index-matched bunny is also run with light sampling (boundary ``index_matched_nee``: the
-override ``nee=1``), the estimator of the CPU's table. Errors are measured against the CPU's
+override ``nee=1``), the estimator of the CPU's table, and the dielectric bunny at sigma_t =
+1000 and 4000 with cut sphere steps too (boundary ``dielectric_cut``: ``st`` with models/cut;
+a baked file each, as the plane certificates depend on sigma_t). Errors are measured against the CPU's
 converged `pt` references in bench/results/cache/ (st_vs_pt.py makes them).
 
 Three steps, because the GPU machine has neither this package's libraries nor a network:
@@ -48,6 +50,13 @@ DENSE = (4.0, 8.0, 16.0)
 
 
 NEE_SUFFIX = "_nee"  # a boundary label: that boundary, with light sampling on the GPU
+CUT_SUFFIX = "_cut"  # a boundary label: that boundary, "st" with cut steps (models/cut)
+CUT_SCALES = (2.0, 8.0)  # the dielectric bunny with cut steps at sigma_t = 1000 and 4000
+
+
+def base_boundary(boundary: str) -> str:
+    """The scene's boundary behind a run's label."""
+    return boundary.removesuffix(NEE_SUFFIX).removesuffix(CUT_SUFFIX)
 
 
 def runs():
@@ -62,11 +71,16 @@ def runs():
             for scale in scales:
                 sigma = cpu.BASE_SIGMA * scale
                 out.append((f"{shape}_{boundary}_s{sigma:g}", shape, boundary, sigma))
+    for scale in CUT_SCALES:
+        sigma = cpu.BASE_SIGMA * scale
+        out.append((f"bunny_dielectric{CUT_SUFFIX}_s{sigma:g}", "bunny",
+                    "dielectric" + CUT_SUFFIX, sigma))
     return out
 
 
 def bake(args) -> int:
-    """One baked file per (shape, grid resolution); the runs override medium and boundary."""
+    """One baked file per (shape, grid resolution); the runs override medium and boundary.
+    Runs with cut steps get a file each: the plane certificates depend on sigma_t."""
     d = Path(args.dir)
     if d.exists():
         shutil.rmtree(d)
@@ -77,18 +91,20 @@ def bake(args) -> int:
         scene = sssphere.load_scene(desc)
         # The grid resolution Scene chose for this density (Scene::auto_grid_resolution).
         res = 128 if sigma * 1.0 / 64 > 10 else 64
-        key = f"{shape}_g{res}"
+        cut = boundary.endswith(CUT_SUFFIX)
+        key = f"{shape}_g{res}" + (f"_cut_s{sigma:g}" if cut else "")
         if key not in baked:
             path = d / f"{key}.bin"
             _core.bake_gpu_scene(scene, str(path), "st", False, DEFAULT_SPHERE_THRESHOLD,
-                                 str(DEFAULT_MODELS))
+                                 str(DEFAULT_MODELS),
+                                 str(REPO / "models" / "cut") if cut else "")
             with open(path, "rb") as f, gzip.open(str(path) + ".gz", "wb", compresslevel=6) as g:
                 shutil.copyfileobj(f, g)
             path.unlink()
             baked[key] = path.name
         nee = boundary.endswith(NEE_SUFFIX)
         lines.append(f"{name}={baked[key]},sigma_t={sigma:g},"
-                     f"boundary={boundary.removesuffix(NEE_SUFFIX)}" + (",nee=1" if nee else ""))
+                     f"boundary={base_boundary(boundary)}" + (",nee=1" if nee else ""))
     (d / "runs.txt").write_text("\n".join(lines) + "\n")
     (d / "spp.txt").write_text(f"{args.spp}\n")
     binary = Path(args.build) / "cpp" / "sssphere-gpu-bench"
@@ -99,7 +115,7 @@ def bake(args) -> int:
 
 
 def reference(shape, boundary, sigma):
-    boundary = boundary.removesuffix(NEE_SUFFIX)  # the same image
+    boundary = base_boundary(boundary)  # the same image
     files = sorted(Path(REPO / "bench" / "results" / "cache").glob(
         f"{shape}_{boundary}_s{sigma:g}_{RES}px_*spp.npz"),
         key=lambda f: int(f.stem.rsplit("_", 1)[1][:-3]))

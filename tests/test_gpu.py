@@ -551,6 +551,30 @@ def test_gpu_render_agrees_with_cpu(case, integrator, model_dir):
     assert_renders_agree(cpu, gpu, f"{case} {integrator}")
 
 
+CUT_RENDER_CASES = {
+    # Dielectric boundaries (the media whose events sample no light: they take cut steps),
+    # grey and chromatic (one channel per path from the first step on, weight 3).
+    "bunny_dielectric": lambda: bunny_scene(sigma_t=50.0, g=0.9),
+    "sphere_dielectric_chromatic": lambda: sphere_scene(sigma_t=[20.0, 30.0, 40.0],
+                                                        albedo=(0.99, 0.98, 0.97), g=0.5),
+}
+
+
+@pytest.mark.parametrize("case", list(CUT_RENDER_CASES))
+def test_gpu_cut_steps_render_agrees_with_cpu(case, model_dir):
+    """"st" with cut_models on both backends (render.glsl's cut_certificate and
+    path_cut_step against PathTracer's): the renders agree as above, steps per path included,
+    and the cut steps are taken: a path takes more steps than without them."""
+    scene = sssphere.load_scene(CUT_RENDER_CASES[case]())
+    cpu, gpu = _render_pair(scene, integrator="st", nee=True, models=model_dir,
+                            cut_models=CUT_MODELS)
+    assert_renders_agree(cpu, gpu, f"{case} st with cut steps")
+    spheres_only = sssphere.render_full(scene, spp=32, seed=3, integrator="st", nee=True,
+                                        models=model_dir, backend="vulkan")
+    assert gpu.mean_sphere_steps_per_path > 1.5 * spheres_only.mean_sphere_steps_per_path, \
+        (gpu.mean_sphere_steps_per_path, spheres_only.mean_sphere_steps_per_path)
+
+
 @pytest.mark.parametrize("max_bounces", [0, 2])
 def test_gpu_max_bounces_agrees_with_cpu(max_bounces):
     """max_bounces counts scattering events the same way on both backends: the images agree,

@@ -52,11 +52,21 @@ public:
     size_t cells() const { return entries_.size(); }
     bool empty() const { return entries_.empty(); }
 
-private:
+    // The certificates as query() reads them, for copies elsewhere (the GPU's scene,
+    // gpu/gpu_scene_bake.h): cell (i, j, k) of p = origin + (i, j, k) cell_size has
+    // index()[(k ny + j) nx + i] (-1: none) into entries().
     struct Entry {
         Vec3 centre, n;
         float m = 0.f;
     };
+    Vec3 origin() const { return origin_; }
+    float cell_size() const { return cell_; }
+    float guard() const { return guard_; }
+    int cells_along(int axis) const { return n_[axis]; }
+    const std::vector<int32_t>& index() const { return index_; }
+    const std::vector<Entry>& entries() const { return entries_; }
+
+private:
     Vec3 origin_;
     float cell_ = 0.f, inv_cell_ = 0.f, radius_ = 0.f, guard_ = 0.f;
     int n_[3] = {0, 0, 0};        // cells per axis

@@ -16,7 +16,7 @@ RenderResult render_with_backend(const Scene& scene, const RenderOptions& option
     const bool st = options.integrator == "st";
     GpuSceneData baked =
         bake_gpu_scene(scene, options.integrator, options.nee, options.sphere_threshold,
-                       st ? options.models : "");
+                       st ? options.models : "", st ? options.cut_models : "");
     VulkanCompute vk;
     GpuRenderer renderer(vk, baked);
     return renderer.render(options, progress);

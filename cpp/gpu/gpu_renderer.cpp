@@ -46,11 +46,14 @@ VulkanCompute::BufferId upload_array(VulkanCompute& vk, const std::vector<T>& v,
     return b;
 }
 
-// Whether "st" can take a sphere step anywhere in the scene: some medium's grid bound
-// times its largest sigma_t reaches the threshold. The bound at a point is at most the
-// largest value of the grid's nodes.
+// Whether "st" can take a step anywhere in the scene. Sphere steps: some medium's grid
+// bound times its largest sigma_t reaches the threshold (the bound at a point is at most
+// the largest value of the grid's nodes).
+// Cut steps: some medium has plane certificates.
 bool can_take_steps(const GpuSceneData& scene) {
     const GpuSceneHeader& h = scene.header;
+    for (uint32_t i = 0; i < h.counts[0]; ++i)
+        if (!scene.cut_model.empty() && h.cut_grids[i].n[0] > 0) return true;
     for (uint32_t i = 0; i < h.counts[0]; ++i) {
         const GpuGrid& g = h.grids[i];
         if (g.n[0] == 0) continue;
@@ -62,6 +65,17 @@ bool can_take_steps(const GpuSceneData& scene) {
         if (std::max({s[0], s[1], s[2]}) * r >= h.params[1]) return true;
     }
     return false;
+}
+
+// The render shaders' specialization constants: the decoders' shapes (model.glsl, ids
+// 0-11), whether the shaders sample lights (render.glsl's NEE, id 12), the cut decoders'
+// shapes (cut_model.glsl, ids 13-20) and whether cut steps are taken (CUTS, id 21).
+std::vector<int32_t> gpu_render_constants(const GpuSceneData& scene) {
+    std::vector<int32_t> c = gpu_model_constants(scene.model);
+    c.push_back(scene.header.lighting[1] != 0 ? 1 : 0);
+    for (int32_t v : gpu_cut_model_constants(scene.cut_model)) c.push_back(v);
+    c.push_back(scene.cut_model.empty() ? 0 : 1);
+    return c;
 }
 
 }  // namespace
@@ -82,14 +96,14 @@ GpuRenderer::GpuRenderer(VulkanCompute& vk, const GpuSceneData& scene)
     SSS_CHECK(scene.model.size() <= model.size());
     std::copy(scene.model.begin(), scene.model.end(), model.begin());
     model_ = upload_array(vk, model, scene.source, "decoders");
-    // Specialization constants: the decoders' shapes (model.glsl, ids 0-11), then whether
-    // the shaders sample lights (render.glsl's NEE, id 12).
-    std::vector<int32_t> constants = gpu_model_constants(scene.model);
-    constants.push_back(scene.header.lighting[1] != 0 ? 1 : 0);
+    // The cut decoders (cut_model.glsl's storage buffer; one unused float without).
+    cut_model_ = upload_array(vk, scene.cut_model, scene.source, "cut decoders");
+    // Specialization constants (gpu_render_constants).
+    const std::vector<int32_t> constants = gpu_render_constants(scene);
     constexpr uint32_t kModelUniform = 1u << 4;  // binding 4 is a uniform block
-    pt_ = vk.create_pipeline(kRenderPt, sizeof(kRenderPt) / 4, 7, sizeof(GpuRenderPush),
+    pt_ = vk.create_pipeline(kRenderPt, sizeof(kRenderPt) / 4, 8, sizeof(GpuRenderPush),
                              constants, kModelUniform);
-    st_ = vk.create_pipeline(kRenderSt, sizeof(kRenderSt) / 4, 7, sizeof(GpuRenderPush),
+    st_ = vk.create_pipeline(kRenderSt, sizeof(kRenderSt) / 4, 8, sizeof(GpuRenderPush),
                              constants, kModelUniform);
 }
 
@@ -138,10 +152,10 @@ RenderResult GpuRenderer::render(const RenderOptions& opt, const ProgressFn& pro
                       size_t(vk_.max_workgroups_x()) * kGroup});
         vk_.fill_zero(counts_);
         // Where no step can happen "st" is "pt", path for path: the lighter kernel runs.
-        gpu_seconds +=
-            vk_.run(st && st_steps_ ? st_ : pt_,
-                    {header_, nodes_, triangles_, grid_, model_, radiance_, counts_},
-                    &push, sizeof(push), uint32_t((lanes + kGroup - 1) / kGroup));
+        gpu_seconds += vk_.run(
+            st && st_steps_ ? st_ : pt_,
+            {header_, nodes_, triangles_, grid_, model_, radiance_, counts_, cut_model_},
+            &push, sizeof(push), uint32_t((lanes + kGroup - 1) / kGroup));
         vk_.download(radiance_, rad.data(), paths_now * 16);
         vk_.download(counts_, cnt.data(), paths_now * 8);
         size_t unfinished = 0;
@@ -250,7 +264,12 @@ std::vector<float> gpu_sample_cut_steps(VulkanCompute& vk,
     auto m = upload_array(vk, model, "gpu_sample_cut_steps", "cut decoders");
     auto bin = upload_array(vk, in, "gpu_sample_cut_steps", "inputs");
     auto bout = vk.create_buffer(out.size() * 4);
-    auto pipe = vk.create_pipeline(kSampleCutSteps, sizeof(kSampleCutSteps) / 4, 3, 12);
+    // cut_model.glsl's shapes are constants 13-20, as in the render shaders.
+    std::vector<int32_t> constants = gpu_model_constants({});
+    constants.push_back(0);
+    for (int32_t v : gpu_cut_model_constants(model)) constants.push_back(v);
+    auto pipe = vk.create_pipeline(kSampleCutSteps, sizeof(kSampleCutSteps) / 4, 3, 12,
+                                   constants);
     const uint32_t push[3] = {uint32_t(seed), uint32_t(seed >> 32), uint32_t(n)};
     vk.run(pipe, {m, bin, bout}, push, sizeof(push), uint32_t((n + 63) / 64));
     vk.download(bout, out.data(), out.size() * 4);

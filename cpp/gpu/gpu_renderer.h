@@ -35,7 +35,7 @@ private:
     int width_, height_;
     bool has_model_;
     bool st_steps_;  // "st" can take a step somewhere; else it runs the "pt" kernel
-    VulkanCompute::BufferId header_, nodes_, triangles_, grid_, model_;
+    VulkanCompute::BufferId header_, nodes_, triangles_, grid_, model_, cut_model_;
     VulkanCompute::PipelineId pt_, st_;
     // Per-path outputs, reused across renders (room for out_paths_ paths).
     VulkanCompute::BufferId radiance_ = -1, counts_ = -1;

@@ -10,7 +10,7 @@ namespace sss {
 
 namespace {
 
-constexpr char kMagic[8] = {'S', 'S', 'S', 'G', 'P', 'U', '0', '4'};
+constexpr char kMagic[8] = {'S', 'S', 'S', 'G', 'P', 'U', '0', '5'};
 
 template <class T>
 void write_array(std::ofstream& out, const std::vector<T>& v) {
@@ -31,27 +31,35 @@ void read_array(std::ifstream& in, std::vector<T>& v, const std::string& path,
     if (!in) fail(path, ": the ", what, " array is truncated");
 }
 
-}  // namespace
-
-std::vector<int32_t> gpu_model_constants(const std::vector<float>& model) {
-    if (model.empty()) return {4, 8, 8, 2, 8, 16, 16, 5, 12, 16, 16, 5};
-    SSS_CHECK(model.size() >= size_t(3 * kGpuDecoderHeader));
+// The shapes of the `count` packed decoders in `packed` (decoder_common.glsl's layout),
+// four per decoder: input width, the two hidden widths, latent dimension; checks that
+// each layer's weights are where the packing put them, one after the other, which
+// model.glsl computes from these shapes.
+std::vector<int32_t> decoder_shapes(const std::vector<float>& packed, int count) {
+    SSS_CHECK(packed.size() >= size_t(count * kGpuDecoderHeader));
     std::vector<int32_t> c;
-    // model.glsl computes where each layer's weights start from these shapes: they must
-    // be where pack_gpu_model put them.
-    int32_t at = 3 * kGpuDecoderHeader;
-    for (int d = 0; d < 3; ++d) {
-        const float* h = model.data() + d * kGpuDecoderHeader;
-        c.push_back(int32_t(h[1]));   // input width
-        c.push_back(int32_t(h[9]));   // layer 0's outputs
-        c.push_back(int32_t(h[13]));  // layer 1's outputs
-        c.push_back(int32_t(h[2]));   // latent dimension
+    int32_t at = count * kGpuDecoderHeader;
+    for (int d = 0; d < count; ++d) {
+        const float* h = packed.data() + d * kGpuDecoderHeader;
+        c.insert(c.end(), {int32_t(h[1]), int32_t(h[9]), int32_t(h[13]), int32_t(h[2])});
         for (int l = 0; l < kGpuLayers; ++l) {
             SSS_CHECK(int32_t(h[11 + 4 * l]) == at);
             at += int32_t(h[8 + 4 * l] * h[9 + 4 * l] + h[9 + 4 * l]);
         }
     }
     return c;
+}
+
+}  // namespace
+
+std::vector<int32_t> gpu_model_constants(const std::vector<float>& model) {
+    if (model.empty()) return {4, 8, 8, 2, 8, 16, 16, 5, 12, 16, 16, 5};
+    return decoder_shapes(model, 3);
+}
+
+std::vector<int32_t> gpu_cut_model_constants(const std::vector<float>& cut_model) {
+    if (cut_model.empty()) return {4, 8, 8, 2, 5, 8, 8, 4};
+    return decoder_shapes(cut_model, 2);
 }
 
 void save_gpu_scene(const GpuSceneData& scene, const std::string& path) {
@@ -66,6 +74,7 @@ void save_gpu_scene(const GpuSceneData& scene, const std::string& path) {
     write_array(out, scene.triangles);
     write_array(out, scene.floats);
     write_array(out, scene.model);
+    write_array(out, scene.cut_model);
     if (!out) fail(path, ": writing failed");
 }
 
@@ -77,11 +86,12 @@ GpuSceneData load_gpu_scene(const std::string& path) {
     in.read(magic, sizeof(magic));
     if (in && (std::memcmp(magic, "SSSGPU01", sizeof(magic)) == 0 ||
                std::memcmp(magic, "SSSGPU02", sizeof(magic)) == 0 ||
-               std::memcmp(magic, "SSSGPU03", sizeof(magic)) == 0))
+               std::memcmp(magic, "SSSGPU03", sizeof(magic)) == 0 ||
+               std::memcmp(magic, "SSSGPU04", sizeof(magic)) == 0))
         fail(path, ": baked by an earlier version of sssphere (", std::string(magic, 8),
              ", another layout of the scene header): bake the scene again");
     if (!in || std::memcmp(magic, kMagic, sizeof(kMagic)) != 0)
-        fail(path, ": not a baked GPU scene (no SSSGPU04 header)");
+        fail(path, ": not a baked GPU scene (no SSSGPU05 header)");
     GpuSceneData s;
     uint64_t n = 0;
     in.read(reinterpret_cast<char*>(&n), sizeof(n));
@@ -94,6 +104,7 @@ GpuSceneData load_gpu_scene(const std::string& path) {
     read_array(in, s.triangles, path, "triangle");
     read_array(in, s.floats, path, "grid");
     read_array(in, s.model, path, "model");
+    read_array(in, s.cut_model, path, "cut model");
     if (s.nodes.empty() || s.triangles.empty())
         fail(path, ": the scene has no triangles");
     return s;

@@ -40,6 +40,8 @@ struct GpuSceneData {
     // floats (SceneDesc::light_floats; header.lighting.w: where it starts).
     std::vector<float> floats;
     std::vector<float> model;  // packed decoders; empty when the scene has no models
+    // packed cut decoders (pack_gpu_cut_model); empty when the scene takes no cut steps
+    std::vector<float> cut_model;
     int width() const { return int(header.counts[2]); }
     int height() const { return int(header.counts[3]); }
 };
@@ -48,10 +50,13 @@ struct GpuSceneData {
 // width, hidden widths and latent dimension, then PathGen's and EventGen's); the Table 1
 // shapes when `model` is empty (no steps are taken then).
 std::vector<int32_t> gpu_model_constants(const std::vector<float>& model);
+// The same for cut_model.glsl's packed cut decoders (CutLengthGen's input width, hidden
+// widths and latent dimension, then CutPathGen's); some valid shapes when it is empty.
+std::vector<int32_t> gpu_cut_model_constants(const std::vector<float>& cut_model);
 
-// Binary file: magic "SSSGPU04" (01: before NEE, 02: before render/lights/, 03: before
-// render/surfaces/; refused),
-// then the header and the four arrays (each a uint64 count then its elements),
+// Binary file: magic "SSSGPU05" (01: before NEE, 02: before render/lights/, 03: before
+// render/surfaces/, 04: before cut steps; refused),
+// then the header and the five arrays (each a uint64 count then its elements),
 // little-endian as in memory. Errors name the file.
 void save_gpu_scene(const GpuSceneData& scene, const std::string& path);
 GpuSceneData load_gpu_scene(const std::string& path);

@@ -1,9 +1,11 @@
 #include "gpu/gpu_scene_bake.h"
 
 #include <cmath>
+#include <cstring>
 #include <initializer_list>
 
 #include "core/check.h"
+#include "geometry/cut_planes.h"
 #include "nn/cut_step_model.h"
 #include "nn/scattering_model.h"
 #include "render/sphere_tracing.h"
@@ -96,8 +98,43 @@ std::vector<float> pack_gpu_cut_model(const CutStepModel& m) {
     return out;
 }
 
+namespace {
+
+// The cut decoders and every cut-taking shape's certificates (SphereTracing's), appended
+// to the floats: the cells' entry indices as int32 bits, then 8 floats per entry.
+void bake_cut_planes(const Scene& scene, const SphereTracing& st, GpuSceneData& out) {
+    GpuSceneHeader& h = out.header;
+    out.cut_model = pack_gpu_cut_model(*st.cut_model());
+    h.cut_params[0] = st.cut_sigma_hi();
+    h.cut_params[1] = kCutMinDepth;
+    for (int i = 0; i < scene.num_shapes(); ++i) {
+        if (!st.cuts(i)) continue;
+        const CutPlanes& c = st.cut_planes(i);
+        GpuCutGrid& g = h.cut_grids[i];
+        put3(g.origin, c.origin(), c.cell_size());
+        put3(g.params, Vec3(c.radius(), c.guard(), st.cut_sigma_min(i)),
+             c.cell_size() > 0.f ? 1.f / c.cell_size() : 0.f);
+        for (int a = 0; a < 3; ++a) g.n[a] = c.cells_along(a);
+        g.n[3] = int32_t(out.floats.size());
+        for (int32_t e : c.index()) {
+            float bits;
+            std::memcpy(&bits, &e, sizeof(bits));
+            out.floats.push_back(bits);
+        }
+        g.entries[0] = int32_t(out.floats.size());
+        for (const CutPlanes::Entry& e : c.entries())
+            out.floats.insert(out.floats.end(), {e.centre.x, e.centre.y, e.centre.z, e.m,
+                                                 e.n.x, e.n.y, e.n.z, 0.f});
+        if (out.floats.size() >= (size_t(1) << 31))
+            fail(out.source, ": the cut planes are too large for the GPU path");
+    }
+}
+
+}  // namespace
+
 GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, bool nee,
-                            float sphere_threshold, const std::string& models) {
+                            float sphere_threshold, const std::string& models,
+                            const std::string& cut_models) {
     const SceneDesc& desc = scene.desc();
     if (integrator != "pt" && integrator != "st")
         fail("integrator '", integrator, "' is not allowed (allowed: 'pt', 'st')");
@@ -206,15 +243,20 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
     h.params[1] = INFINITY;  // no sphere steps ("pt")
     h.params[2] = kWalkSigmaMax;
     h.params[3] = scene.grey_media() ? 1.f : 0.f;
+    if (!cut_models.empty() && integrator != "st")
+        fail("cut_models is an option of integrator 'st' (the integrator is '",
+             integrator, "')");
     if (integrator == "st") {
         // The same checks as the CPU's "st" (ranges of the models against the media).
         // With NEE, EventGen's range of phi too where steps draw events.
-        SphereTracing st(scene, sphere_threshold, SphereSampler::Model, models, nee);
+        SphereTracing st(scene, sphere_threshold, SphereSampler::Model, models, nee,
+                         StepNee::Hits, cut_models);
         h.params[1] = sphere_threshold;
         h.params[2] = st.sigma_max();
         h.event_phi[0] = st.event_phi(0.f);
         h.event_phi[1] = st.event_phi(1.f);
         if (st.model()) out.model = pack_gpu_model(*st.model());  // loaded once
+        if (st.cut_model()) bake_cut_planes(scene, st, out);
     }
     return out;
 }

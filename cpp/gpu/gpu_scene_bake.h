@@ -24,8 +24,12 @@ std::vector<float> pack_gpu_cut_model(const CutStepModel& model);
 // lights. With nee the shaders sample the lights as pt.cpp does, where a medium has an
 // index-matched boundary (elsewhere no shadow ray leaves it), and "st" steps connect
 // EventGen's event to point and directional lights (StepNee::Hits). With integrator "st",
-// `models` is the decoders' directory, checked against the media as SphereTracing does.
+// `models` is the decoders' directory, checked against the media as SphereTracing does;
+// `cut_models` (empty: none) the cut sphere models' directory: the media SphereTracing
+// gives cut steps get their plane certificates (GpuSceneHeader::cut_grids) and the
+// shaders the packed cut decoders.
 GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, bool nee,
-                            float sphere_threshold, const std::string& models);
+                            float sphere_threshold, const std::string& models,
+                            const std::string& cut_models = "");
 
 }  // namespace sss

@@ -31,6 +31,8 @@ TEST(GpuScene, FileRoundTrip) {
     s.triangles[1].mesh = 4;
     s.floats = {0.5f, 1.5f};
     s.model = {1.f, 2.f, 3.f};
+    s.cut_model = {4.f, 5.f};
+    s.header.cut_grids[3].n[3] = 9;
     const std::string path = temp_path("round_trip.bin");
     save_gpu_scene(s, path);
     const GpuSceneData t = load_gpu_scene(path);
@@ -42,15 +44,16 @@ TEST(GpuScene, FileRoundTrip) {
     EXPECT_EQ(t.triangles[1].mesh, 4u);
     EXPECT_EQ(t.floats, s.floats);
     EXPECT_EQ(t.model, s.model);
+    EXPECT_EQ(t.cut_model, s.cut_model);
     std::remove(path.c_str());
 }
 
-// Files baked by earlier versions (magic SSSGPU01 to SSSGPU03) have other header layouts:
+// Files baked by earlier versions (magic SSSGPU01 to SSSGPU04) have other header layouts:
 // refused with the way out; any other file is not a baked scene.
 TEST(GpuScene, OldAndForeignFilesAreRefused) {
     const std::string old_file = temp_path("old.bin"), other = temp_path("other.bin");
     std::ofstream(other, std::ios::binary) << "{\"camera\": {}}";
-    for (const char* magic : {"SSSGPU01", "SSSGPU02", "SSSGPU03"}) {
+    for (const char* magic : {"SSSGPU01", "SSSGPU02", "SSSGPU03", "SSSGPU04"}) {
         std::ofstream(old_file, std::ios::binary) << magic << " and whatever followed";
         const std::string old_msg = error_of([&] { load_gpu_scene(old_file); });
         EXPECT_HAS(old_msg, old_file);
@@ -58,7 +61,7 @@ TEST(GpuScene, OldAndForeignFilesAreRefused) {
         EXPECT_HAS(old_msg, "bake the scene again");
     }
     EXPECT_HAS(error_of([&] { load_gpu_scene(other); }),
-               "not a baked GPU scene (no SSSGPU04 header)");
+               "not a baked GPU scene (no SSSGPU05 header)");
     EXPECT_HAS(error_of([&] { load_gpu_scene(temp_path("missing.bin")); }),
                "baked scene file does not exist");
     std::remove(old_file.c_str());

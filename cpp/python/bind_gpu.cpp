@@ -59,12 +59,14 @@ void bind_gpu(py::module_& m) {
     m.def(
         "bake_gpu_scene",
         [](const Scene& scene, const std::string& path, const std::string& integrator,
-           bool nee, float sphere_threshold, const std::string& models) {
-            save_gpu_scene(
-                bake_gpu_scene(scene, integrator, nee, sphere_threshold, models), path);
+           bool nee, float sphere_threshold, const std::string& models,
+           const std::string& cut_models) {
+            save_gpu_scene(bake_gpu_scene(scene, integrator, nee, sphere_threshold,
+                                          models, cut_models),
+                           path);
         },
         py::arg("scene"), py::arg("path"), py::arg("integrator"), py::arg("nee"),
-        py::arg("sphere_threshold"), py::arg("models"));
+        py::arg("sphere_threshold"), py::arg("models"), py::arg("cut_models") = "");
     m.def(
         "gpu_sample_steps",
         [](const std::string& models, FloatArray sigma, FloatArray g, uint64_t seed,

@@ -139,7 +139,7 @@ const std::vector<OptionSpec>& render_option_specs() {
          {},
          "DIR",
          "st, experimental: cut sphere steps near the boundary, sampled by "
-         "cutlengthgen.json and cutpathgen.json in DIR (models/cut; CPU only; media "
+         "cutlengthgen.json and cutpathgen.json in DIR (models/cut; media "
          "whose scattering events get no light sampling, e.g. behind a smooth "
          "dielectric; "
          "default: none)",
@@ -319,8 +319,6 @@ void check_render_options(const RenderOptions& r, const std::string& source) {
         fail(where, "cut_models is an option of integrator 'st' (the integrator is '",
              r.integrator, "')");
     if (r.backend == Backend::Vulkan) {
-        if (!r.cut_models.empty())
-            fail("cut_models is CPU-only for now (backend 'vulkan' takes no cut steps)");
         if (r.threads != 0)
             fail("threads=", r.threads,
                  " is CPU-only (backend 'vulkan' uses the GPU's own; allowed: 0)");

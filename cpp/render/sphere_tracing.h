@@ -125,6 +125,13 @@ public:
     // r's geometry and cut fields (the caller sets the rest as for a sphere step).
     void cut_request(int shape, Vec3 p, Vec3 w_in, Vec3 n, float s, float sigma_t,
                      StepRequest* r) const;
+    // What cut_certificate and cut_request read, for the GPU's copy
+    // (gpu/gpu_scene_bake.h): the loaded cut models (null without cut_models), a shape's
+    // certificates (cuts(shape)), its smallest extinction, and the models' largest sigma.
+    const CutStepModel* cut_model() const { return cut_model_.get(); }
+    const CutPlanes& cut_planes(int shape) const { return *cut_planes_[size_t(shape)]; }
+    float cut_sigma_min(int shape) const { return cut_sigma_min_[size_t(shape)]; }
+    float cut_sigma_hi() const { return cut_sigma_hi_; }
 
 private:
     void load_cuts(const std::string& dir);

@@ -223,8 +223,8 @@ def render_full(
     default) from the step's exit flight when it reaches an area light or the environment,
     with EventGen's representative event connecting only to point and directional lights;
     ``"event"`` (the paper's) from EventGen's event connecting to every kind of light
-    (docs/sphere-tracing.md, "NEE for a sphere step"). ``cut_models`` (experimental, CPU
-    only, not with ``ray_address``): the directory of cutlengthgen.json and cutpathgen.json
+    (docs/sphere-tracing.md, "NEE for a sphere step"). ``cut_models`` (experimental, not with
+    ``ray_address``): the directory of cutlengthgen.json and cutpathgen.json
     (the repository's ``models/cut``); collisions too close to the boundary for a sphere step
     then take cut sphere steps where a plane certifies the region, in media whose scattering
     events get no light sampling (docs/sphere-tracing.md, "Cut sphere steps").
@@ -252,7 +252,7 @@ def render_full(
 
     ``backend="vulkan"`` renders on a Vulkan device (a GPU, or Mesa's lavapipe on the CPU;
     docs/gpu.md): ``"pt"`` and ``"st"`` with the CPU's estimators (light sampling with
-    ``nee=True``, ``step_nee="hits"`` for ``"st"``, EventGen included).
+    ``nee=True``, ``step_nee="hits"`` for ``"st"``, EventGen and ``cut_models`` included).
     ``step_nee="event"``, ``sphere_sampler="walk"`` and ``threads`` are CPU-only.
     """
     if not isinstance(scene, Scene):

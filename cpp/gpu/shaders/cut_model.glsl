@@ -6,11 +6,23 @@
 // The includer declares `float cut_f[]` (a storage buffer) first, includes math.glsl, and
 // enables GL_EXT_control_flow_attributes.
 //
-// The layers' shapes are read from the headers at run time (at most kCutW wide), not
-// specialized as the sphere step's: the loops are not unrolled.
+// The decoders' shapes are specialization constants (ids 13-20, after model.glsl's and
+// render.glsl's; the host sets them from the packed decoders: gpu_cut_model_constants), so
+// the driver unrolls the loops below: Mesa's lavapipe ends all loops of an invocation
+// after 65535 iterations in all, which a path of a few dozen cut steps would reach with
+// loops left rolled.
 
 #include "gpu/shaders/decoder_common.glsl"
 #include "shared/cut_step.h"
+
+layout(constant_id = 13) const int CL_IN = 4;   // CutLengthGen: input width
+layout(constant_id = 14) const int CL_H1 = 8;   //   hidden widths
+layout(constant_id = 15) const int CL_H2 = 8;
+layout(constant_id = 16) const int CL_LAT = 2;  //   latent dimension (1 output)
+layout(constant_id = 17) const int CP_IN = 5;   // CutPathGen
+layout(constant_id = 18) const int CP_H1 = 8;
+layout(constant_id = 19) const int CP_H2 = 8;
+layout(constant_id = 20) const int CP_LAT = 4;  //   (4 outputs)
 
 const int kCutLengthGen = 0, kCutPathGen = 1;
 const int kCutW = 32;  // the widest layer or input (kGpuCutMaxWidth, checked on the host)
@@ -25,29 +37,32 @@ float cut_code(int d, int i, float x, bool decode) {
                       cval(at + 5), cval(at + 6), cval(at + 7), x, decode);
 }
 
-// Decoder d on its encoded input x: the outputs (at most 4) u_o = mean_o + exp(logvar_o /
-// 2) eps_o, the exponent capped at 88 as the CPU's lanes cap it, and made finite (0
-// otherwise) as CutStepModel does.
-void cut_decoder_sample(int d, float x[kCutW], float eps[4], out float u[4]) {
-    float a[kCutW], b[kCutW];
-    for (int i = 0; i < kCutW; ++i) a[i] = x[i];
-    for (int l = 0; l < 3; ++l) {
-        int n_in = chead(d, 8 + 4 * l), n_out = chead(d, 9 + 4 * l);
-        bool act = chead(d, 10 + 4 * l) != 0;
-        int w = chead(d, 11 + 4 * l), bias = w + n_in * n_out;
-        for (int o = 0; o < kCutW; ++o) {
-            float acc = 0.0;
-            if (o < n_out) {
-                acc = cval(bias + o);
-                for (int i = 0; i < n_in; ++i) acc += cval(w + o * n_in + i) * a[i];
-                if (act) acc = softplus(acc);
-            }
-            b[o] = acc;
+// b = act(W a + bias) for the layer whose weights start at w, n_in -> n_out (constants
+// after specialization: the guards fold away).
+void cut_dense(int w, int n_in, int n_out, bool act, float a[kCutW], out float b[kCutW]) {
+    int bias = w + n_in * n_out;
+    [[unroll]] for (int o = 0; o < kCutW; ++o) {
+        float acc = 0.0;
+        if (o < n_out) {
+            acc = cval(bias + o);
+            [[unroll]] for (int i = 0; i < kCutW; ++i)
+                if (i < n_in) acc += cval(w + o * n_in + i) * a[i];
+            if (act) acc = softplus(acc);
         }
-        for (int i = 0; i < kCutW; ++i) a[i] = b[i];
+        b[o] = acc;
     }
-    int n_out = chead(d, 4);
-    for (int o = 0; o < 4; ++o)
+}
+
+// Decoder d (input n_in, hidden h1 and h2 wide, n_out outputs) on its encoded input x:
+// the outputs (at most 4) u_o = mean_o + exp(logvar_o / 2) eps_o, the exponent capped at
+// 88 as the CPU's lanes cap it, and made finite (0 otherwise) as CutStepModel does.
+void cut_decoder_sample(int d, int n_in, int h1, int h2, int n_out, float x[kCutW],
+                        float eps[4], out float u[4]) {
+    float a[kCutW], b[kCutW];
+    cut_dense(chead(d, 11), n_in, h1, true, x, a);
+    cut_dense(chead(d, 15), h1, h2, true, a, b);
+    cut_dense(chead(d, 19), h2, 2 * n_out, false, b, a);
+    [[unroll]] for (int o = 0; o < 4; ++o)
         u[o] = o < n_out ? finite_or(a[o] + exp(min(0.5 * a[n_out + o], 88.0)) * eps[o], 0.0)
                          : 0.0;
 }
@@ -71,26 +86,28 @@ CutStepSample sample_cut_step(float sigma, float g, float h, float mu0, inout Rn
     vec3 P = w, D = w;
     if (!(t >= cut_first_exit(w, h))) {
         // 2. The networks: CutLengthGen's latent and noise, then CutPathGen's.
-        int nl = chead(kCutLengthGen, 2), np = chead(kCutPathGen, 2);
+        const int nl = CL_LAT, np = CP_LAT;
         float z[16];
         draw_normals(rng, nl + 1 + np + 4, z);
         float x[kCutW], eps[4], u[4];
         float cond[4] = float[4](sigma, g, h, mu0);
-        for (int i = 0; i < kCutW; ++i) x[i] = 0.0;
-        for (int i = 0; i < 4; ++i) x[i] = cut_code(kCutLengthGen, i, cond[i], false);
-        for (int i = 0; i < nl; ++i) x[4 + i] = z[i];
+        [[unroll]] for (int i = 0; i < kCutW; ++i) x[i] = 0.0;
+        [[unroll]] for (int i = 0; i < 4; ++i) x[i] = cut_code(kCutLengthGen, i, cond[i], false);
+        [[unroll]] for (int i = 0; i < kCutW - 4; ++i)
+            if (i < nl) x[4 + i] = z[i];
         eps[0] = z[nl];
         eps[1] = eps[2] = eps[3] = 0.0;
-        cut_decoder_sample(kCutLengthGen, x, eps, u);
+        cut_decoder_sample(kCutLengthGen, CL_IN, CL_H1, CL_H2, 1, x, eps, u);
         float n_raw = finite_or(cut_code(kCutLengthGen, 0, u[0], true), 2.0);
         s.N = clamp(floor(n_raw), 2.0, kMaxScatterCount);
 
-        for (int i = 0; i < kCutW; ++i) x[i] = 0.0;
-        for (int i = 0; i < 4; ++i) x[i] = cut_code(kCutPathGen, i, cond[i], false);
+        [[unroll]] for (int i = 0; i < kCutW; ++i) x[i] = 0.0;
+        [[unroll]] for (int i = 0; i < 4; ++i) x[i] = cut_code(kCutPathGen, i, cond[i], false);
         x[4] = cut_code(kCutPathGen, 4, s.N, false);
-        for (int i = 0; i < np; ++i) x[5 + i] = z[nl + 1 + i];
-        for (int o = 0; o < 4; ++o) eps[o] = z[nl + 1 + np + o];
-        cut_decoder_sample(kCutPathGen, x, eps, u);
+        [[unroll]] for (int i = 0; i < kCutW - 5; ++i)
+            if (i < np) x[5 + i] = z[nl + 1 + i];
+        [[unroll]] for (int o = 0; o < 4; ++o) eps[o] = z[nl + 1 + np + o];
+        cut_decoder_sample(kCutPathGen, CP_IN, CP_H1, CP_H2, 4, x, eps, u);
         float cos_p = clamp(finite_or(cut_code(kCutPathGen, 0, u[0], true), 1.0), -1.0, 1.0);
         float cos_psi = clamp(finite_or(cut_code(kCutPathGen, 1, u[1], true), 1.0), -1.0, 1.0);
         float alpha = finite_or(cut_code(kCutPathGen, 2, u[2], true), 0.0);

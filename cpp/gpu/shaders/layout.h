@@ -58,6 +58,18 @@ struct GpuGrid {
     ivec4 n;      // nodes per axis; w: offset of node (0, 0, 0) in scene_floats
 };
 
+// A shape's plane certificates for cut sphere steps (geometry/cut_planes.h): cells of
+// size origin.w from origin.xyz, n.xyz of them per axis; per cell an entry index (int32
+// bits in scene_floats from n.w; -1: none) and per entry 8 floats from entries.x: the
+// cell's centre, m, the unit normal, 0. params: x the balls' radius, y the guard, z the
+// shape's smallest extinction. n.x = 0: the shape takes no cut steps.
+struct GpuCutGrid {
+    vec4 origin;
+    vec4 params;
+    ivec4 n;
+    ivec4 entries;
+};
+
 // A light (render/lights/light.h's LightData): a.xyz, b.xyz, c.xyz and value.rgb its
 // vectors and colour, a.w its type id (render/lights/registry.h), b.w its scalar.
 struct GpuLight {
@@ -82,7 +94,9 @@ struct GpuLight {
     vec4 emitters[kGpuMaxEmitters]; /* mesh counts.x + i: rgb; w: index in lights */    \
     uvec4 lighting;                 /* lights, NEE, point + directional, floats */      \
     GpuLight lights[kGpuMaxLights];                                                     \
-    vec4 event_phi;                 /* x, y: EventGen's range of phi */
+    vec4 event_phi;                 /* x, y: EventGen's range of phi */                 \
+    vec4 cut_params;                /* x: the cut models' largest sigma; y: min depth */\
+    GpuCutGrid cut_grids[kGpuMaxShapes];
 // clang-format on
 
 // render.glsl's push constants
@@ -103,7 +117,7 @@ struct GpuRenderPush {
 // std430 puts vec4s and structs of them 16 bytes apart, with no padding: so must C++.
 static_assert(sizeof(vec4) == 16 && sizeof(uvec4) == 16 && sizeof(ivec4) == 16);
 static_assert(sizeof(GpuShape) == 6 * 16 && sizeof(GpuGrid) == 3 * 16 &&
-              sizeof(GpuLight) == 4 * 16);
+              sizeof(GpuLight) == 4 * 16 && sizeof(GpuCutGrid) == 4 * 16);
 static_assert(offsetof(GpuSceneHeader, shapes) == 7 * 16);
 static_assert(offsetof(GpuSceneHeader, grids) == (7 + 6 * kGpuMaxShapes) * 16);
 static_assert(offsetof(GpuSceneHeader, emitters) == (7 + 9 * kGpuMaxShapes) * 16);
@@ -111,8 +125,10 @@ static_assert(offsetof(GpuSceneHeader, lighting) ==
               (7 + 9 * kGpuMaxShapes + kGpuMaxEmitters) * 16);
 static_assert(offsetof(GpuSceneHeader, lights) ==
               (8 + 9 * kGpuMaxShapes + kGpuMaxEmitters) * 16);
+static_assert(offsetof(GpuSceneHeader, cut_grids) ==
+              (10 + 9 * kGpuMaxShapes + kGpuMaxEmitters + 4 * kGpuMaxLights) * 16);
 static_assert(sizeof(GpuSceneHeader) ==
-              (9 + 9 * kGpuMaxShapes + kGpuMaxEmitters + 4 * kGpuMaxLights) * 16);
+              (10 + 13 * kGpuMaxShapes + kGpuMaxEmitters + 4 * kGpuMaxLights) * 16);
 static_assert(sizeof(GpuRenderPush) == 5 * 4);  // scalars: 4 bytes each in both
 }  // namespace sss
 #endif

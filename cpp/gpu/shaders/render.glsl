@@ -39,6 +39,14 @@ layout(push_constant) uniform Push { SSS_GPU_RENDER_PUSH_FIELDS };
 
 layout(constant_id = 12) const bool NEE = false;
 
+// Cut sphere steps ("st" with cut_models): the packed cut decoders, their shapes
+// (cut_model.glsl, constants 13-20), and whether the scene takes any (CUTS).
+layout(std430, binding = 7) readonly buffer CutModel { float cut_f[]; };
+layout(constant_id = 21) const bool CUTS = false;
+#if SSS_ST
+#include "gpu/shaders/cut_model.glsl"
+#endif
+
 // The origin of a ray leaving the surface point of `hit` in direction w (PathTracer's
 // leave(): shared/ray_offset.h).
 vec3 leave(Hit hit, vec3 w) { return offset_ray_origin(hit.p, hit.p_error, hit.normal, w); }
@@ -223,7 +231,9 @@ struct Path {
     uint events, steps;
     bool done;
     bool pending;   // "st": waits for a sphere step at o, of bound r_step
-    float r_step;
+    float r_step;   //   (a cut step: the certificate's plane distance s)
+    bool cut;       //   a cut sphere step, its plane's normal cut_n
+    vec3 cut_n;
 };
 
 // The throughput a vertex's light is weighted by, and the path's Russian roulette on it
@@ -306,6 +316,42 @@ void cross(inout Path p, Hit hit) {
     p.r_at_o = p.shape >= 0 ? 0.0 : -1.0;
 }
 
+#if SSS_ST
+// Where the path goes on in one channel before a step (PathTracer::run's to_one_channel):
+// with spectral MIS, a channel picked afresh, weight 3.
+void to_one_channel(inout Path p) {
+    if (!p.spectral) return;
+    vec3 w = path_weight(p);
+    p.channel = min(2, int(rng_uniform(p.rng) * 3.0));
+    float wc = w[p.channel];
+    p.beta = vec3(0.0);
+    p.beta[p.channel] = 3.0 * wc;
+    p.ratio = vec3(1.0);
+    p.spectral = false;
+    p.beta_start = 3.0;
+}
+
+// The cut step's certificate at x in `shape` (SphereTracing::cut_certificate, CutPlanes::
+// query): false where x's cell has none or its plane is nearer than the least depth.
+bool cut_certificate(int shape, vec3 x, out vec3 n, out float s) {
+    GpuCutGrid g = cut_grids[shape];
+    n = vec3(0.0, 0.0, 1.0);
+    s = 0.0;
+    if (g.n.x == 0) return false;
+    vec3 q = (x - g.origin.xyz) * g.params.w;
+    if (!(q.x >= 0.0 && q.y >= 0.0 && q.z >= 0.0)) return false;
+    int i = int(q.x), j = int(q.y), k = int(q.z);
+    if (i >= g.n.x || j >= g.n.y || k >= g.n.z) return false;
+    int e = floatBitsToInt(scene_floats[g.n.w + (k * g.n.y + j) * g.n.x + i]);
+    if (e < 0) return false;
+    int at = g.entries.x + 8 * e;
+    vec3 centre = vec3(scene_floats[at], scene_floats[at + 1], scene_floats[at + 2]);
+    n = vec3(scene_floats[at + 4], scene_floats[at + 5], scene_floats[at + 6]);
+    s = scene_floats[at + 3] - dot(x - centre, n) - g.params.y;
+    return s * g.params.z >= cut_params.y;
+}
+#endif
+
 // One iteration of PathTracer::run's loop: a flight in vacuum to the next surface, or a
 // free flight in a medium and what ends it (a collision or the boundary). A collision
 // deep enough for a sphere step only marks the path as pending ("st").
@@ -382,18 +428,21 @@ void path_iterate(inout Path p) {
         float sigma_step =
             p.spectral ? min(s.sigma_t.x, min(s.sigma_t.y, s.sigma_t.z)) : sigma_t;
         if (sigma_step * r >= params.y) {
-            if (p.spectral) {
-                vec3 w = path_weight(p);
-                p.channel = min(2, int(rng_uniform(p.rng) * 3.0));
-                float wc = w[p.channel];
-                p.beta = vec3(0.0);
-                p.beta[p.channel] = 3.0 * wc;
-                p.ratio = vec3(1.0);
-                p.spectral = false;
-                p.beta_start = 3.0;
-            }
+            to_one_channel(p);
             p.pending = true;  // one sphere step replaces the events inside the sphere
             p.r_step = r;
+            return;
+        }
+        // Too close to the boundary for a sphere: a cut sphere step where a plane
+        // certifies the region between it and the boundary (PathTracer::run).
+        vec3 cut_n;
+        float cut_s;
+        if (CUTS && cut_certificate(p.shape, p.o, cut_n, cut_s)) {
+            to_one_channel(p);
+            p.pending = true;
+            p.cut = true;
+            p.cut_n = cut_n;
+            p.r_step = cut_s;
             return;
         }
 #endif
@@ -444,7 +493,7 @@ void path_iterate(inout Path p) {
 // an index-matched medium lit by point or directional lights, EventGen's representative
 // event connects to one of them, weighted by Lambda = sum_j phi^j; survival phi^N, then
 // the exit point and direction.
-void path_step(inout Path p) {
+void path_sphere_step(inout Path p) {
     GpuShape s = shapes[p.shape];
     float sigma_t = p.channel < 0 ? s.sigma_t.x : s.sigma_t[p.channel];
     ++p.steps;
@@ -492,6 +541,48 @@ void path_step(inout Path p) {
     p.specular = true;  // the exit flight's light hits count with weight 1
     if (!survives_roulette(p.beta, p.beta_start, p.rng)) p.done = true;
 }
+
+// The cut sphere step a pending path waits for (SphereTracing::cut_request, cut_to_world
+// and PathTracer::take_step): the ball of the shape's radius, shrunk so that sigma_t R
+// stays in the models' range, cut by the certificate's plane at distance r_step; no event
+// (the media that take cut steps sample no lights from their events); survival phi^N,
+// then the exit point and direction.
+void path_cut_step(inout Path p) {
+    GpuShape s = shapes[p.shape];
+    float sigma_t = p.channel < 0 ? s.sigma_t.x : s.sigma_t[p.channel];
+    ++p.steps;
+    p.pending = false;
+    p.cut = false;
+    float radius = min(cut_grids[p.shape].params.x, cut_params.x / sigma_t);
+    float sigma = min(sigma_t * radius, cut_params.x);
+    float h = min(p.r_step / radius, 1.0);
+    vec3 n = p.cut_n;
+    float mu0 = clamp(dot(p.d, n), -1.0, 1.0);
+    CutStepSample c = sample_cut_step(sigma, s.phase.y, h, mu0, p.rng);
+    // The walk's frame in the world: z = n, x the part of the arriving direction across n
+    // (any direction across n if none).
+    vec3 x = p.d - n * mu0;
+    float lx = length(x);
+    x = lx > 1e-6 ? x / lx : frame_from_z(n).s;
+    vec3 y = cross(n, x);
+    p.beta *= vec3(survival_power(s.albedo.x, c.N), survival_power(s.albedo.y, c.N),
+                   survival_power(s.albedo.z, c.N));
+    if (is_black(p.beta)) {
+        p.done = true;
+        return;
+    }
+    p.o = p.o + (x * c.exit_pos.x + y * c.exit_pos.y + n * c.exit_pos.z) * radius;
+    p.d = normalize(x * c.exit_dir.x + y * c.exit_dir.y + n * c.exit_dir.z);
+    p.specular = true;  // as a sphere step's: its exit flight's light hits weigh 1
+    if (!survives_roulette(p.beta, p.beta_start, p.rng)) p.done = true;
+}
+
+void path_step(inout Path p) {
+    if (CUTS && p.cut)
+        path_cut_step(p);
+    else
+        path_sphere_step(p);
+}
 #endif
 
 // Path i of the dispatch from its camera ray (PinholeCamera::direction).
@@ -526,6 +617,8 @@ Path start_path(uint i) {
     p.done = false;
     p.pending = false;
     p.r_step = 0.0;
+    p.cut = false;
+    p.cut_n = vec3(0.0);
     return p;
 }
 
@@ -546,6 +639,7 @@ void main() {
     Path p;
     p.done = true;
     p.pending = false;
+    p.cut = false;
     if (id < num_paths) p = start_path(id);
 #if SSS_ST
     // Sphere steps in batches: a path that needs a step waits until at least half of the
