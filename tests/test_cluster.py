@@ -179,6 +179,32 @@ def test_files_reach_the_workers_through_the_object_store(two_nodes, small_scene
     np.testing.assert_allclose(r["image"], local.image, rtol=REL, atol=0)
 
 
+def test_cut_models_reach_the_workers(two_nodes, small_scene, tmp_path):
+    """The cut sphere models (a copy of models/cut) travel through the object store as the
+    sphere-step models do: the cluster's render with cut steps is the local one, and a
+    missing model file is named before any task runs."""
+    cut = tmp_path / "cut"
+    shutil.copytree(os.path.join(os.path.dirname(__file__), "..", "models", "cut"), cut)
+    small_scene["shapes"][0]["boundary"] = {"type": "dielectric", "ior": 1.5}
+    scene = _scene(small_scene, sigma_t=60.0)
+    kw = dict(integrator="st", spp=12, seed=4, cut_models=cut)
+    plain = sssphere.render_full(scene, integrator="st", spp=12, seed=4, threads=1)
+    local = sssphere.render_full(scene, threads=1, **kw)
+    assert local.mean_sphere_steps_per_path > 1.5 * plain.mean_sphere_steps_per_path
+    remote = sssphere.render_full(scene, ray_address=two_nodes.address, **kw)
+    _assert_same_render(local, remote)
+    assert remote.options["cut_models"] == str(cut)
+
+    options = sssphere._core.resolve_render_options(
+        scene, os.fspath(sssphere.rendering.DEFAULT_MODELS), {}, integrator="st",
+        cut_models=str(cut))
+    _, files = sss_cluster.package_scene(scene, options, ray)
+    assert {"cutlengthgen.json", "cutpathgen.json"} <= {n.split("-", 1)[1] for n in files}
+    (cut / "cutpathgen.json").unlink()
+    with pytest.raises(sssphere.SceneError, match="cutpathgen.json: cannot open"):
+        sssphere.render_full(scene, ray_address=two_nodes.address, **kw)
+
+
 def test_stopping_keeps_the_tasks_merged_in_order(two_nodes, small_scene):
     """A progress callback returning False (as Ctrl-C) cancels the rest: the result holds
     the tasks merged so far, from sample 0, which is the local render of that many spp."""

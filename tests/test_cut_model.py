@@ -205,13 +205,6 @@ def test_cut_models_missing_file_is_named(tmp_path):
         sssphere.render_full(_dense_sphere(), integrator="st", spp=1, cut_models=tmp_path)
 
 
-def test_cut_models_refused_on_a_cluster():
-    import sssphere
-    with pytest.raises(ValueError, match="not supported with ray_address"):
-        sssphere.render_full(_dense_sphere(), integrator="st", spp=1, cut_models=SHIPPED,
-                             ray_address="127.0.0.1:1")
-
-
 # ----------------------------------------------------------------------------------------
 # The shipped models (models/cut)
 # ----------------------------------------------------------------------------------------

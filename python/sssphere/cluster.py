@@ -136,7 +136,8 @@ def _put_file(path: str, ray) -> tuple[str, object]:
 def package_scene(scene, options: dict, ray) -> tuple[str, dict]:
     """The scene as (JSON text, {file key: object ref}): each file the scene reads (shape
     meshes, the environment map, the models of ``options``) put once in the object store,
-    its path in the text replaced by its key."""
+    its path in the text replaced by its key. The cut sphere models of ``options``
+    (``cut_models``) travel the same way."""
     doc = scene.to_dict()
     files: dict[str, object] = {}
 
@@ -152,30 +153,40 @@ def package_scene(scene, options: dict, ray) -> tuple[str, dict]:
     for light in doc.get("lights", []):
         if isinstance(light.get("map"), str):
             light["map"] = ship(light["map"])
-    doc.get("render", {}).pop("models", None)  # the options carry the models
+    for key in ("models", "cut_models"):  # the options carry the models
+        doc.get("render", {}).pop(key, None)
     models = []
     if options["integrator"] == "st" and options["sphere_sampler"] == "model":
         for name in ("lengthgen.json", "pathgen.json", "eventgen.json"):
             path = os.path.join(options["models"], name)
             if os.path.isfile(path):
                 models.append(ship(path))
-    package = {"scene": doc, "models": models, "source": scene.source}
+    cut_models = []
+    if options["integrator"] == "st" and options.get("cut_models"):
+        for name in ("cutlengthgen.json", "cutpathgen.json"):
+            path = os.path.abspath(os.path.join(options["cut_models"], name))
+            if not os.path.isfile(path):  # as the local render says it
+                raise _core.SceneError(f"{path}: cannot open the model file (missing or unreadable)")
+            cut_models.append(ship(path))
+    package = {"scene": doc, "models": models, "cut_models": cut_models,
+               "source": scene.source}
     return json.dumps(package, sort_keys=True), files
 
 
 _FILES_DIR: Optional[str] = None
-_SCENE: dict = {}  # this worker process's scene: key, scene, models directory
+_SCENE: dict = {}  # this worker process's scene: key, scene, models directories
 
 
 def _worker_scene(text: str, files: dict, threads: int):
     """The scene of a package, built in this process on its first task and kept for the
     next ones (a worker process runs many tasks). A new package is built from the scene
     before it (an edit: Scene's reusing rebuild), so a sweep over materials, lights or
-    cameras keeps its BVH and distance grids. Returns (scene, models dir, built)."""
+    cameras keeps its BVH and distance grids. Returns (scene, models dir, cut models dir
+    or "", built)."""
     global _FILES_DIR
     key = hashlib.sha256(text.encode()).hexdigest()
     if _SCENE.get("key") == key:
-        return _SCENE["scene"], _SCENE["models"], False
+        return _SCENE["scene"], _SCENE["models"], _SCENE["cut_models"], False
     import ray
 
     from sssphere.scene import Scene
@@ -191,15 +202,9 @@ def _worker_scene(text: str, files: dict, threads: int):
                 f.write(ray.get(ref))
             os.replace(part, path)
     package = json.loads(text)
-    models_dir = os.path.join(_FILES_DIR, "models-" + key[:24])
-    os.makedirs(models_dir, exist_ok=True)
-    for name in package["models"]:
-        target = os.path.join(models_dir, name.split("-", 1)[1])
-        if not os.path.exists(target):
-            try:
-                os.link(os.path.join(_FILES_DIR, name), target)
-            except FileExistsError:  # another worker of this node linked it meanwhile
-                pass
+    models_dir = _link_models(package["models"], "models-" + key[:24])
+    cut_dir = (_link_models(package["cut_models"], "cut-models-" + key[:24])
+               if package.get("cut_models") else "")
     doc = json.dumps(package["scene"])
     scene = _SCENE.get("scene")
     if scene is None:
@@ -207,8 +212,23 @@ def _worker_scene(text: str, files: dict, threads: int):
     else:
         scene._rebuild(doc, _FILES_DIR, package["source"], threads, scene._meshes)
         scene._doc = package["scene"]
-    _SCENE.update(key=key, scene=scene, models=models_dir)
-    return scene, models_dir, True
+    _SCENE.update(key=key, scene=scene, models=models_dir, cut_models=cut_dir)
+    return scene, models_dir, cut_dir, True
+
+
+def _link_models(names: list, directory: str) -> str:
+    """A directory of this node's files `names` (file keys) under their own names, as the
+    renderer reads models: hard links to the files the object store delivered."""
+    path = os.path.join(_FILES_DIR, directory)
+    os.makedirs(path, exist_ok=True)
+    for name in names:
+        target = os.path.join(path, name.split("-", 1)[1])
+        if not os.path.exists(target):
+            try:
+                os.link(os.path.join(_FILES_DIR, name), target)
+            except FileExistsError:  # another worker of this node linked it meanwhile
+                pass
+    return path
 
 
 def _render_part(text: str, files: dict, options: dict, first: int, spp: int,
@@ -218,12 +238,12 @@ def _render_part(text: str, files: dict, options: dict, first: int, spp: int,
     import ray
 
     t0 = time.monotonic()
-    scene, models_dir, built = _worker_scene(text, files, options["threads"])
+    scene, models_dir, cut_dir, built = _worker_scene(text, files, options["threads"])
     build_s = time.monotonic() - t0
     y0, y1 = rows if rows is not None else (0, scene.height)
     band = {} if rows is None else {"first_row": y0, "rows": y1 - y0}
     r = _core.render(scene, models_dir, None, {}, first_sample=first, keep_film=True, **band,
-                     **{**options, "spp": spp, "models": models_dir})
+                     **{**options, "spp": spp, "models": models_dir, "cut_models": cut_dir})
     if r["cancelled"]:  # Ray's cancel of this task arrived as a KeyboardInterrupt
         raise KeyboardInterrupt
     task = {"seconds": r["seconds"], "step_seconds": r["step_seconds"], "build_seconds": build_s,

@@ -223,9 +223,9 @@ def render_full(
     default) from the step's exit flight when it reaches an area light or the environment,
     with EventGen's representative event connecting only to point and directional lights;
     ``"event"`` (the paper's) from EventGen's event connecting to every kind of light
-    (docs/sphere-tracing.md, "NEE for a sphere step"). ``cut_models`` (experimental, not with
-    ``ray_address``): the directory of cutlengthgen.json and cutpathgen.json
-    (the repository's ``models/cut``); collisions too close to the boundary for a sphere step
+    (docs/sphere-tracing.md, "NEE for a sphere step"). ``cut_models`` (experimental): the
+    directory of cutlengthgen.json and cutpathgen.json (the repository's ``models/cut``);
+    collisions too close to the boundary for a sphere step
     then take cut sphere steps where a plane certifies the region, in media whose scattering
     events get no light sampling (docs/sphere-tracing.md, "Cut sphere steps").
 
@@ -262,9 +262,6 @@ def render_full(
                    models=models, sphere_sampler=sphere_sampler, step_nee=step_nee,
                    record_paths=record_paths, backend=backend, time_limit=time_limit,
                    cut_models=None if cut_models is None else os.fspath(cut_models))
-    if cut_models is not None and ray_address is not None:
-        raise ValueError("cut_models is not supported with ray_address yet (the cluster "
-                         "ships the sphere-step models only)")
     if denoise:
         _denoiser()  # before the render: a missing extra should not cost one
     return with_aovs(scene, _result(_render(scene, progress, options, ray_address=ray_address)),
