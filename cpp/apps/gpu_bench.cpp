@@ -146,6 +146,15 @@ int main(int argc, char** argv) {
                     kv.find('=') == std::string::npos ? "" : kv.substr(kv.find('=') + 1);
                 for (uint32_t i = 0; i < scene.header.counts[0]; ++i) {
                     GpuShape& s = scene.header.shapes[i];
+                    const float smallest =
+                        std::min({s.sigma_t[0], s.sigma_t[1], s.sigma_t[2]});
+                    // A medium's plane certificates were built for balls of 6 mean free
+                    // paths of its extinction then (GpuCutGrid::params.z).
+                    if (key == "sigma_t" && scene.header.cut_grids[i].n[0] > 0 &&
+                        std::stof(val) != smallest)
+                        fail(file, ": override '", kv, "': the scene was baked with cut ",
+                             "steps for sigma_t ", smallest,
+                             "; bake it again for another");
                     if (key == "sigma_t")
                         s.sigma_t[0] = s.sigma_t[1] = s.sigma_t[2] = std::stof(val);
                     else if (key == "albedo")
