@@ -62,7 +62,7 @@ struct GpuGrid {
 // size origin.w from origin.xyz, n.xyz of them per axis; per cell an entry index (int32
 // bits in scene_floats from n.w; -1: none) and per entry 8 floats from entries.x: the
 // cell's centre, m, the unit normal, 0. params: x the balls' radius, y the guard, z the
-// shape's smallest extinction. n.x = 0: the shape takes no cut steps.
+// shape's smallest extinction, w 1 / cell size. n.x = 0: the shape takes no cut steps.
 struct GpuCutGrid {
     vec4 origin;
     vec4 params;
