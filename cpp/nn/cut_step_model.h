@@ -57,8 +57,9 @@ public:
     // One step; throws sss::Error for inputs outside the training ranges.
     CutStep sample(float sigma, float g, float h, float mu0, Rng& rng) const;
     // `count` steps (at most SimdDecoder::kLanes), step k with its own inputs and Rng:
-    // the same samples as `count` calls of sample; the networks run once for all of them,
-    // on paths in lanes (SimdDecoder::sample_lanes).
+    // the same samples as `count` calls of sample, up to float rounding in groups of more
+    // than four, whose networks run once for all of them, on paths in lanes
+    // (SimdDecoder::sample_lanes; fewer run one after the other, as sample does).
     void sample_group(int count, const float* sigma, const float* g, const float* h,
                       const float* mu0, Rng* rng, CutStep* out) const;
     // Whether sample would accept these inputs.
