@@ -250,83 +250,80 @@ WorldSphereStep SphereTracing::sample(const StepRequest& r, Rng& rng) const {
 
 void SphereTracing::sample_group(int count, const StepRequest* const* requests,
                                  Rng* const* rngs, WorldSphereStep* out) const {
-    for (int b = 0; b < count; b += kMaxGroup) {
-        const int K = std::min(kMaxGroup, count - b);
-        const StepRequest* const* req = requests + b;
-        // Cut steps first: one model call for all of them.
-        {
-            int idx[kMaxGroup], n = 0;
-            float sigma[kMaxGroup], g[kMaxGroup], h[kMaxGroup], mu0[kMaxGroup];
-            Rng rng[kMaxGroup];
-            for (int k = 0; k < K; ++k) {
-                if (!req[k]->cut) continue;
-                idx[n] = k;
-                sigma[n] = req[k]->sigma;
-                g[n] = req[k]->g;
-                h[n] = req[k]->cut_h;
-                mu0[n] = req[k]->cut_mu0;
-                rng[n++] = *rngs[b + k];
-            }
-            CutStep c[kMaxGroup];
-            if (n > 0 &&
-                sampler_ == SphereSampler::Walk) {  // exact walks for the networks
-                for (int j = 0; j < n; ++j) {
-                    const CutSphereWalk w =
-                        cut_sphere_walk(sigma[j], g[j], h[j], mu0[j], 1.f, rng[j]);
-                    c[j].N = w.N;
-                    c[j].exit_pos = w.exit_pos;
-                    c[j].exit_dir = w.exit_dir;
-                }
-            } else if (n > 0) {
-                SSS_CHECK(cut_model_ != nullptr);
-                cut_model_->sample_group(n, sigma, g, h, mu0, rng, c);
-            }
-            for (int j = 0; j < n; ++j) {
-                *rngs[b + idx[j]] = rng[j];
-                out[b + idx[j]] = cut_to_world(*req[idx[j]], c[j]);
-            }
+    // The requests by kind: cut steps, then sphere steps without and with a
+    // representative event, each kind in model calls of up to kMaxGroup (its decoders run
+    // on all of them at once, so full calls are cheapest per step). Each step draws from
+    // its own stream, so the grouping changes nothing (up to rounding for cut steps,
+    // CutStepModel::sample_group).
+    std::vector<int> cut, plain, event;
+    for (int k = 0; k < count; ++k)
+        (requests[k]->cut ? cut : requests[k]->with_event ? event : plain).push_back(k);
+    for (size_t b = 0; b < cut.size(); b += kMaxGroup) {
+        const int n = int(std::min(cut.size() - b, size_t(kMaxGroup)));
+        const int* idx = cut.data() + b;
+        float sigma[kMaxGroup], g[kMaxGroup], h[kMaxGroup], mu0[kMaxGroup];
+        Rng rng[kMaxGroup];
+        for (int j = 0; j < n; ++j) {
+            const StepRequest& r = *requests[idx[j]];
+            sigma[j] = r.sigma;
+            g[j] = r.g;
+            h[j] = r.cut_h;
+            mu0[j] = r.cut_mu0;
+            rng[j] = *rngs[idx[j]];
         }
-        SphereStep s[kMaxGroup];
-        if (sampler_ == SphereSampler::Walk) {
-            for (int k = 0; k < K; ++k) {
-                if (req[k]->cut) continue;
-                SphereWalk w =
-                    sphere_walk(req[k]->sigma, req[k]->g, req[k]->phi, *rngs[b + k]);
-                s[k].N = w.N;
-                s[k].cos_theta = w.cos_theta;
-                s[k].alpha = w.alpha;
-                s[k].beta = w.beta;
-                s[k].X = w.X;
-                s[k].W = w.W;
+        CutStep c[kMaxGroup];
+        if (sampler_ == SphereSampler::Walk) {  // exact walks for the networks
+            for (int j = 0; j < n; ++j) {
+                const CutSphereWalk w =
+                    cut_sphere_walk(sigma[j], g[j], h[j], mu0[j], 1.f, rng[j]);
+                c[j].N = w.N;
+                c[j].exit_pos = w.exit_pos;
+                c[j].exit_dir = w.exit_dir;
             }
         } else {
-            SSS_CHECK(model_ != nullptr);
-            // One model call for the steps with a representative event and one for those
-            // without; each step draws from its own stream, so the split changes nothing.
-            for (int event = 0; event < 2; ++event) {
-                int idx[kMaxGroup], n = 0;
+            SSS_CHECK(cut_model_ != nullptr);
+            cut_model_->sample_group(n, sigma, g, h, mu0, rng, c);
+        }
+        for (int j = 0; j < n; ++j) {
+            *rngs[idx[j]] = rng[j];
+            out[idx[j]] = cut_to_world(*requests[idx[j]], c[j]);
+        }
+    }
+    for (int with_event = 0; with_event < 2; ++with_event) {
+        const std::vector<int>& kind = with_event ? event : plain;
+        for (size_t b = 0; b < kind.size(); b += kMaxGroup) {
+            const int n = int(std::min(kind.size() - b, size_t(kMaxGroup)));
+            const int* idx = kind.data() + b;
+            SphereStep s[kMaxGroup];
+            if (sampler_ == SphereSampler::Walk) {
+                for (int j = 0; j < n; ++j) {
+                    const StepRequest& r = *requests[idx[j]];
+                    SphereWalk w = sphere_walk(r.sigma, r.g, r.phi, *rngs[idx[j]]);
+                    s[j].N = w.N;
+                    s[j].cos_theta = w.cos_theta;
+                    s[j].alpha = w.alpha;
+                    s[j].beta = w.beta;
+                    s[j].X = w.X;
+                    s[j].W = w.W;
+                }
+            } else {
+                SSS_CHECK(model_ != nullptr);
                 float sigma[kMaxGroup], g[kMaxGroup], phi[kMaxGroup];
                 Rng rng[kMaxGroup];
-                for (int k = 0; k < K; ++k) {
-                    if (req[k]->cut || req[k]->with_event != bool(event)) continue;
-                    idx[n] = k;
-                    sigma[n] = req[k]->sigma;
-                    g[n] = req[k]->g;
-                    phi[n] = event_phi(req[k]->phi);
-                    rng[n++] = *rngs[b + k];
-                }
-                if (n == 0) continue;
-                SphereStep got[kMaxGroup];
-                model_->sample_group(n, sigma, g, phi, rng, bool(event),
-                                     DecoderImpl::Simd, got);
                 for (int j = 0; j < n; ++j) {
-                    s[idx[j]] = got[j];
-                    *rngs[b + idx[j]] = rng[j];
+                    const StepRequest& r = *requests[idx[j]];
+                    sigma[j] = r.sigma;
+                    g[j] = r.g;
+                    phi[j] = event_phi(r.phi);
+                    rng[j] = *rngs[idx[j]];
                 }
+                model_->sample_group(n, sigma, g, phi, rng, bool(with_event),
+                                     DecoderImpl::Simd, s);
+                for (int j = 0; j < n; ++j) *rngs[idx[j]] = rng[j];
             }
+            for (int j = 0; j < n; ++j)
+                out[idx[j]] = to_world(*requests[idx[j]], s[j], *rngs[idx[j]]);
         }
-        for (int k = 0; k < K; ++k)
-            if (!req[k]->cut) out[b + k] = to_world(*req[k], s[k], *rngs[b + k]);
     }
 }
 

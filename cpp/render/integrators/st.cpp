@@ -12,15 +12,19 @@ namespace sss {
 namespace {
 
 // Paths kept in flight per thread: the sphere steps they wait for are sampled together
-// (SphereTracing::sample_group), which is what makes a step cheap.
-constexpr int kPathsInFlight = SphereTracing::kMaxGroup;
+// (SphereTracing::sample_group), which is what makes a step cheap. Four model calls'
+// worth, so that each kind of step (sphere steps, and cut steps, a fifth of them on the
+// dielectric bunny) mostly fills its calls: with one call's worth, the cut steps came in
+// groups of three or four and cost twice as much (bench/README.md, "cut_steps.py").
+constexpr int kPathsInFlight = 4 * SphereTracing::kMaxGroup;
 
 // Work items 0 .. count-1 (camera_ray(item, state) starts one, record(item, sample)
 // takes its result), traced kPathsInFlight at a time: each runs until it ends or waits
 // for a sphere step; the waiting steps are sampled together, and a path that ends makes
 // room for the next item. Every path draws from its own stream, so the results do not
-// depend on the grouping. Adds the time spent sampling steps to step_seconds. Returns
-// false if cancelled before the end.
+// depend on the grouping (cut steps: up to rounding, CutStepModel::sample_group). Adds
+// the time spent sampling steps to step_seconds. Returns false if cancelled before the
+// end.
 template <class Start, class Record>
 bool trace_in_flight(const PathTracer& tracer, const SphereTracing& st, int count,
                      Start&& camera_ray, Record&& record, const std::atomic<bool>& cancel,
