@@ -254,13 +254,19 @@ void SphereTracing::sample_group(int count, const StepRequest* const* requests,
     // representative event, each kind in model calls of up to kMaxGroup (its decoders run
     // on all of them at once, so full calls are cheapest per step). Each step draws from
     // its own stream, so the grouping changes nothing (up to rounding for cut steps,
-    // CutStepModel::sample_group).
-    std::vector<int> cut, plain, event;
-    for (int k = 0; k < count; ++k)
-        (requests[k]->cut ? cut : requests[k]->with_event ? event : plain).push_back(k);
-    for (size_t b = 0; b < cut.size(); b += kMaxGroup) {
-        const int n = int(std::min(cut.size() - b, size_t(kMaxGroup)));
-        const int* idx = cut.data() + b;
+    // CutStepModel::sample_group). next(kind, from, idx) gathers the next call's requests
+    // of a kind at or after `from` into idx and returns their count.
+    auto kind_of = [&](int k) {
+        return requests[k]->cut ? 0 : requests[k]->with_event ? 2 : 1;
+    };
+    auto next = [&](int kind, int& from, int* idx) {
+        int n = 0;
+        for (; from < count && n < kMaxGroup; ++from)
+            if (kind_of(from) == kind) idx[n++] = from;
+        return n;
+    };
+    int idx[kMaxGroup];
+    for (int from = 0, n; (n = next(0, from, idx)) > 0;) {
         float sigma[kMaxGroup], g[kMaxGroup], h[kMaxGroup], mu0[kMaxGroup];
         Rng rng[kMaxGroup];
         for (int j = 0; j < n; ++j) {
@@ -290,10 +296,7 @@ void SphereTracing::sample_group(int count, const StepRequest* const* requests,
         }
     }
     for (int with_event = 0; with_event < 2; ++with_event) {
-        const std::vector<int>& kind = with_event ? event : plain;
-        for (size_t b = 0; b < kind.size(); b += kMaxGroup) {
-            const int n = int(std::min(kind.size() - b, size_t(kMaxGroup)));
-            const int* idx = kind.data() + b;
+        for (int from = 0, n; (n = next(1 + with_event, from, idx)) > 0;) {
             SphereStep s[kMaxGroup];
             if (sampler_ == SphereSampler::Walk) {
                 for (int j = 0; j < n; ++j) {
