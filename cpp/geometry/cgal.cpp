@@ -19,6 +19,7 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <memory>
 #include <set>
 #include <sstream>
 #include <utility>
@@ -333,7 +334,8 @@ TriangleMesh make_closed_mesh(std::vector<Vec3> positions,
     return mesh;
 }
 
-DistanceGrid DistanceGrid::build(const TriangleMesh& mesh, int resolution, int threads) {
+DistanceGrid DistanceGrid::build(const TriangleMesh& mesh, int resolution, int threads,
+                                 int exact_up_to) {
     if (resolution < 2 || resolution > 1024)
         fail("distance grid resolution must be in [2, 1024], got ", resolution);
     Bounds3 b = mesh.bounds();
@@ -373,6 +375,16 @@ DistanceGrid DistanceGrid::build(const TriangleMesh& mesh, int resolution, int t
     // the mesh would be most of the build's time.
     const double diagonal = std::sqrt(3.0) * double(grid.cell_);
     const float far_bound = round_down(diagonal);
+
+    // A fine grid starts from one of half the resolution (see the header): its bound and
+    // side() hold at every node, so they settle the nodes deep inside and far outside.
+    std::unique_ptr<DistanceGrid> coarse;
+    float deep = INFINITY;
+    if (resolution > std::max(exact_up_to, 2)) {
+        coarse = std::make_unique<DistanceGrid>(
+            build(mesh, (resolution + 1) / 2, threads, exact_up_to));
+        deep = kRefineBand * std::sqrt(3.f) * coarse->cell_size();
+    }
     // One slab of nodes (one k) per chunk
     parallel_chunks(threads, grid.n_[2], 1, [&](int64_t k0, int64_t k1) {
         for (int k = int(k0); k < int(k1); ++k) {
@@ -385,7 +397,24 @@ DistanceGrid DistanceGrid::build(const TriangleMesh& mesh, int resolution, int t
                 for (int i = 0; i < grid.n_[0]; ++i) {
                     const Point q = to_point(grid.node_position(i, j, k));
                     const size_t idx = grid.index(i, j, k);
-                    grid.inside_[idx] = side(q) == CGAL::ON_BOUNDED_SIDE;
+                    int known = 0;
+                    if (coarse) {
+                        const Vec3 x = grid.node_position(i, j, k);
+                        known = coarse->side(x);
+                        const float r = known != 0 ? coarse->query(x) : 0.f;
+                        if (known > 0 && r >= deep) {
+                            grid.inside_[idx] = 1;
+                            grid.dist_[idx] = r;
+                            continue;
+                        }
+                        if (known < 0 && double(r) >= diagonal) {
+                            grid.inside_[idx] = 0;
+                            grid.dist_[idx] = far_bound;
+                            continue;
+                        }
+                    }
+                    grid.inside_[idx] =
+                        known != 0 ? known > 0 : side(q) == CGAL::ON_BOUNDED_SIDE;
                     if (!grid.inside_[idx]) {
                         const K::Iso_cuboid_3 box(q.x() - diagonal, q.y() - diagonal,
                                                   q.z() - diagonal, q.x() + diagonal,

@@ -18,7 +18,20 @@ public:
 
     // `resolution`: cells along the largest side of the mesh bounds (>= 2). The grid is
     // padded by one cell on every side. Built with `threads` workers (0 = all cores).
-    static DistanceGrid build(const TriangleMesh& mesh, int resolution, int threads = 0);
+    //
+    // Up to `exact_up_to` cells every node's distance is exact (rounded down). A finer
+    // grid starts from one of half its resolution (built the same way) and computes
+    // exact distances only where the paths need the finer bound: at nodes less than
+    // kRefineBand of the coarse grid's cell diagonals from the surface, or on its outside
+    // within our own diagonal. A deeper node inside keeps the coarse grid's bound (a
+    // valid lower bound, as tight as that grid's), a farther node outside holds the
+    // diagonal as before, and the side of every node stays exact. Near the surface the
+    // grid is the exact one, bit for bit; the build costs about the coarse grid's, not 8
+    // times it.
+    static constexpr int kExactResolution = 64;
+    static constexpr float kRefineBand = 1.f;
+    static DistanceGrid build(const TriangleMesh& mesh, int resolution, int threads = 0,
+                              int exact_up_to = kExactResolution);
 
     // Lower bound on the distance from p to the mesh surface; 0 outside the grid.
     float query(const Vec3& p) const;

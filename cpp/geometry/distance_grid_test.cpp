@@ -79,6 +79,41 @@ TEST(DistanceGrid, NeverExceedsExactDistanceOnLumpyMesh) {
     }
 }
 
+// A grid finer than its exact_up_to starts from the coarser one (build's comment): every
+// node's side is the exact build's, every distance is a lower bound of the exact
+// build's, and the nodes near the surface (inside within the band, outside within a cell
+// diagonal) hold the exact build's distances bit for bit. Two levels of refinement.
+TEST(DistanceGrid, RefinedGridIsTheExactOneNearTheSurface) {
+    const TriangleMesh m = test::lumpy_mesh();
+    const int res = 48;
+    const DistanceGrid exact = DistanceGrid::build(m, res, 2, res);
+    const DistanceGrid fine = DistanceGrid::build(m, res, 2, 12);
+    ASSERT_EQ(fine.nx(), exact.nx());
+    ASSERT_EQ(fine.ny(), exact.ny());
+    ASSERT_EQ(fine.nz(), exact.nz());
+    const float coarse_cell = DistanceGrid::build(m, res / 2, 1, 12).cell_size();
+    const double deep = DistanceGrid::kRefineBand * std::sqrt(3.0) * coarse_cell;
+    const double diagonal = std::sqrt(3.0) * exact.cell_size();
+    int near = 0, deeper = 0;
+    for (int k = 0; k < exact.nz(); ++k)
+        for (int j = 0; j < exact.ny(); ++j)
+            for (int i = 0; i < exact.nx(); ++i) {
+                const float d = exact.node_distance(i, j, k);
+                const bool in = exact.node_inside(i, j, k);
+                ASSERT_EQ(fine.node_inside(i, j, k), in) << i << " " << j << " " << k;
+                ASSERT_LE(fine.node_distance(i, j, k), d) << i << " " << j << " " << k;
+                if (in ? d < deep : d < diagonal) {
+                    ASSERT_EQ(fine.node_distance(i, j, k), d)
+                        << i << " " << j << " " << k;
+                    ++near;
+                } else {
+                    deeper += in && fine.node_distance(i, j, k) < d;
+                }
+            }
+    EXPECT_GT(near, 1000);
+    EXPECT_GT(deeper, 100);  // the deep nodes did keep the coarse bound
+}
+
 TEST(DistanceGrid, InsideOutsideAndOutOfGrid) {
     TriangleMesh m = make_icosphere({0, 0, 0}, 1.f, 3);
     DistanceGrid g = DistanceGrid::build(m, 16, 1);

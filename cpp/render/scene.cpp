@@ -769,6 +769,7 @@ void Scene::build(int threads, const Scene* previous) {
 int Scene::auto_grid_resolution(const Shape& shape) {
     const float side = max_component(shape.mesh.bounds().extent());
     const float mean_free_paths = max_component(shape.medium.sigma_t) * side / 64.f;
+    if (mean_free_paths > kFineGridCellMeanFreePaths) return 256;
     return mean_free_paths > kGridCellMeanFreePaths ? 128 : 64;
 }
 

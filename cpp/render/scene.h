@@ -184,13 +184,16 @@ public:
     Vec3d to_scene(Vec3 p) const { return Vec3d(p) + desc_.origin; }
 
     // The distance grid's resolution for a shape when the scene sets none: 64 cells along
-    // its largest side, or 128 when a 64th of that side is more than
-    // kGridCellMeanFreePaths mean free paths of its densest channel. The grid's bound
-    // loses up to sqrt(3) cells near the surface, which is where a dense medium's paths
-    // spend their events: there the finer grid saves events and boundary rays (measured
-    // in bench/README.md), elsewhere it only costs build time and memory.
+    // its largest side; 128 when a 64th of that side is more than kGridCellMeanFreePaths
+    // mean free paths of its densest channel, 256 when it is more than
+    // kFineGridCellMeanFreePaths. The grid's bound loses up to sqrt(3) cells near the
+    // surface, which is where a dense medium's paths spend their events: there the finer
+    // grid saves events and boundary rays (measured in bench/README.md, "Distance grid
+    // resolution"); elsewhere it costs memory (its misses slow `pt` at moderate
+    // densities) and build time (DistanceGrid::build refines only near the surface).
     static int auto_grid_resolution(const Shape& shape);
     static constexpr float kGridCellMeanFreePaths = 10.f;
+    static constexpr float kFineGridCellMeanFreePaths = 40.f;
 
     // The distance grid resolution of each shape (0 for a surface).
     const std::vector<int>& grid_resolutions() const { return grid_resolutions_; }
