@@ -365,6 +365,7 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
     float phase_pdf = ps.phase_pdf;
     Vec3 scatter_pos = ps.scatter_pos;
     float r_at_o = ps.r_at_o;
+    bool r_shrunk = false;  // r_at_o is a shrunk ball's radius, not the grid's bound (pt)
     PathSample out = ps.out;
     auto suspend = [&]() {
         ps.rng = rng;
@@ -499,7 +500,10 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
         Hit hit;
         bool at_boundary = false;
         const DistanceGrid& grid = scene_.grid(shape);
-        const float r_o = r_at_o >= 0.f ? r_at_o : grid.query(o);
+        float r_o = r_at_o >= 0.f ? r_at_o : grid.query(o);
+        // A shrunk ball (below) that does not hold the flight: the grid may hold more.
+        if (r_shrunk && !(t < r_o)) r_o = std::max(r_o, grid.query(o));
+        r_shrunk = false;
         r_at_o = -1.f;
         // The balls of radius r_o around o and r_end around the flight's end hold no
         // boundary: when they cover the flight (t < r_o + r_end), it cannot reach the
@@ -525,7 +529,18 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
 
         if (!at_boundary) {
             o = end;
-            const float r = r_end >= 0.f ? r_end : grid.query(o);
+            // pt: a flight inside the ball of radius r_o around its start ends inside the
+            // ball of radius r_o - t around its end (the distance is 1-Lipschitz; the
+            // margin covers rounding in o + d t, as the grid's guard does in a query).
+            // That bound costs no query; the next flight asks the grid only if it reaches
+            // past it. st needs the grid's bound at every collision, to decide on a step.
+            float r = r_end;
+            if (r < 0.f && !kSphereTracing) {
+                r = std::max(0.f, r_o - t * (1.f + 1e-6f) - grid.guard());
+                r_shrunk = true;
+            } else if (r < 0.f) {
+                r = grid.query(o);
+            }
             if constexpr (kSphereTracing) {
                 // Sphere tracing: if the largest sphere around o inside the medium is
                 // optically thick enough, one step replaces every scattering event inside
@@ -573,8 +588,8 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             beta *= s.medium.albedo;
             if (is_black(beta)) break;
             if (nee_ && !desc.lights.empty())
-                L +=
-                    weight() * direct_light(o, r, d, shape, spectral ? -1 : channel, rng);
+                L += weight() * direct_light(o, r_shrunk ? -1.f : r, d, shape,
+                                             spectral ? -1 : channel, rng);
             Vec3 d_new = phase_sample(s.medium.phase, d, rng.uniform(), rng.uniform());
             phase_pdf = phase_eval(s.medium.phase, dot(d, d_new));
             scatter_pos = o;
