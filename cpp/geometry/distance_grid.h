@@ -35,6 +35,12 @@ public:
 
     // Lower bound on the distance from p to the mesh surface; 0 outside the grid.
     float query(const Vec3& p) const;
+    // The same, and p's cell (-1 outside the grid) with an upper bound on query() over
+    // that whole cell: its largest corner distance (0 outside the grid). cell_of(q) ==
+    // *cell tells that q lies in the same cell, so query(q) <= *cell_bound without a
+    // query.
+    float query(const Vec3& p, int64_t* cell, float* cell_bound) const;
+    int64_t cell_of(const Vec3& p) const;
     // An upper bound on query(p) over all p (the largest node distance).
     float max_query() const;
     // Whether p is inside the closed mesh, by the sign stored at the nearest node: a
@@ -69,6 +75,7 @@ public:
     bool empty() const { return dist_.empty(); }
 
 private:
+    float query_impl(const Vec3& p, int64_t* cell, float* cell_bound) const;
     size_t index(int i, int j, int k) const {
         return (size_t(k) * n_[1] + j) * n_[0] + i;
     }

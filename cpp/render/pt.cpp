@@ -365,7 +365,12 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
     float phase_pdf = ps.phase_pdf;
     Vec3 scatter_pos = ps.scatter_pos;
     float r_at_o = ps.r_at_o;
-    bool r_shrunk = false;  // r_at_o is a shrunk ball's radius, not the grid's bound (pt)
+    bool r_shrunk = false;  // r_at_o is a shrunk ball's radius, not the grid's bound
+    // st: the cell of the last grid query (in shape query_shape) and the largest bound
+    // the grid gives in it (DistanceGrid::query).
+    int query_shape = -1;
+    int64_t query_cell = -1;
+    float query_cell_bound = 0.f;
     PathSample out = ps.out;
     auto suspend = [&]() {
         ps.rng = rng;
@@ -500,9 +505,18 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
         Hit hit;
         bool at_boundary = false;
         const DistanceGrid& grid = scene_.grid(shape);
-        float r_o = r_at_o >= 0.f ? r_at_o : grid.query(o);
+        // st keeps the cell of its last query and the grid's largest bound in it.
+        auto query = [&](const Vec3& p) {
+            if constexpr (kSphereTracing) {
+                query_shape = shape;
+                return grid.query(p, &query_cell, &query_cell_bound);
+            } else {
+                return grid.query(p);
+            }
+        };
+        float r_o = r_at_o >= 0.f ? r_at_o : query(o);
         // A shrunk ball (below) that does not hold the flight: the grid may hold more.
-        if (r_shrunk && !(t < r_o)) r_o = std::max(r_o, grid.query(o));
+        if (r_shrunk && !(t < r_o)) r_o = std::max(r_o, query(o));
         r_shrunk = false;
         r_at_o = -1.f;
         // The balls of radius r_o around o and r_end around the flight's end hold no
@@ -511,7 +525,7 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
         const Vec3 end = o + d * t;
         float r_end = -1.f;
         if (!(t < r_o)) {
-            if (t < kInf) r_end = grid.query(end);
+            if (t < kInf) r_end = query(end);
             if (!(t < r_o + r_end))
                 at_boundary = scene_.tracer().intersect(o, d, 0.f, t, &hit);
         }
@@ -529,17 +543,26 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
 
         if (!at_boundary) {
             o = end;
-            // pt: a flight inside the ball of radius r_o around its start ends inside the
+            // A flight inside the ball of radius r_o around its start ends inside the
             // ball of radius r_o - t around its end (the distance is 1-Lipschitz; the
             // margin covers rounding in o + d t, as the grid's guard does in a query).
             // That bound costs no query; the next flight asks the grid only if it reaches
-            // past it. st needs the grid's bound at every collision, to decide on a step.
+            // past it. st takes it only where the grid's bound cannot allow a step
+            // anywhere in o's cell: the shrunk ball, a step smaller still, cannot either
+            // (a no-step bound shrinks), so st decides as with the grid's bound.
+            const float sigma_step = spectral ? min_component(s.medium.sigma_t)
+                                              : extinction(s.medium, channel);
             float r = r_end;
-            if (r < 0.f && !kSphereTracing) {
+            bool shrink = r < 0.f;
+            if constexpr (kSphereTracing)
+                shrink = shrink && query_shape == shape &&
+                         sigma_step * query_cell_bound < st_->threshold() &&
+                         grid.cell_of(o) == query_cell;
+            if (shrink) {
                 r = std::max(0.f, r_o - t * (1.f + 1e-6f) - grid.guard());
                 r_shrunk = true;
             } else if (r < 0.f) {
-                r = grid.query(o);
+                r = query(o);
             }
             if constexpr (kSphereTracing) {
                 // Sphere tracing: if the largest sphere around o inside the medium is
@@ -549,8 +572,6 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
                 // channels depends on where it is, not on its hero channel: there it goes
                 // on in one channel, picked afresh, weight 3 (docs/notation.md,
                 // "Colour").
-                const float sigma_step = spectral ? min_component(s.medium.sigma_t)
-                                                  : extinction(s.medium, channel);
                 auto to_one_channel = [&]() {
                     if (!spectral) return;
                     const Vec3 w = weight();

@@ -214,10 +214,11 @@ TEST(PathTracer, TheGridOnlySavesWork) {
     for (int res : {3, 48, 160}) {
         d.render.grid_resolution = res;
         const RenderResult r = render(Scene(d, 2), opt);
-        if (first.empty())
+        if (first.empty()) {
             first = r.image;
-        else
+        } else {
             EXPECT_EQ(r.image, first) << "grid of " << res << " cells";
+        }
     }
 }
 
