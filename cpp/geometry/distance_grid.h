@@ -75,6 +75,8 @@ public:
     bool empty() const { return dist_.empty(); }
 
 private:
+    // p's cell (i, j, k) and its coordinates in cells g; false outside the grid.
+    bool locate(const Vec3& p, Vec3* g, int* i, int* j, int* k) const;
     float query_impl(const Vec3& p, int64_t* cell, float* cell_bound) const;
     size_t index(int i, int j, int k) const {
         return (size_t(k) * n_[1] + j) * n_[0] + i;

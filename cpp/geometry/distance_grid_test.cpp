@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "core/rng.h"
 #include "testing/meshes.h"
 
@@ -112,6 +114,51 @@ TEST(DistanceGrid, RefinedGridIsTheExactOneNearTheSurface) {
             }
     EXPECT_GT(near, 1000);
     EXPECT_GT(deeper, 100);  // the deep nodes did keep the coarse bound
+}
+
+// query(p, &cell, &bound) is query(p), and bound holds query(q) for every q with
+// cell_of(q) == cell (what st relies on to skip a query where no step can happen):
+// checked on points drawn near the surface, each with 20 others in its cell; outside the
+// grid the cell is -1 and the bound 0.
+TEST(DistanceGrid, CellBoundHoldsOverTheCell) {
+    const TriangleMesh m = test::lumpy_mesh();
+    const DistanceGrid g = DistanceGrid::build(m, 24, 2);
+    Rng rng(11);
+    const float h = g.cell_size();
+    int cells = 0, tight = 0;
+    for (int n = 0; n < 2000; ++n) {
+        const size_t t = std::min(m.triangles.size() - 1,
+                                  size_t(rng.uniform() * float(m.triangles.size())));
+        const Vec3 p = m.positions[m.triangles[t][0]] +
+                       m.normal(t) * ((rng.uniform() * 4.f - 2.f) * h);
+        int64_t cell = -2;
+        float bound = -1.f;
+        const float r = g.query(p, &cell, &bound);
+        ASSERT_EQ(r, g.query(p));
+        ASSERT_EQ(cell, g.cell_of(p));
+        if (cell < 0) continue;
+        ++cells;
+        const Vec3 c = (p - g.origin()) / h;
+        const Vec3 corner =
+            g.origin() + Vec3(std::floor(c.x), std::floor(c.y), std::floor(c.z)) * h;
+        float best = 0.f;
+        for (int q = 0; q < 20; ++q) {
+            const Vec3 u(rng.uniform(), rng.uniform(), rng.uniform());
+            const Vec3 x = corner + u * (0.999f * h);
+            if (g.cell_of(x) != cell) continue;
+            best = std::max(best, g.query(x));
+            ASSERT_LE(g.query(x), bound);
+        }
+        tight += best > 0.5f * bound;  // a bound, not merely a large number
+    }
+    EXPECT_GT(cells, 1000);
+    EXPECT_GT(tight, cells / 2);
+    int64_t cell = 0;
+    float bound = 1.f;
+    EXPECT_EQ(g.query(Vec3(100.f), &cell, &bound), 0.f);
+    EXPECT_EQ(cell, -1);
+    EXPECT_EQ(bound, 0.f);
+    EXPECT_EQ(g.cell_of(Vec3(100.f)), -1);
 }
 
 TEST(DistanceGrid, InsideOutsideAndOutOfGrid) {

@@ -188,9 +188,9 @@ public:
     // mean free paths of its densest channel, 256 when it is more than
     // kFineGridCellMeanFreePaths. The grid's bound loses up to sqrt(3) cells near the
     // surface, which is where a dense medium's paths spend their events: there the finer
-    // grid saves events and boundary rays (measured in bench/README.md, "Distance grid
-    // resolution"); elsewhere it costs memory (67 MB for the bunny at 256 cells) and
-    // build time (DistanceGrid::build refines only near the surface).
+    // grid saves events and boundary rays (measured in bench/README.md,
+    // "`grid_resolution.py`"); elsewhere it costs memory (67 MB for the bunny at 256
+    // cells) and build time (DistanceGrid::build refines only near the surface).
     static int auto_grid_resolution(const Shape& shape);
     static constexpr float kGridCellMeanFreePaths = 10.f;
     static constexpr float kFineGridCellMeanFreePaths = 60.f;
