@@ -222,6 +222,11 @@ struct Path {
     vec3 ratio;
     int shape;      // the medium holding the photon; -1 = vacuum
     float r_at_o;   // the grid's bound at o when known, else < 0
+    bool r_shrunk;  // r_at_o is a shrunk ball's radius, not the grid's bound
+    // "st": the cell of the last grid query (grid_query_in_cell; -1: none) and the largest
+    // bound the grid gives in it.
+    int query_cell;
+    float query_cell_bound;
     // NEE's MIS (PathState): whether the last vertex was specular (camera, dielectric
     // boundary, sphere step), else the phase pdf of the direction sampled at the last
     // scattering event and where that was.
@@ -355,6 +360,15 @@ bool cut_certificate(int shape, vec3 x, out vec3 n, out float s) {
 // One iteration of PathTracer::run's loop: a flight in vacuum to the next surface, or a
 // free flight in a medium and what ends it (a collision or the boundary). A collision
 // deep enough for a sphere step only marks the path as pending ("st").
+// The grid's bound at x in p's medium; "st" keeps the query's cell and its largest bound.
+float path_grid_query(inout Path p, vec3 x) {
+#if SSS_ST
+    return grid_query_in_cell(p.shape, x, p.query_cell, p.query_cell_bound);
+#else
+    return grid_query(p.shape, x);
+#endif
+}
+
 void path_iterate(inout Path p) {
     uint num_shapes = counts.x;
     Hit hit;
@@ -400,13 +414,16 @@ void path_iterate(inout Path p) {
     GpuShape s = shapes[p.shape];
     float sigma_t = p.channel < 0 ? s.sigma_t.x : s.sigma_t[p.channel];
     float t = sample_exponential(rng_uniform(p.rng), sigma_t);
-    float r_o = p.r_at_o >= 0.0 ? p.r_at_o : grid_query(p.shape, p.o);
+    float r_o = p.r_at_o >= 0.0 ? p.r_at_o : path_grid_query(p, p.o);
+    // A shrunk ball (below) that does not hold the flight: the grid may hold more.
+    if (p.r_shrunk && !(t < r_o)) r_o = max(r_o, path_grid_query(p, p.o));
+    p.r_shrunk = false;
     p.r_at_o = -1.0;
     vec3 end = p.o + p.d * t;
     float r_end = -1.0;
     bool at_boundary = false;
     if (!(t < r_o)) {
-        if (t < kInf) r_end = grid_query(p.shape, end);
+        if (t < kInf) r_end = path_grid_query(p, end);
         if (!(t < r_o + r_end)) at_boundary = intersect(p.o, p.d, t, hit);
     }
     if (!at_boundary && !(t < kInf)) {
@@ -421,12 +438,26 @@ void path_iterate(inout Path p) {
     }
     if (!at_boundary) {
         p.o = end;
-        float r = r_end >= 0.0 ? r_end : grid_query(p.shape, p.o);
-#if SSS_ST
-        // The smallest extinction with spectral MIS; the path then goes on in one channel,
-        // picked afresh (PathTracer::run).
+        // The smallest extinction with spectral MIS ("st": the path then goes on in one
+        // channel, picked afresh; PathTracer::run).
         float sigma_step =
             p.spectral ? min(s.sigma_t.x, min(s.sigma_t.y, s.sigma_t.z)) : sigma_t;
+        // The ball of radius r_o around the flight's start, shrunk by the flight, bounds
+        // the distance at its end with no query; "st" takes it only where the grid's bound
+        // allows no step anywhere in o's cell (PathTracer::run).
+        float r = r_end;
+        bool shrink = r < 0.0;
+#if SSS_ST
+        shrink = shrink && sigma_step * p.query_cell_bound < params.y &&
+                 grid_cell_of(p.shape, p.o) == p.query_cell;
+#endif
+        if (shrink) {
+            r = max(0.0, r_o - t * (1.0 + 1e-6) - grids[p.shape].scale.y);
+            p.r_shrunk = true;
+        } else if (r < 0.0) {
+            r = path_grid_query(p, p.o);
+        }
+#if SSS_ST
         if (sigma_step * r >= params.y) {
             to_one_channel(p);
             p.pending = true;  // one sphere step replaces the events inside the sphere
@@ -459,7 +490,7 @@ void path_iterate(inout Path p) {
             return;
         }
         if (NEE)
-            p.L += path_weight(p) * direct_light(p.o, r, p.d, p.shape,
+            p.L += path_weight(p) * direct_light(p.o, p.r_shrunk ? -1.0 : r, p.d, p.shape,
                                                  p.spectral ? -1 : p.channel, false, p.rng);
         vec3 d_new = phase_sample(phase_data(s), p.d, rng_uniform(p.rng), rng_uniform(p.rng));
         if (NEE) {  // for the MIS weight of a light this direction may hit
@@ -609,6 +640,9 @@ Path start_path(uint i) {
     p.beta_start = max(p.beta.x, max(p.beta.y, p.beta.z));
     p.shape = -1;
     p.r_at_o = -1.0;
+    p.r_shrunk = false;
+    p.query_cell = -1;
+    p.query_cell_bound = 0.0;
     p.specular = true;
     p.phase_pdf = 0.0;
     p.scatter_pos = vec3(0.0);

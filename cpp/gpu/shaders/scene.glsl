@@ -138,29 +138,63 @@ bool intersect(vec3 o, vec3 d, float tfar, out Hit hit) {
     return intersect_between(o, d, 0.0, tfar, hit);
 }
 
+// DistanceGrid::locate: p's cell c in shape's grid and its coordinates in cells g; false
+// outside the grid (or where the shape has none).
+bool grid_locate(GpuGrid gr, vec3 p, out vec3 g, out ivec3 c) {
+    c = ivec3(0);
+    g = (p - gr.origin.xyz) * gr.scale.x;
+    if (gr.n.x == 0 || !(g.x >= 0.0 && g.y >= 0.0 && g.z >= 0.0)) return false;
+    if (!(g.x < float(gr.n.x - 1) && g.y < float(gr.n.y - 1) && g.z < float(gr.n.z - 1)))
+        return false;
+    c = ivec3(g);
+    return c.x < gr.n.x - 1 && c.y < gr.n.y - 1 && c.z < gr.n.z - 1;
+}
+
+// Where cell c's first node lies in scene_floats: a cell's name, unique over all shapes.
+int grid_cell_index(GpuGrid gr, ivec3 c) {
+    return gr.n.w + (c.z * gr.n.y + c.y) * gr.n.x + c.x;
+}
+
 // DistanceGrid::query: a lower bound on the distance from p to shape's surface (0
 // outside its grid): max over the cell's 8 nodes of d(node) - |p - node|, less the guard.
-float grid_query(int shape, vec3 p) {
+// Also p's cell (grid_cell_index; -1 outside the grid) and its largest node distance,
+// which bounds the query over the whole cell (0 outside).
+float grid_query_in_cell(int shape, vec3 p, out int cell, out float cell_bound) {
+    cell = -1;
+    cell_bound = 0.0;
     GpuGrid gr = grids[shape];
-    if (gr.n.x == 0) return 0.0;
-    vec3 g = (p - gr.origin.xyz) * gr.scale.x;
-    if (!(g.x >= 0.0 && g.y >= 0.0 && g.z >= 0.0)) return 0.0;
-    if (!(g.x < float(gr.n.x - 1) && g.y < float(gr.n.y - 1) && g.z < float(gr.n.z - 1)))
-        return 0.0;
-    ivec3 c = ivec3(g);
-    if (c.x >= gr.n.x - 1 || c.y >= gr.n.y - 1 || c.z >= gr.n.z - 1) return 0.0;
+    vec3 g;
+    ivec3 c;
+    if (!grid_locate(gr, p, g, c)) return 0.0;
     vec3 f = g - vec3(c);
     vec3 q0 = f * f, q1 = (1.0 - f) * (1.0 - f);
-    int base = gr.n.w + (c.z * gr.n.y + c.y) * gr.n.x + c.x;
+    int base = grid_cell_index(gr, c);
     int slab = gr.n.x * gr.n.y;
     float r = -kInf;
     for (int k = 0; k < 2; ++k) {
         for (int j = 0; j < 2; ++j) {
             int row = base + k * slab + j * gr.n.x;
             float yz = (j == 0 ? q0.y : q1.y) + (k == 0 ? q0.z : q1.z);
-            r = max(r, scene_floats[row] - gr.origin.w * sqrt(q0.x + yz));
-            r = max(r, scene_floats[row + 1] - gr.origin.w * sqrt(q1.x + yz));
+            float d0 = scene_floats[row], d1 = scene_floats[row + 1];
+            r = max(r, d0 - gr.origin.w * sqrt(q0.x + yz));
+            r = max(r, d1 - gr.origin.w * sqrt(q1.x + yz));
+            cell_bound = max(cell_bound, max(d0, d1));
         }
     }
+    cell = base;
     return max(0.0, r - gr.scale.y);
+}
+
+float grid_query(int shape, vec3 p) {
+    int cell;
+    float cell_bound;
+    return grid_query_in_cell(shape, p, cell, cell_bound);
+}
+
+// DistanceGrid::cell_of: p's cell as grid_query_in_cell names it, -1 outside the grid.
+int grid_cell_of(int shape, vec3 p) {
+    GpuGrid gr = grids[shape];
+    vec3 g;
+    ivec3 c;
+    return grid_locate(gr, p, g, c) ? grid_cell_index(gr, c) : -1;
 }
