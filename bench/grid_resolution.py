@@ -1,17 +1,19 @@
 #!/usr/bin/env python3
 """The distance grid's resolution against render time (issue 26): `pt` and `st` per grid.
 
-The dielectric bunny of bench/st_vs_pt.py (64x64, g = 0.9) at each σt of ``--sigmas``,
-with the grid pinned to each of ``--resolutions`` cells (`render.grid_resolution`): the
-grid's build time (the scene's load), its size, and per integrator the render time (the
-best of ``--repeats`` renders, interleaved), the events and steps per path and the image
+The bunny of bench/st_vs_pt.py (64x64, g = 0.9) with each of ``--boundaries``, at each σt
+of ``--sigmas``, with the grid pinned to each of ``--resolutions`` cells
+(`render.grid_resolution`): the grid's build time (the scene's load), its size, and per
+integrator the render time (the best of ``--repeats`` renders, interleaved over integrators
+and grids), the events and steps per path and the image
 mean with its standard error. The grid's bound is loosest within a cell of the surface,
 where `st` leaves its events: a finer grid lets paths step closer to the surface, but it
-is larger (its cache misses slow `pt`, whose every collision queries it) and slower to
+is larger (its cache misses slow the queries that remain: `pt`'s at flight ends near the
+surface and, in index-matched media, for light sampling at every collision) and slower to
 build. `Scene::auto_grid_resolution` follows these numbers.
 
-    python -m bench.grid_resolution                  # ~8 min on 2 cores
-    python -m bench.grid_resolution --sigmas 4000 --resolutions 128 256 --repeats 2
+    python -m bench.grid_resolution                  # ~20 min on 2 cores
+    python -m bench.grid_resolution --boundaries dielectric --sigmas 4000 --repeats 2
 
 Writes bench/results/grid_resolution.json.
 """
@@ -55,9 +57,58 @@ def image_mean(r) -> tuple[list[float], list[float]]:
     return mean.tolist(), se.tolist()
 
 
+def measure(boundary: str, sigma: float, args) -> list[dict]:
+    """One row per grid resolution for the bunny with `boundary` at extinction `sigma`. The
+    scenes are all loaded first, then rendered in turns (each repeat runs every integrator
+    on every grid, the grids' order reversed every other repeat), so that a drift of this
+    host's speed falls on all of them alike."""
+    scenes, loads = {}, {}
+    for res in args.resolutions:
+        d = scene_dict("bunny", boundary, sigma, 64)
+        d["render"] = {"grid_resolution": res}
+        t0 = time.perf_counter()
+        scenes[res] = sssphere.load_scene(d, threads=args.threads)
+        loads[res] = time.perf_counter() - t0
+    seconds = {(res, name): [] for res in scenes for name in ("pt", "st")}
+    last = {}
+    for repeat in range(args.repeats):
+        order = list(scenes) if repeat % 2 == 0 else list(reversed(scenes))
+        for name in ("pt", "st"):
+            for res in order:
+                r = sssphere.render_full(scenes[res], spp=args.spp, seed=7,
+                                         threads=args.threads, integrator=name,
+                                         models=args.models)
+                seconds[res, name].append(r.seconds)
+                last[res, name] = r
+    rows = []
+    for res, scene in scenes.items():
+        row = {"boundary": boundary, "sigma_t": sigma, "grid_resolution": res,
+               "load_seconds": loads[res], "grid_megabytes": grid_megabytes(scene, res),
+               "integrators": {}}
+        for name in ("pt", "st"):
+            r = last[res, name]
+            mean, se = image_mean(r)
+            row["integrators"][name] = {
+                "seconds": min(seconds[res, name]), "all_seconds": seconds[res, name],
+                "events_per_path": r.mean_events_per_path,
+                "steps_per_path": r.mean_sphere_steps_per_path,
+                "image_mean": mean, "image_mean_stderr": se}
+        it = row["integrators"]
+        row["st_over_pt_speedup"] = it["pt"]["seconds"] / it["st"]["seconds"]
+        rows.append(row)
+        print(f"{boundary}, sigma_t {sigma:g}, {res} cells: load {loads[res]:.1f}s, "
+              f"{row['grid_megabytes']:.0f} MB; " + "; ".join(
+                  f"{n} {v['seconds']:.3f}s, {v['events_per_path']:.1f} events + "
+                  f"{v['steps_per_path']:.2f} steps/path" for n, v in it.items())
+              + f"; x{row['st_over_pt_speedup']:.2f}", flush=True)
+    return rows
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--sigmas", nargs="+", type=float, default=[1000.0, 2000.0, 3000.0, 4000.0, 8000.0])
+    p.add_argument("--sigmas", nargs="+", type=float, default=[1000.0, 1500.0, 2000.0, 3000.0, 4000.0, 8000.0])
+    p.add_argument("--boundaries", nargs="+", default=["dielectric", "index-matched"],
+                   choices=["dielectric", "index-matched"])
     p.add_argument("--resolutions", nargs="+", type=int, default=[128, 256])
     p.add_argument("--spp", type=int, default=64)
     p.add_argument("--repeats", type=int, default=3)
@@ -67,38 +118,9 @@ def main() -> None:
     args = p.parse_args()
 
     rows = []
-    for sigma in args.sigmas:
-        for res in args.resolutions:
-            d = scene_dict("bunny", "dielectric", sigma, 64)
-            d["render"] = {"grid_resolution": res}
-            t0 = time.perf_counter()
-            scene = sssphere.load_scene(d, threads=args.threads)
-            build = time.perf_counter() - t0
-            seconds = {"pt": [], "st": []}
-            last = {}
-            for _ in range(args.repeats):
-                for name in seconds:
-                    r = sssphere.render_full(scene, spp=args.spp, seed=7, threads=args.threads,
-                                             integrator=name, models=args.models)
-                    seconds[name].append(r.seconds)
-                    last[name] = r
-            row = {"sigma_t": sigma, "grid_resolution": res, "load_seconds": build,
-                   "grid_megabytes": grid_megabytes(scene, res), "integrators": {}}
-            for name, r in last.items():
-                mean, se = image_mean(r)
-                row["integrators"][name] = {
-                    "seconds": min(seconds[name]), "all_seconds": seconds[name],
-                    "events_per_path": r.mean_events_per_path,
-                    "steps_per_path": r.mean_sphere_steps_per_path,
-                    "image_mean": mean, "image_mean_stderr": se}
-            it = row["integrators"]
-            row["st_over_pt_speedup"] = it["pt"]["seconds"] / it["st"]["seconds"]
-            rows.append(row)
-            print(f"sigma_t {sigma:g}, {res} cells: load {build:.1f}s, "
-                  f"{row['grid_megabytes']:.0f} MB; " + "; ".join(
-                      f"{n} {v['seconds']:.3f}s, {v['events_per_path']:.1f} events + "
-                      f"{v['steps_per_path']:.2f} steps/path" for n, v in it.items())
-                  + f"; x{row['st_over_pt_speedup']:.2f}", flush=True)
+    for boundary in args.boundaries:
+        for sigma in args.sigmas:
+            rows += measure(boundary, sigma, args)
     out = {"date": datetime.datetime.now().isoformat(timespec="seconds"),
            "machine": machine(), "spp": args.spp, "repeats": args.repeats,
            "threads": args.threads, "rows": rows}

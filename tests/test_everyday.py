@@ -205,7 +205,7 @@ def test_geometry_edits_rebuild_the_bvh_and_grid_and_say_so(small_scene):
 def test_a_density_change_that_changes_the_grid_resolution_rebuilds_that_grid(small_scene):
     scene = sssphere.load_scene(small_scene)
     assert scene.grid_resolutions == [64]
-    scene.shapes[0].medium.sigma_t = 1000  # a 64th of the side is now 10-60 mean free paths
+    scene.shapes[0].medium.sigma_t = 600  # a 64th of the side is now 10-30 mean free paths
     assert scene.grid_resolutions == [128]
     assert scene.rebuilt == ["distance grid of shape 'ball' (64 -> 128 cells: the resolution "
                              "follows sigma_t unless render.grid_resolution sets it)"]

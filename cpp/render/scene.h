@@ -193,7 +193,7 @@ public:
     // cells) and build time (DistanceGrid::build refines only near the surface).
     static int auto_grid_resolution(const Shape& shape);
     static constexpr float kGridCellMeanFreePaths = 10.f;
-    static constexpr float kFineGridCellMeanFreePaths = 60.f;
+    static constexpr float kFineGridCellMeanFreePaths = 30.f;
 
     // The distance grid resolution of each shape (0 for a surface).
     const std::vector<int>& grid_resolutions() const { return grid_resolutions_; }
