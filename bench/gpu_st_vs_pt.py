@@ -90,7 +90,7 @@ def bake(args) -> int:
         desc = cpu.scene_dict(shape, "dielectric", sigma, RES)
         scene = sssphere.load_scene(desc)
         # The grid resolution Scene chose for this density (Scene::auto_grid_resolution).
-        res = 128 if sigma * 1.0 / 64 > 10 else 64
+        res = scene.grid_resolutions[0]
         cut = boundary.endswith(CUT_SUFFIX)
         key = f"{shape}_g{res}" + (f"_cut_s{sigma:g}" if cut else "")
         if key not in baked:
