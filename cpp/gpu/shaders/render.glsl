@@ -357,9 +357,6 @@ bool cut_certificate(int shape, vec3 x, out vec3 n, out float s) {
 }
 #endif
 
-// One iteration of PathTracer::run's loop: a flight in vacuum to the next surface, or a
-// free flight in a medium and what ends it (a collision or the boundary). A collision
-// deep enough for a sphere step only marks the path as pending ("st").
 // The grid's bound at x in p's medium; "st" keeps the query's cell and its largest bound.
 float path_grid_query(inout Path p, vec3 x) {
 #if SSS_ST
@@ -369,6 +366,9 @@ float path_grid_query(inout Path p, vec3 x) {
 #endif
 }
 
+// One iteration of PathTracer::run's loop: a flight in vacuum to the next surface, or a
+// free flight in a medium and what ends it (a collision or the boundary). A collision
+// deep enough for a sphere step only marks the path as pending ("st").
 void path_iterate(inout Path p) {
     uint num_shapes = counts.x;
     Hit hit;
