@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <string>
 
 #include "core/check.h"
@@ -141,7 +142,9 @@ constexpr int64_t kMaxChunkPixels = int64_t(1) << 22;
 // openexr.com) and refuses, before OpenEXR sees it, what would make OpenEXR allocate more
 // than the file holds: an attribute whose size runs past the end of the file (OpenEXR
 // allocates the declared size first), a data window beyond the pixel limit, or a chunk
-// offset table longer than the file. Multi-part and deep files are refused (not
+// offset table longer than the file. An attribute named twice is refused too: OpenEXR
+// keeps the first, this check would see the last (a fuzzed file hid a 16-million-pixel
+// data window behind a second, small one). Multi-part and deep files are refused (not
 // supported). Found by fuzzing (docs/fuzzing.md).
 void check_exr_header(const std::string& path, int max_channels) {
     std::ifstream in(path, std::ios::binary);
@@ -179,9 +182,11 @@ void check_exr_header(const std::string& path, int max_channels) {
     int channels = 0;
     int64_t width = 0, height = 0;
     int64_t lines_per_chunk = 0, tile_w = 0, tile_h = 0;
+    std::set<std::string> names;
     for (;;) {
         const std::string name = read_string(max_name);
         if (name.empty()) break;
+        if (!names.insert(name).second) bad("attribute '", name, "' appears twice");
         const std::string type = read_string(max_name);
         const int64_t size = int32_t(read_u32());
         const int64_t at = in.tellg();

@@ -114,6 +114,16 @@ TEST(ImageIo, RefusesTruncatedAndLyingExrHeaders) {
     EXPECT_NE(read_error(big_file.path()).find("more than the file holds"),
               std::string::npos)
         << read_error(big_file.path());
+    // A second dataWindow attribute: OpenEXR reads the first, a check of the last would
+    // pass a huge first one (the fuzzer's file: tests/fuzz/regressions/image_exr/).
+    const std::string attribute =
+        bytes.substr(window, std::string("dataWindow\0box2i\0", 17).size() + 4 + 16);
+    std::string twice = bytes;
+    twice.insert(window + attribute.size(), attribute);
+    TempFile twice_file("twice.exr", twice);
+    EXPECT_NE(read_error(twice_file.path()).find("attribute 'dataWindow' appears twice"),
+              std::string::npos)
+        << read_error(twice_file.path());
 }
 
 TEST(ImageIo, RefusesContentThatIsNotTheExtensionsFormat) {
