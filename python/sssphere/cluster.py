@@ -353,8 +353,12 @@ def render(scene, address: str, progress: Optional[Callable[[float], object]], o
     tasks_in_order = ((first, count, band)
                       for first, count in _sample_ranges(spp, slots, scene.width * scene.height, timed)
                       for band in bands)
+    # SPREAD: the tasks go round the nodes. Ray's default packs a node first, and places
+    # tasks by a load view that lags: short tasks then all went to one node while another
+    # idled (seen in CI, two one-CPU nodes, 8 tasks of a fraction of a second).
     remote = ray.remote(_render_part).options(
-        num_cpus=0 if gpu else threads, num_gpus=1 if gpu else 0, max_retries=MAX_RETRIES)
+        num_cpus=0 if gpu else threads, num_gpus=1 if gpu else 0, max_retries=MAX_RETRIES,
+        scheduling_strategy="SPREAD")
     add = ray.remote(_add_parts).options(num_cpus=0, max_retries=MAX_RETRIES)
     nb = len(bands)
     group = group_size(slots, nb)
@@ -517,7 +521,8 @@ def walks(sigma, g, albedo, seed: int, first_index: int,
     ray = connect(address)
     n = max(np.size(sigma), np.size(g), np.size(albedo))
     sigma, g, albedo = (np.ascontiguousarray(np.broadcast_to(a, n)) for a in (sigma, g, albedo))
-    remote = ray.remote(_walk_part).options(num_cpus=1, max_retries=MAX_RETRIES)
+    remote = ray.remote(_walk_part).options(num_cpus=1, max_retries=MAX_RETRIES,
+                                            scheduling_strategy="SPREAD")  # as render's
     starts = list(range(0, n, chunk))
     refs = [remote.remote(sigma[s:s + chunk], g[s:s + chunk], albedo[s:s + chunk], seed,
                           first_index + s) for s in starts]
