@@ -12,7 +12,7 @@ is larger (its cache misses slow the queries that remain: `pt`'s at flight ends 
 surface and, in index-matched media, for light sampling at every collision) and slower to
 build. `Scene::auto_grid_resolution` follows these numbers.
 
-    python -m bench.grid_resolution                  # ~20 min on 2 cores
+    python -m bench.grid_resolution                  # ~8 min on 2 cores
     python -m bench.grid_resolution --boundaries dielectric --sigmas 4000 --repeats 2
 
 Writes bench/results/grid_resolution.json.
