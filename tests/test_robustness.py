@@ -20,6 +20,7 @@ however big it is.
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -146,10 +147,11 @@ def test_moving_the_scene_leaves_the_image_bit_for_bit(integrator, backend):
 # Slivers
 
 
-def box_obj(path, size, thickness) -> None:
-    """A closed box [-size/2, size/2]^2 x [-thickness/2, thickness/2] as an OBJ file."""
+def box_obj(path, size, thickness, offset=(0.0, 0.0, 0.0)) -> None:
+    """A closed box [-size/2, size/2]^2 x [-thickness/2, thickness/2] + offset as an OBJ file."""
     s, h = size / 2, thickness / 2
-    v = [(x, y, z) for z in (-h, h) for y in (-s, s) for x in (-s, s)]
+    ox, oy, oz = offset
+    v = [(x + ox, y + oy, z + oz) for z in (-h, h) for y in (-s, s) for x in (-s, s)]
     quads = [(1, 2, 4, 3), (5, 7, 8, 6), (1, 5, 6, 2), (3, 4, 8, 7), (1, 3, 7, 5), (2, 6, 8, 4)]
     path.write_text("".join(f"v {x!r} {y!r} {z!r}\n" for x, y, z in v)
                     + "".join("f " + " ".join(map(str, q)) + "\n" for q in quads))
@@ -266,6 +268,54 @@ def test_scattering_sliver_far_from_the_origin_matches_mitsuba(tmp_path):
     assert c.dof.min() >= 20
     assert c.chi2_ok, c.summary()
     assert c.z_ok, c.summary()
+
+
+def test_a_mesh_file_far_from_the_origin_renders_as_the_mesh_moved_there(tmp_path):
+    """Vertices 1e6 from the origin in the file itself are read in double and kept relative
+    to the mesh's centre: bit for bit the image of the same mesh moved there by `transform`.
+    (Before, they were rounded to float first, 0.0625 apart at 1e6: the box's sides moved.)"""
+    far = [1e6, -2e6, 3e6]
+    box_obj(tmp_path / "near.obj", 0.6, 0.6)
+    box_obj(tmp_path / "far.obj", 0.6, 0.6, offset=far)
+
+    def render(mesh, translate):
+        scene = {"camera": {"origin": [far[0] + 0.7, far[1] + 0.9, far[2] + 2], "target": far,
+                            "fov": 40, "width": 32, "height": 32},
+                 "shapes": [{"mesh": mesh, "transform": {"translate": translate},
+                             "medium": {"sigma_t": 1000, "albedo": 0},
+                             "boundary": {"type": "index_matched"}}],
+                 "lights": [{"type": "environment", "radiance": 1}]}
+        return sssphere.render(sssphere.load_scene(scene, base_dir=tmp_path), "pt", spp=4, seed=1)
+
+    moved, in_file = render("near.obj", far), render("far.obj", [0, 0, 0])
+    assert 0.1 < moved.mean() < 0.9  # the box fills part of the frame
+    assert np.array_equal(moved, in_file), f"{np.count_nonzero(moved != in_file)} values differ"
+
+
+def lit_ball(k: float) -> dict:
+    """An opaque diffuse ball of radius k under an environment and a point light, all lengths x k."""
+    return {"camera": {"origin": [0.3 * k, 0.2 * k, 4 * k], "target": [0, 0, 0], "fov": 30,
+                       "width": 32, "height": 32},
+            "shapes": [{"sphere": {"center": [0, 0, 0], "radius": k},
+                        "surface": {"type": "diffuse", "reflectance": 0.5}}],
+            "lights": [{"type": "environment", "radiance": 1},
+                       {"type": "point", "position": [3 * k, 3 * k, 3 * k], "intensity": 20 * k * k}]}
+
+
+def test_scenes_too_small_or_large_for_float_are_refused_and_the_rest_render_alike():
+    """Shapes 1e-8 to 1e10 across render the same image; past that Embree's float
+    ray-triangle test overflows or underflows (a sphere of radius 1e12 hung, one of 1e-10
+    aborted in Embree), so the parser refuses them, naming the extent."""
+    def render(k):
+        return sssphere.render_full(lit_ball(k), integrator="pt", spp=16, seed=2)
+
+    ref = render(1.0)
+    for k in (1e-8, 4e9):  # extents 2e-8 and 8e9
+        assert_same_image(ref, render(k), f"scale k = {k:g}")
+    for k, extent in ((2e-9, "4e-09"), (1e10, "2e+10")):
+        with pytest.raises(sssphere.SceneError,
+                           match=rf"shapes: their extent {re.escape(extent)} .* outside \[1e-8, 1e10\]"):
+            sssphere.load_scene(lit_ball(k))
 
 
 # ---------------------------------------------------------------------------------------------

@@ -68,6 +68,16 @@ constexpr Vec3 cross(Vec3 a, Vec3 b) {
 }
 inline float length(Vec3 v) { return std::sqrt(dot(v, v)); }
 inline Vec3 normalize(Vec3 v) { return v / length(v); }
+// normalize() for a triangle's cross product: at large or small scales its squared length
+// leaves float's normal range (edges of 4e9 square past FLT_MAX, of 1e-10 to 0), where
+// normalize() gives 0 or NaN. Such a vector is scaled by its largest component first;
+// in range the result is normalize()'s, bit for bit.
+inline Vec3 unit_normal(Vec3 v) {
+    const float l2 = dot(v, v);
+    if (l2 >= 1.17549435e-38f && l2 <= 3.40282347e38f) return v / std::sqrt(l2);
+    const float m = std::max(std::abs(v.x), std::max(std::abs(v.y), std::abs(v.z)));
+    return normalize(v / m);
+}
 inline Vec3 min(Vec3 a, Vec3 b) {
     return {std::min(a.x, b.x), std::min(a.y, b.y), std::min(a.z, b.z)};
 }

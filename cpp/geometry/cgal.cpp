@@ -106,11 +106,12 @@ TriangleMesh load_mesh(const std::string& path, MeshKind kind) {
     }
     if (points.empty() || polygons.empty()) fail(path, ": mesh has no faces");
 
-    std::vector<Vec3> pos;
+    std::vector<Vec3d> pos;
     pos.reserve(points.size());
     for (const Point& p : points) {
-        Vec3 v(float(p.x()), float(p.y()), float(p.z()));
-        if (!is_finite(v)) fail(path, ": vertex ", pos.size(), " is not finite");
+        Vec3d v(p.x(), p.y(), p.z());
+        if (!is_finite(v.to_float()))
+            fail(path, ": vertex ", pos.size(), " is not finite");
         pos.push_back(v);
     }
     std::vector<std::vector<uint32_t>> polys;
@@ -125,16 +126,17 @@ TriangleMesh load_mesh(const std::string& path, MeshKind kind) {
         }
         polys.push_back(std::move(q));
     }
+    const Vec3d origin = center_of_bounds(pos);
     return kind == MeshKind::Closed
-               ? make_closed_mesh(std::move(pos), std::move(polys), path)
-               : make_open_mesh(std::move(pos), std::move(polys), path);
+               ? make_closed_mesh(pos, std::move(polys), path, origin)
+               : make_open_mesh(pos, std::move(polys), path, origin);
 }
 
 namespace {
 
 // The soup both kinds of mesh start from: polygons fan-triangulated, coincident vertices
 // merged, degenerate triangles refused, duplicate triangles and unused vertices dropped.
-void clean_soup(const std::vector<Vec3>& positions,
+void clean_soup(const std::vector<Vec3d>& positions,
                 const std::vector<std::vector<uint32_t>>& polygons,
                 const std::string& what, std::vector<Point>& points,
                 std::vector<std::vector<std::size_t>>& tris) {
@@ -148,7 +150,7 @@ void clean_soup(const std::vector<Vec3>& positions,
             tris.push_back({poly[0], poly[i], poly[i + 1]});
     }
     points.reserve(positions.size());
-    for (const Vec3& p : positions) points.emplace_back(p.x, p.y, p.z);
+    for (const Vec3d& p : positions) points.emplace_back(p.x, p.y, p.z);
 
     // Merge coincident vertices (STL stores every triangle's corners separately).
     PMP::merge_duplicate_points_in_polygon_soup(points, tris);
@@ -166,11 +168,17 @@ void clean_soup(const std::vector<Vec3>& positions,
     PMP::remove_isolated_points_in_polygon_soup(points, tris);
 }
 
+// The float position of p relative to origin.
+Vec3 relative_to(const Point& p, Vec3d origin) {
+    return (Vec3d(p.x(), p.y(), p.z()) - origin).to_float();
+}
+
 TriangleMesh soup_to_mesh(const std::vector<Point>& points,
-                          const std::vector<std::vector<std::size_t>>& tris) {
+                          const std::vector<std::vector<std::size_t>>& tris,
+                          Vec3d origin) {
     TriangleMesh mesh;
-    for (const Point& p : points)
-        mesh.positions.emplace_back(float(p.x()), float(p.y()), float(p.z()));
+    mesh.origin = origin;
+    for (const Point& p : points) mesh.positions.push_back(relative_to(p, origin));
     for (const auto& t : tris)
         mesh.triangles.push_back({uint32_t(t[0]), uint32_t(t[1]), uint32_t(t[2])});
     return mesh;
@@ -178,14 +186,14 @@ TriangleMesh soup_to_mesh(const std::vector<Point>& points,
 
 }  // namespace
 
-TriangleMesh make_open_mesh(std::vector<Vec3> positions,
+TriangleMesh make_open_mesh(const std::vector<Vec3d>& positions,
                             std::vector<std::vector<uint32_t>> polygons,
-                            const std::string& what) {
+                            const std::string& what, Vec3d origin) {
     std::vector<Point> points;
     std::vector<std::vector<std::size_t>> tris;
     clean_soup(positions, polygons, what, points, tris);
     if (tris.empty()) fail(what, ": mesh has no faces");
-    return soup_to_mesh(points, tris);
+    return soup_to_mesh(points, tris, origin);
 }
 
 namespace {
@@ -298,9 +306,9 @@ std::string closed_manifold_defects(const std::vector<Point>& points,
 
 }  // namespace
 
-TriangleMesh make_closed_mesh(std::vector<Vec3> positions,
+TriangleMesh make_closed_mesh(const std::vector<Vec3d>& positions,
                               std::vector<std::vector<uint32_t>> polygons,
-                              const std::string& what) {
+                              const std::string& what, Vec3d origin) {
     std::vector<Point> points;
     std::vector<std::vector<std::size_t>> tris;
     clean_soup(positions, polygons, what, points, tris);
@@ -313,11 +321,11 @@ TriangleMesh make_closed_mesh(std::vector<Vec3> positions,
     PMP::orient_to_bound_a_volume(sm);
 
     TriangleMesh mesh;
+    mesh.origin = origin;
     std::vector<uint32_t> remap(sm.num_vertices());
     for (auto v : sm.vertices()) {
         remap[v.idx()] = uint32_t(mesh.positions.size());
-        const Point& p = sm.point(v);
-        mesh.positions.emplace_back(float(p.x()), float(p.y()), float(p.z()));
+        mesh.positions.push_back(relative_to(sm.point(v), origin));
     }
     for (auto f : sm.faces()) {
         std::array<uint32_t, 3> t{};

@@ -30,9 +30,9 @@ std::vector<Vec3> surface_samples(const TriangleMesh& m, int per_triangle, Rng& 
 
 // The cube [-1, 1]^3, faces wound outward.
 TriangleMesh cube_mesh() {
-    std::vector<Vec3> v;
+    std::vector<Vec3d> v;
     for (int i = 0; i < 8; ++i)
-        v.emplace_back(i & 1 ? 1.f : -1.f, i & 2 ? 1.f : -1.f, i & 4 ? 1.f : -1.f);
+        v.emplace_back(i & 1 ? 1.0 : -1.0, i & 2 ? 1.0 : -1.0, i & 4 ? 1.0 : -1.0);
     return make_closed_mesh(v,
                             {{0, 2, 3, 1},
                              {4, 5, 7, 6},

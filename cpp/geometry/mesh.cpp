@@ -18,15 +18,19 @@ Bounds3 TriangleMesh::bounds() const {
 Vec3 TriangleMesh::normal(size_t i) const {
     const auto& t = triangles[i];
     Vec3 n = cross(positions[t[1]] - positions[t[0]], positions[t[2]] - positions[t[0]]);
-    return normalize(n);
+    return unit_normal(n);
 }
 
 double TriangleMesh::area() const {
     double a = 0;
     for (size_t i = 0; i < triangles.size(); ++i) {
+        // In double: a float cross product's squared length overflows for long edges.
         const auto& t = triangles[i];
-        a += 0.5 * length(cross(positions[t[1]] - positions[t[0]],
-                                positions[t[2]] - positions[t[0]]));
+        const Vec3d p0(positions[t[0]]), e1 = Vec3d(positions[t[1]]) - p0,
+                                         e2 = Vec3d(positions[t[2]]) - p0;
+        const double cx = e1.y * e2.z - e1.z * e2.y, cy = e1.z * e2.x - e1.x * e2.z,
+                     cz = e1.x * e2.y - e1.y * e2.x;
+        a += 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
     }
     return a;
 }
@@ -104,7 +108,8 @@ Vec3d Transform::apply(Vec3d p) const {
 std::vector<Vec3d> transform_mesh(TriangleMesh& mesh, const Transform& transform) {
     std::vector<Vec3d> world;
     world.reserve(mesh.positions.size());
-    for (const Vec3& p : mesh.positions) world.push_back(transform.apply(Vec3d(p)));
+    for (const Vec3& p : mesh.positions)
+        world.push_back(transform.apply(mesh.origin + Vec3d(p)));
     if (transform.mirrors())
         for (auto& t : mesh.triangles) std::swap(t[1], t[2]);
     return world;
@@ -116,6 +121,17 @@ void normalize_mesh(TriangleMesh& mesh) {
     SSS_CHECK(side > 0.f);
     Vec3 c = b.center();
     for (Vec3& p : mesh.positions) p = (p - c) / side;
+    mesh.origin = Vec3d();
+}
+
+Vec3d center_of_bounds(const std::vector<Vec3d>& points) {
+    Vec3d lo(INFINITY, INFINITY, INFINITY), hi(-INFINITY, -INFINITY, -INFINITY);
+    for (const Vec3d& p : points)
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = std::min(lo[a], p[a]);
+            hi[a] = std::max(hi[a], p[a]);
+        }
+    return (lo + hi) * 0.5;
 }
 
 }  // namespace sss

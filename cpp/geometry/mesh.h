@@ -14,8 +14,11 @@
 namespace sss {
 
 struct TriangleMesh {
-    std::vector<Vec3> positions;
+    std::vector<Vec3> positions;  // relative to `origin`
     std::vector<std::array<uint32_t, 3>> triangles;
+    // Where `positions` are measured from, in double: a mesh file far from 0 keeps its
+    // placement here, so its shape is not rounded to the float step of its coordinates.
+    Vec3d origin;
 
     Bounds3 bounds() const;
     // Outward unit normal of triangle i (counter-clockwise winding).
@@ -33,16 +36,21 @@ TriangleMesh load_mesh(const std::string& path, MeshKind kind = MeshKind::Closed
 
 // Validates and orients a polygon soup (`what` names it in errors): duplicate vertices
 // are merged; degenerate (zero-area) triangles, open boundaries, non-manifold edges and
-// zero volume are refused; faces are re-oriented consistently and outward.
-TriangleMesh make_closed_mesh(std::vector<Vec3> positions,
+// zero volume are refused; faces are re-oriented consistently and outward. The checks
+// run on the positions as given, in double; the mesh keeps them relative to `origin`
+// (TriangleMesh::origin), rounded to float.
+TriangleMesh make_closed_mesh(const std::vector<Vec3d>& positions,
                               std::vector<std::vector<uint32_t>> polygons,
-                              const std::string& what);
+                              const std::string& what, Vec3d origin = Vec3d());
 
 // The same checks short of closure, orientation and volume, for opaque surfaces: merged
 // vertices, no degenerate triangles, the winding as given.
-TriangleMesh make_open_mesh(std::vector<Vec3> positions,
+TriangleMesh make_open_mesh(const std::vector<Vec3d>& positions,
                             std::vector<std::vector<uint32_t>> polygons,
-                            const std::string& what);
+                            const std::string& what, Vec3d origin = Vec3d());
+
+// The centre of the points' bounding box: the origin a file's mesh is kept relative to.
+Vec3d center_of_bounds(const std::vector<Vec3d>& points);
 
 // Icosphere: the icosahedron subdivided `subdivisions` times, vertices on the sphere.
 TriangleMesh make_icosphere(Vec3 center, float radius, int subdivisions);
@@ -55,8 +63,9 @@ struct Transform {
     bool mirrors() const { return scale.x * scale.y * scale.z < 0; }
 };
 
-// The mesh's positions under `transform`, in double precision (the caller moves them into
-// the render frame); a mirroring transform flips the triangles' winding back outward.
+// The mesh's positions (origin included) under `transform`, in double precision (the
+// caller moves them into the render frame); a mirroring transform flips the triangles'
+// winding back outward.
 std::vector<Vec3d> transform_mesh(TriangleMesh& mesh, const Transform& transform);
 
 // Uniform scale so that the largest bounding-box side is 1, centred at the origin.

@@ -51,7 +51,8 @@ TEST(Mesh, IcosphereIsClosedOutwardAndNearTheSphere) {
     EXPECT_LT(v, exact);  // an inscribed polyhedron
     std::vector<std::vector<uint32_t>> polys;
     for (const auto& t : m.triangles) polys.push_back({t[2], t[1], t[0]});  // inside out
-    TriangleMesh checked = make_closed_mesh(m.positions, polys, "icosphere");
+    TriangleMesh checked = make_closed_mesh(
+        std::vector<Vec3d>(m.positions.begin(), m.positions.end()), polys, "icosphere");
     EXPECT_NEAR(checked.volume(), v, 1e-3 * v);
 }
 
@@ -145,4 +146,41 @@ TEST(Mesh, TransformIsExactFarFromTheOrigin) {
     EXPECT_NEAR(p.x - 1e4, 1e-6, 1e-11);  // ulp(1e4) in double is 1.8e-12
     EXPECT_NEAR(p.y + 1e4, 2e-6, 1e-11);
     EXPECT_NEAR(p.z - 1e4, -3e-6, 1e-11);
+}
+
+TEST(Mesh, AFileFarFromTheOriginKeepsItsShape) {
+    // A cube 0.1 wide at 1e6: float coordinates there are 0.0625 apart, which would make
+    // it 0.125 wide. The mesh keeps its file's placement in `origin`, in double.
+    std::string s = "OFF\n8 12 0\n";
+    for (int i = 0; i < 8; ++i)
+        for (int a = 0; a < 3; ++a)
+            s += std::string((i >> a) & 1 ? "1000000.1" : "1000000") +
+                 (a < 2 ? " " : "\n");
+    const int f[12][3] = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6},
+                          {0, 1, 4}, {1, 5, 4}, {2, 6, 3}, {3, 6, 7},
+                          {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+    for (const auto& t : f)
+        s += "3 " + std::to_string(t[0]) + " " + std::to_string(t[1]) + " " +
+             std::to_string(t[2]) + "\n";
+    TriangleMesh m = load_mesh(TempFile("far.off", s).path());
+    for (const Vec3d& p : transform_mesh(m, Transform{}))
+        for (int a = 0; a < 3; ++a) {
+            const double d = p[a] - 1e6;
+            EXPECT_TRUE(std::abs(d) < 1e-8 || std::abs(d - 0.1) < 1e-8) << d;
+        }
+    EXPECT_NEAR(m.volume(), 1e-3, 1e-9);
+}
+
+TEST(Mesh, NormalsOfTinyAndHugeTriangles) {
+    // A cross product's squared length leaves float's range for edges past ~4e9 or below
+    // ~1e-19 (and loses precision below ~1e-10): the normal must still be the unit one.
+    for (float s : {1e-20f, 1e-12f, 1.f, 1e12f, 1e18f}) {
+        TriangleMesh m;
+        m.positions = {{0, 0, 0}, {s, 0, 0}, {0, s, s}};
+        m.triangles = {{0, 1, 2}};
+        const Vec3 n = m.normal(0);
+        EXPECT_NEAR(n.x, 0.f, 1e-6f) << s;
+        EXPECT_NEAR(n.y, -0.70710678f, 1e-6f) << s;
+        EXPECT_NEAR(n.z, 0.70710678f, 1e-6f) << s;
+    }
 }

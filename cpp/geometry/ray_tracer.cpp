@@ -69,9 +69,9 @@ void record_crossing(const RTCFilterFunctionNArguments* args) {
         x.t = RTCRayN_tfar(args->ray, args->N, i);
         x.mesh = mesh;
         x.prim = prim;
-        x.normal = normalize(Vec3(RTCHitN_Ng_x(args->hit, args->N, i),
-                                  RTCHitN_Ng_y(args->hit, args->N, i),
-                                  RTCHitN_Ng_z(args->hit, args->N, i)));
+        x.normal = unit_normal(Vec3(RTCHitN_Ng_x(args->hit, args->N, i),
+                                    RTCHitN_Ng_y(args->hit, args->N, i),
+                                    RTCHitN_Ng_z(args->hit, args->N, i)));
     }
 }
 }  // namespace
@@ -150,7 +150,7 @@ bool RayTracer::intersect(const Vec3& o, const Vec3& d, float tnear, float tfar,
     // Embree's geometric normal, computed from the triangle it has just loaded (a table
     // of our own normals cost a cache miss per hit: 5 % of the time at sigma_t = 10).
     // Unnormalized, it points the way TriangleMesh::normal does (ray_tracer_test checks).
-    hit->normal = normalize(Vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z));
+    hit->normal = unit_normal(Vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z));
     // The point from the triangle itself: its error bound follows the triangle's
     // coordinates, not the ray's origin (a camera 1000 radii away would put it 1000x
     // further off).

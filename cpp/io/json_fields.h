@@ -156,12 +156,13 @@ inline const json& require(const json& obj, const char* key, const Field& f) {
     return *it;
 }
 
-// A finite number.
+// A finite number. A negative zero reads as zero: it passes every `>= 0` check, yet its
+// reciprocal is -inf (a "free flight" of -inf in a medium of sigma_t -0.0).
 inline double number(const json& j, const Field& f) {
     if (!j.is_number()) f.error("expected a number, got ", type_name(j), " ", show(j));
     double v = j.get<double>();
     if (!std::isfinite(v)) f.error("value ", show(j), " is not a finite number");
-    return v;
+    return v + 0.0;
 }
 
 // An integer in [lo, hi]; `allowed` describes the range for the message.

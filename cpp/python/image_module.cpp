@@ -12,20 +12,14 @@
 
 #include "core/check.h"
 #include "io/image_io.h"
+#include "python/scene_error.h"
 
 namespace py = pybind11;
 
 PYBIND11_MODULE(_image, m) {
     m.doc() =
         "Image files (OpenImageIO); use sssphere.read_image / sssphere.write_image.";
-    py::register_exception_translator([](std::exception_ptr p) {
-        try {
-            if (p) std::rethrow_exception(p);
-        } catch (const sss::Error& e) {
-            py::object error = py::module_::import("sssphere._core").attr("SceneError");
-            PyErr_SetString(error.ptr(), e.what());
-        }
-    });
+    py::register_exception_translator(sss::translate_scene_errors);
 
     m.def(
         "write_image",

@@ -13,6 +13,7 @@
 #include "geometry/distance_grid.h"
 #include "io/image_input.h"
 #include "python/render_progress.h"
+#include "python/scene_error.h"
 #include "render/medium_presets.h"
 #include "render/renderer.h"
 #include "render/scene.h"
@@ -51,6 +52,7 @@ const Shape& shape_at(const Scene& s, int i) {
 PYBIND11_MODULE(_core, m) {
     m.doc() = "sssphere native core (private; use the sssphere package)";
     py::register_exception<Error>(m, "SceneError", PyExc_ValueError);
+    py::register_exception_translator(translate_scene_errors);  // tried before the above
     // Environment maps are read by sssphere._image (OpenImageIO, which _core does not
     // link), imported when a scene first needs one. Scenes are parsed holding the GIL.
     image_reader() = [](const std::string& path) {
@@ -241,8 +243,11 @@ PYBIND11_MODULE(_core, m) {
             TriangleMesh mesh = load_mesh(path);
             py::array_t<float> v({py::ssize_t(mesh.positions.size()), py::ssize_t(3)});
             py::array_t<uint32_t> f({py::ssize_t(mesh.triangles.size()), py::ssize_t(3)});
-            std::memcpy(v.mutable_data(), mesh.positions.data(),
-                        mesh.positions.size() * sizeof(Vec3));
+            auto out = v.mutable_unchecked<2>();
+            for (size_t k = 0; k < mesh.positions.size(); ++k) {
+                const Vec3d p = mesh.origin + Vec3d(mesh.positions[k]);
+                for (int c = 0; c < 3; ++c) out(py::ssize_t(k), c) = float(p[c]);
+            }
             std::memcpy(f.mutable_data(), mesh.triangles.data(),
                         mesh.triangles.size() * 3 * sizeof(uint32_t));
             return py::make_tuple(v, f);

@@ -226,12 +226,12 @@ TriangleMesh parse_inline_mesh(const json& j, const Field& f, MeshKind kind) {
     if (!fj.is_array() || fj.empty() || fj.size() > kMaxElements)
         ff.error("expected an array of 1 to 2^24 faces (arrays of vertex indices), got ",
                  show(fj));
-    std::vector<Vec3> positions;
+    std::vector<Vec3d> positions;
     positions.reserve(vj.size());
     for (size_t i = 0; i < vj.size(); ++i) {
         const Vec3d p = point3(vj[i], fv.at(i));
         if (!is_finite(p.to_float())) fv.at(i).error("is out of single-precision range");
-        positions.push_back(p.to_float());
+        positions.push_back(p);
     }
     std::vector<std::vector<uint32_t>> polygons(fj.size());
     for (size_t i = 0; i < fj.size(); ++i) {
@@ -244,11 +244,11 @@ TriangleMesh parse_inline_mesh(const json& j, const Field& f, MeshKind kind) {
                                                       "an index into 'vertices'")));
     }
     try {
+        const Vec3d origin = center_of_bounds(positions);
         return kind == MeshKind::Open
-                   ? make_open_mesh(std::move(positions), std::move(polygons),
-                                    "inline mesh")
-                   : make_closed_mesh(std::move(positions), std::move(polygons),
-                                      "inline mesh");
+                   ? make_open_mesh(positions, std::move(polygons), "inline mesh", origin)
+                   : make_closed_mesh(positions, std::move(polygons), "inline mesh",
+                                      origin);
     } catch (const Error& e) {
         f.error(e.what());
     }
@@ -408,6 +408,10 @@ RenderSettings parse_render(const json& j, const Field& f, const std::string& ba
 // the thickness of a slab) is below kMinThickness of the shapes' extent, or a camera or
 // light farther than kMaxDistance extents from them.
 constexpr double kMinThickness = 1.5e-4, kMaxDistance = 1e5;
+// The shapes' extent in scene units: past these, Embree's float ray-triangle test
+// overflows (its numerator grows as the cube of the coordinates) or loses its precision
+// to subnormals. Images are identical from 1e-10 to 1e12 (docs/robustness.md).
+constexpr double kMinExtent = 1e-8, kMaxExtent = 1e10;
 
 void warn_past_limits(SceneDesc& d, double extent) {
     auto fmt = [](double v) {
@@ -489,10 +493,18 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
                 lo[a] = std::min(lo[a], p[a]);
                 hi[a] = std::max(hi[a], p[a]);
             }
+    const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+    if (!(extent >= kMinExtent && extent <= kMaxExtent))
+        f.at("shapes").error(
+            "their extent ", extent,
+            " (the largest side of their bounding box) is outside [1e-8, 1e10] scene "
+            "units, where single-precision ray-triangle tests hold (docs/robustness.md); "
+            "give the scene in other units");
     d.origin = (lo + hi) * 0.5;
     for (ParsedShape& ps : parsed) {
         for (size_t i = 0; i < ps.positions.size(); ++i)
             ps.shape.mesh.positions[i] = (ps.positions[i] - d.origin).to_float();
+        ps.shape.mesh.origin = Vec3d();
         d.shapes.push_back(std::move(ps.shape));
     }
     d.camera = parse_camera(camera, f.at("camera"), d.origin);
@@ -513,7 +525,7 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
     }
     if (root.contains("render"))
         d.render = parse_render(root["render"], f.at("render"), base_dir);
-    warn_past_limits(d, std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z}));
+    warn_past_limits(d, extent);
     return d;
 }
 

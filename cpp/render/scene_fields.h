@@ -40,12 +40,20 @@ inline Vec3d point3(const json& j, const Field& f) {
 }
 
 // RGB with each component in [lo, hi]; a single number means grey.
+// The range is checked on the file's numbers, before rounding to float (which takes
+// 1e30 past 1e30).
 inline Vec3 rgb_in(const json& j, const Field& f, double lo, double hi,
                    const char* allowed) {
-    Vec3 v = j.is_number() ? Vec3(float(number(j, f))) : vec3(j, f);
-    for (int i = 0; i < 3; ++i)
-        if (!(v[i] >= lo && v[i] <= hi))
+    if (!j.is_number() && (!j.is_array() || j.size() != 3))
+        f.error("expected a number or an array of 3 numbers, got ", show(j));
+    Vec3 v;
+    for (int i = 0; i < 3; ++i) {
+        const bool grey = j.is_number();
+        double c = number(grey ? j : j[i], grey ? f : f.at(size_t(i)));
+        if (!(c >= lo && c <= hi))
             f.error("value ", show(j), " is not allowed (allowed: ", allowed, ")");
+        v[i] = float(c);
+    }
     return v;
 }
 

@@ -62,7 +62,15 @@ SphereTracing::SphereTracing(const Scene& scene, float threshold, SphereSampler 
             "(lengthgen.json, pathgen.json, "
             "eventgen.json): render.models in the scene, --models on the command line, "
             "models= in Python");
-    model_ = std::make_unique<ScatteringModel>(ScatteringModel::load(models));
+    try {
+        model_ = std::make_unique<ScatteringModel>(ScatteringModel::load(models));
+    } catch (const Error& e) {  // say which option named the directory
+        fail(
+            scene_.desc().source,
+            ": models (render.models in the scene, --models on the command line, models= "
+            "in Python): ",
+            e.what());
+    }
 
     const Range sigma = model_->sigma_range();
     if (double(threshold_) < sigma.lo)

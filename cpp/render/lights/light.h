@@ -127,7 +127,7 @@ namespace light_fields {
 using json_fields::json;
 inline Vec3 radiometric(const json& j, const json_fields::Field& f, const char* key) {
     return json_fields::rgb_in(json_fields::require(j, key, f), f.at(key), 0.0, 1e30,
-                               "each channel >= 0");
+                               "each channel in [0, 1e30]");
 }
 inline json mitsuba_rgb(const json& v) {
     return json{{"$rgb", v.is_number() ? json::array({v, v, v}) : v}};
