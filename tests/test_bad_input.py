@@ -1,6 +1,7 @@
 """Bad input gets a clear error naming the file, the field, the value and what is allowed:
 never a crash, a hang or a NaN image."""
 
+import copy
 import json
 import math
 import os
@@ -11,6 +12,7 @@ import pytest
 
 import sssphere
 from sssphere import SceneError
+from sssphere.scene import load_scene_with
 
 
 def error_of(scene, **kwargs):
@@ -125,6 +127,14 @@ def test_missing_unreadable_and_malformed_files(tmp_path):
     binary = tmp_path / "binary.json"
     binary.write_bytes(b"\xff\xfe\x00garbage")
     assert "binary.json" in error_of(binary)
+    # The parser's message quotes what it last read, which stops inside the é: not UTF-8
+    # (pybind11 raised a UnicodeDecodeError instead of the SceneError)
+    accent = tmp_path / "accent.json"
+    accent.write_text('{"camera": é}', encoding="utf-8")
+    msg = error_of(accent)
+    assert "accent.json: malformed JSON" in msg and "last read" in msg, msg
+    with pytest.raises(SceneError, match="accent.json: malformed JSON"):  # as --set reads it
+        load_scene_with(accent, ["render.spp=2"])
 
 
 def _write_off(path, verts, faces):
@@ -363,11 +373,65 @@ def test_deeply_nested_json_is_refused_not_a_crash(tmp_path):
         sssphere.load_scene({"camera": deep})
 
 
+def test_negative_zero_coefficients_read_as_zero():
+    """-0.0 passes every ">= 0" check, but its reciprocal is -inf: read as given it made
+    flights of -inf (a vacuum sphere in a furnace came out 0.25 instead of 1; sigma_t -0.0
+    under a point light crashed in Embree). It reads as 0."""
+    furnace = {"camera": {"origin": [0, 0, 4], "target": [0, 0, 0], "fov": 30, "width": 8, "height": 8},
+               "shapes": [{"sphere": {"center": [0, 0, 0], "radius": 1},
+                           "medium": {"sigma_s": -0.0, "sigma_a": [-0.0, 0, 0]}}],
+               "lights": [{"type": "environment", "radiance": 1}]}
+    img = sssphere.render(furnace, "pt", spp=4, seed=1)
+    assert np.all(np.abs(img - 1) < 1e-5), f"a vacuum sphere in a furnace: {img.min()} .. {img.max()}"
+
+    def lit(sigma_t):
+        scene = copy.deepcopy(furnace)
+        scene["shapes"][0]["medium"] = {"sigma_t": sigma_t, "albedo": 0.9}
+        scene["lights"] = [{"type": "point", "position": [3, 3, 3], "intensity": 20}]
+        return sssphere.render(scene, "pt", spp=4, seed=1)
+
+    assert np.array_equal(lit(-0.0), lit(0.0))
+    assert np.array_equal(lit([-0.0, 1, 1]), lit([0.0, 1, 1]))
+
+
+def test_radiometric_values_up_to_their_limit_are_taken(small_scene):
+    """The range is checked on the file's number: 1e30 itself was refused (as a float it is
+    1.0000000150e30), with a message that said only "each channel >= 0"."""
+    small_scene["lights"] = [{"type": "point", "position": [3, 3, 3], "intensity": 1e30}]
+    sssphere.load_scene(small_scene)
+    small_scene["lights"][0]["intensity"] = [1, 1.01e30, 1]
+    with pytest.raises(SceneError, match=r"lights\[0\]\.intensity: value .* \(allowed: each channel in \[0, 1e30\]\)"):
+        sssphere.load_scene(small_scene)
+
+
 def test_a_key_given_twice_is_refused(tmp_path, small_scene):
     text = json.dumps(small_scene).replace('"spp": 4', '"spp": 4, "spp": 8')
     (tmp_path / "dup.json").write_text(text)
     with pytest.raises(SceneError, match=r"dup.json: render.spp: key 'spp' appears twice in one object"):
         sssphere.load_scene(tmp_path / "dup.json")
+
+
+def test_a_byte_order_mark_is_read_as_the_cpp_parser_reads_it(tmp_path, small_scene):
+    """A scene file saved with a UTF-8 BOM (Windows editors write one) loads as it does in
+    `sssphere-render`: one leading BOM is skipped (Python's json refused it, with a
+    JSONDecodeError instead of a SceneError); a second is malformed JSON, as in C++."""
+    from sssphere.mitsuba import export_mitsuba
+
+    bom = b"\xef\xbb\xbf"
+    (tmp_path / "bom.json").write_bytes(bom + json.dumps(small_scene).encode())
+    expected = sssphere.render(sssphere.load_scene(small_scene), spp=1)
+    scene = sssphere.load_scene(tmp_path / "bom.json")
+    assert scene.to_dict() == small_scene
+    np.testing.assert_array_equal(sssphere.render(scene, spp=1), expected)
+    edited = load_scene_with(tmp_path / "bom.json", ["render.seed=5"])  # as --set reads it
+    assert edited.render.seed == 5
+    (tmp_path / "two.json").write_bytes(2 * bom + json.dumps(small_scene).encode())
+    with pytest.raises(SceneError, match="two.json: malformed JSON"):
+        sssphere.load_scene(tmp_path / "two.json")
+    # export-mitsuba read the file with Python's json before our parser: a JSONDecodeError
+    (tmp_path / "bad.json").write_text('{"camera": {"origin": [0, 0, 1],}')
+    with pytest.raises(SceneError, match="bad.json: malformed JSON"):
+        export_mitsuba(tmp_path / "bad.json", tmp_path / "out.xml")
 
 
 def test_inputs_that_are_not_regular_files_are_refused(tmp_path, small_scene):

@@ -2,7 +2,9 @@
 
 import json
 import os
+import pty
 import re
+import select
 import shutil
 import signal
 import subprocess
@@ -121,6 +123,56 @@ def test_ctrl_c_writes_partial_image_python_cli(tmp_path, slow_scene):
     assert "interrupted: wrote the partial image" in err
     img = sssphere.read_image(out)
     assert np.all(np.isfinite(img)) and img.max() > 0
+
+
+def _read_pty(fd: int, until: bytes | None, timeout: float) -> bytes:
+    """What the child writes to the terminal `fd` until `until` appears (None: until it
+    closes the terminal) or `timeout` seconds pass."""
+    out, deadline = b"", time.monotonic() + timeout
+    while (until is None or until not in out) and time.monotonic() < deadline:
+        if select.select([fd], [], [], 0.1)[0]:
+            try:
+                chunk = os.read(fd, 4096)
+            except OSError:  # EIO: the child has closed the terminal
+                break
+            if not chunk:
+                break
+            out += chunk
+    return out
+
+
+@pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_ctrl_c_while_the_scene_loads_writes_nothing_and_says_so(tmp_path, small_scene, sig, code):
+    """Ctrl-C or SIGTERM while the scene is still being built stops `sssphere render` once
+    the build returns, with one line and the exit status of an interrupted render (not a
+    KeyboardInterrupt traceback and death by the signal). On a terminal it says when it
+    starts loading: the signal is sent half a second later, during a build of seconds (a
+    256-cell grid; a signal before the build gets the same answer)."""
+    small_scene["render"]["grid_resolution"] = 256
+    scene, out = tmp_path / "s.json", tmp_path / "x.exr"
+    scene.write_text(json.dumps(small_scene))
+    terminal, child_end = pty.openpty()
+    proc = subprocess.Popen([sys.executable, "-m", "sssphere.cli", "render", str(scene), "-o", str(out)],
+                            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=child_end,
+                            preexec_fn=_default_signals)
+    os.close(child_end)
+    try:
+        err = _read_pty(terminal, b"loading", timeout=120)
+        assert b"loading" in err, err
+        time.sleep(0.5)  # past the few ms of Python before the build (3.6 s on 2 cores)
+        proc.send_signal(sig)
+        err += _read_pty(terminal, None, timeout=120)
+        proc.wait(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        os.close(terminal)
+    err = err.decode(errors="replace")
+    assert proc.returncode == code, err
+    assert "Traceback" not in err, err
+    assert f"interrupted while loading the scene: wrote nothing to {out}" in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.json"]
 
 
 def _cpp_cli() -> str:

@@ -1,15 +1,20 @@
 """The Python API: shapes, dtypes, determinism, partial renders, image files."""
 
+import inspect
 import json
 import os
+import re
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import sssphere
+from sssphere import _core
 
 from render_stats import block_z
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def test_render_returns_linear_float_image(small_scene):
@@ -38,6 +43,35 @@ def test_render_full_gives_variance_and_complexity(small_scene):
     # Paths that hit the sphere scatter; background paths do not.
     assert r.events[8, 12] > 1 and r.events[0, 0] == 0
     assert r.mean_events_per_path > 0 and not r.interrupted
+
+
+def test_render_takes_the_options_pages_options_as_render_full_does(small_scene):
+    """docs/options.md's table is the render options (render_option_specs), each a keyword
+    of render_full and of render, but record_paths, which the page says is render_full's
+    alone (render returns only the image); render's images are render_full's."""
+    with open(os.path.join(REPO, "docs", "options.md"), encoding="utf-8") as f:
+        page = f.read()
+    table = set(re.findall(r"^\| `(\w+)` \| (?:choice|integer|flag|number|text) \|", page, re.M))
+    assert table == {spec["name"] for spec in _core.render_option_specs()}
+    assert table <= set(inspect.signature(sssphere.render_full).parameters)
+    assert table - set(inspect.signature(sssphere.render).parameters) == {"record_paths"}
+    assert "`record_paths` is `render_full`'s alone" in page
+    scene = sssphere.load_scene(small_scene)
+    assert not np.array_equal(sssphere.render(scene, spp=1, max_bounces=0), sssphere.render(scene, spp=1))
+    for options in ({"max_bounces": 0}, {"integrator": "st", "sphere_sampler": "walk"},
+                    {"integrator": "st", "cut_models": os.path.join(REPO, "models", "cut")}):
+        np.testing.assert_array_equal(sssphere.render(scene, spp=1, **options),
+                                      sssphere.render_full(scene, spp=1, **options).image)
+    with pytest.raises(TypeError, match=r"render\(\) takes no 'record_paths': render_full\(scene, "
+                                        r"record_paths=True\) returns the image with every path's"):
+        sssphere.render(scene, record_paths=True)
+    with pytest.raises(TypeError, match="unexpected keyword argument 'max_bounce' .* max_bounces,"):
+        sssphere.render(scene, max_bounce=0)
+    # render's first four positions stay; the next was nee, and is keyword-only now
+    np.testing.assert_array_equal(sssphere.render(scene, "pt", 1, 2, 1),
+                                  sssphere.render(scene, integrator="pt", spp=1, seed=2))
+    with pytest.raises(TypeError, match="too many positional arguments"):
+        sssphere.render(scene, "pt", 1, 2, 1, False)
 
 
 def _stopped_after(small_scene, calls, **options):

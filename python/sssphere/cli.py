@@ -57,9 +57,15 @@ def _cmd_render(args: argparse.Namespace) -> int:
             if spec["command_line"] and getattr(args, spec["name"]) is not None}
     threads = int(text["threads"]) if text.get("threads", "").isdigit() else 0
     t0 = time.monotonic()
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", SceneWarning)
-        scene = load_scene_with(args.scene, args.set, args.width, args.height, threads=threads)
+    try:
+        if not args.quiet and sys.stderr.isatty():  # the build can take seconds before the bar
+            print(f"loading {args.scene} ...", file=sys.stderr, flush=True)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", SceneWarning)
+            scene = load_scene_with(args.scene, args.set, args.width, args.height, threads=threads)
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM, seen once the C++ build has returned
+        print(f"interrupted while loading the scene: wrote nothing to {out}", file=sys.stderr)
+        return _interrupted_status()
     for w in caught:
         print(f"sssphere: warning: {w.message}", file=sys.stderr)
     load_s = time.monotonic() - t0
@@ -442,6 +448,9 @@ def main(argv: list[str] | None = None) -> int:
     except (SceneError, ConnectionError) as e:
         print(f"sssphere: error: {e}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:  # outside the work that stops by itself and says what it kept
+        print("sssphere: interrupted", file=sys.stderr)
+        return _interrupted_status()
 
 
 if __name__ == "__main__":

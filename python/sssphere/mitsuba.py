@@ -253,9 +253,8 @@ def export_mitsuba(scene_path: str | os.PathLike, xml_path: str | os.PathLike, s
     from sssphere.scene import load_scene
 
     scene_path, xml_path = os.fspath(scene_path), os.fspath(xml_path)
-    with open(scene_path, encoding="utf-8") as f:
-        scene_dict = json.load(f)
-    ours = load_scene(scene_path)
+    ours = load_scene(scene_path)  # a bad file gets the parser's SceneError
+    scene_dict = ours.to_dict()
     xml_dir = os.path.dirname(os.path.abspath(xml_path))
     stem = os.path.splitext(os.path.basename(xml_path))[0]
     mesh_dir = os.path.join(xml_dir, f"{stem}_meshes")

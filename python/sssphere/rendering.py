@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 import os
 from dataclasses import dataclass
 from typing import Callable, Optional, Union
@@ -429,37 +430,54 @@ def _result(r: dict) -> RenderResult:
     )
 
 
-def render(
-    scene: Union[Scene, str, os.PathLike, dict],
-    integrator: Optional[str] = None,
-    spp: Optional[int] = None,
-    seed: Optional[int] = None,
-    threads: Optional[int] = None,
-    nee: Optional[bool] = None,
-    sphere_threshold: Optional[float] = None,
-    models: Union[str, os.PathLike, None] = None,
-    step_nee: Optional[str] = None,
-    backend: Optional[str] = None,
-    time_limit: Optional[float] = None,
-    denoise: bool = False,
-    ray_address: Optional[str] = None,
-) -> Image:
+# render_full's keywords that render does not take, each with the call to make instead: what
+# they give (progress reports and an early stop, AOVs, every path's counts) is in
+# render_full's result alone. render takes every other one, the render options included.
+_RENDER_FULL_ONLY = {
+    "progress": "render_full(scene, progress=...) reports progress and keeps a render stopped early",
+    "aovs": "render_full(scene, aovs=True) returns the image with its AOVs",
+    "record_paths": "render_full(scene, record_paths=True) returns the image with every path's counts",
+}
+
+
+def render(scene: Union[Scene, str, os.PathLike, dict], *args, **kwargs) -> Image:
     """Render a scene to a (height, width, 3) float32 array of linear radiance (an Image:
     a numpy array that shows itself in Jupyter and has ``save(path)``).
 
-    ``integrator="st"`` renders with sphere tracing; ``sphere_threshold``, ``models`` and
-    ``step_nee`` are described in render_full, and so is ``backend`` (``"vulkan"``: the GPU
-    path), ``time_limit`` (seconds) and ``ray_address`` (a Ray cluster). ``denoise=True``
-    returns the image denoised with its albedo and normal AOVs (render_full). Ctrl-C raises KeyboardInterrupt (use
+    Takes render_full's arguments, described there (every render option of
+    docs/options.md, ``denoise``, ``ray_address``), but ``progress``, ``aovs`` and
+    ``record_paths``: what they give only render_full's result holds (a render stopped
+    early, the AOVs, every path's counts). After ``threads``, keywords only.
+    ``integrator="st"`` renders with sphere tracing; ``denoise=True`` returns the image
+    denoised with its albedo and normal AOVs. Ctrl-C raises KeyboardInterrupt (use
     render_full to keep a partial image).
     """
-    result = render_full(scene, integrator=integrator, spp=spp, seed=seed, threads=threads, nee=nee,
-                         sphere_threshold=sphere_threshold, models=models, step_nee=step_nee,
-                         backend=backend, time_limit=time_limit, denoise=denoise,
-                         ray_address=ray_address)
+    full_only = sorted(_RENDER_FULL_ONLY.keys() & kwargs.keys())
+    if full_only:
+        raise TypeError(f"render() takes no {full_only[0]!r}: {_RENDER_FULL_ONLY[full_only[0]]}")
+    try:
+        bound = render.__signature__.bind(scene, *args, **kwargs)
+    except TypeError as e:
+        allowed = ", ".join(list(render.__signature__.parameters)[1:])
+        raise TypeError(f"render(): {e} (allowed after the scene: {allowed})") from None
+    result = render_full(**bound.arguments)
     if result.interrupted:
         raise KeyboardInterrupt
     return result.picture
+
+
+def _render_signature() -> inspect.Signature:
+    """render_full's signature less _RENDER_FULL_ONLY, keyword-only after ``threads``: the
+    positions render always had (render_full's next ones differ)."""
+    full = inspect.signature(render_full)
+    last_positional = list(full.parameters).index("threads")
+    parameters = [p if i <= last_positional else p.replace(kind=p.KEYWORD_ONLY)
+                  for i, p in enumerate(full.parameters.values())
+                  if p.name not in _RENDER_FULL_ONLY]
+    return full.replace(parameters=parameters, return_annotation="Image")
+
+
+render.__signature__ = _render_signature()
 
 
 def read_image(path: Union[str, os.PathLike]) -> np.ndarray:

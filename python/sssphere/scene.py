@@ -71,7 +71,10 @@ class Scene(_core.Scene):
         meshes = _core.MeshCache()
         super().__init__(text, base_dir, source, threads, meshes)
         self._meshes = meshes
-        self._doc = json.loads(text)
+        try:  # the text the C++ parser took, which skips one leading byte order mark
+            self._doc = json.loads(text.removeprefix("\ufeff"))
+        except ValueError as e:  # the two parsers disagree: say it as the C++ one would
+            raise SceneError(f"{source}: malformed JSON: {e}") from None
         self._base_dir, self._source, self._threads = base_dir, source, threads
 
     def __repr__(self) -> str:
