@@ -341,3 +341,28 @@ def test_set_and_image_size_change_the_scene(tmp_path, small_scene, cli):
     img = sssphere.read_image(tmp_path / "x.exr")
     assert img.shape == (24, 36, 3)
     np.testing.assert_array_equal(img, expected)
+
+
+def test_info_json_is_json_for_a_medium_without_extinction(tmp_path, small_scene):
+    """A medium of sigma_t 0 (allowed) has an infinite mean free path: `info --json` wrote it
+    as `Infinity`, which is not JSON. It is null now, and the text says inf."""
+    small_scene["shapes"][0]["medium"] = {"sigma_t": [0, 1, 2], "albedo": 0.9}
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    r = run_cli("info", tmp_path / "s.json", "--json")
+    assert r.returncode == 0 and "Warning" not in r.stderr, r.stderr
+
+    def no_constants(name):
+        raise AssertionError(f"not JSON: {name}")
+
+    info = json.loads(r.stdout, parse_constant=no_constants)
+    assert json.dumps(info).count("null") >= 1
+    r = run_cli("info", tmp_path / "s.json")
+    assert r.returncode == 0 and "mean free path [inf, 1, 0.5]" in r.stdout, r.stdout
+
+
+def test_unwritable_export_paths_are_one_line_errors(tmp_path, small_scene):
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    (tmp_path / "d.xml").mkdir()
+    r = run_cli("export-mitsuba", tmp_path / "s.json", tmp_path / "d.xml")
+    assert r.returncode == 1 and "Traceback" not in r.stderr, r.stderr
+    assert r.stderr.startswith("sssphere: error:") and "d.xml" in r.stderr, r.stderr

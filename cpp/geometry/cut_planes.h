@@ -37,9 +37,10 @@ public:
     // The certificate at p: false where p's cell has none (then n and s are left alone).
     bool query(const Vec3& p, Vec3* n, float* s) const {
         const Vec3 q = (p - origin_) * inv_cell_;
-        if (!(q.x >= 0.f && q.y >= 0.f && q.z >= 0.f)) return false;
+        if (!(q.x >= 0.f && q.y >= 0.f && q.z >= 0.f && q.x < float(n_[0]) &&
+              q.y < float(n_[1]) && q.z < float(n_[2])))
+            return false;  // compared before int(), which is undefined past INT_MAX
         const int i = int(q.x), j = int(q.y), k = int(q.z);
-        if (i >= n_[0] || j >= n_[1] || k >= n_[2]) return false;
         const int32_t e = index_[(size_t(k) * n_[1] + j) * n_[0] + i];
         if (e < 0) return false;
         const Entry& c = entries_[size_t(e)];

@@ -12,9 +12,13 @@ namespace hn = hwy::HWY_NAMESPACE;  // the build's baseline target (SSE4 on x86-
 bool DistanceGrid::locate(const Vec3& p, Vec3* g, int* i, int* j, int* k) const {
     if (dist_.empty()) return false;
     *g = (p - origin_) * inv_cell_;
-    if (!(g->x >= 0.f && g->y >= 0.f && g->z >= 0.f)) return false;
+    // Compared before the conversion: int() of a float past INT_MAX is undefined (a point
+    // 1e8 away gave a negative cell index).
+    if (!(g->x >= 0.f && g->y >= 0.f && g->z >= 0.f && g->x < float(n_[0] - 1) &&
+          g->y < float(n_[1] - 1) && g->z < float(n_[2] - 1)))
+        return false;
     *i = int(g->x), *j = int(g->y), *k = int(g->z);
-    return *i < n_[0] - 1 && *j < n_[1] - 1 && *k < n_[2] - 1;
+    return true;
 }
 
 // What query() computes, and where `cell` is not null also p's cell (-1 outside the grid)
@@ -73,10 +77,10 @@ float DistanceGrid::max_query() const {
 bool DistanceGrid::inside(const Vec3& p) const {
     if (dist_.empty()) return false;
     Vec3 g = (p - origin_) * inv_cell_ + Vec3(0.5f);
-    if (!(g.x >= 0.f && g.y >= 0.f && g.z >= 0.f)) return false;
-    int i = int(g.x), j = int(g.y), k = int(g.z);
-    if (i >= n_[0] || j >= n_[1] || k >= n_[2]) return false;
-    return inside_[index(i, j, k)] != 0;
+    if (!(g.x >= 0.f && g.y >= 0.f && g.z >= 0.f && g.x < float(n_[0]) &&
+          g.y < float(n_[1]) && g.z < float(n_[2])))
+        return false;  // compared before int(), as in locate()
+    return inside_[index(int(g.x), int(g.y), int(g.z))] != 0;
 }
 
 int DistanceGrid::side(const Vec3& p) const {

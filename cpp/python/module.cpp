@@ -36,8 +36,12 @@ std::vector<Vec3> points_from(
     if (p.ndim() != 2 || p.shape(1) != 3)
         fail("points must have shape (n, 3), got ndim ", p.ndim());
     std::vector<Vec3> pts(p.shape(0));
-    for (py::ssize_t i = 0; i < p.shape(0); ++i)
+    for (py::ssize_t i = 0; i < p.shape(0); ++i) {
         pts[i] = scene.to_render(Vec3d(p.at(i, 0), p.at(i, 1), p.at(i, 2)));
+        if (!is_finite(pts[i]))  // CGAL's exact predicates trap on NaN (SIGFPE)
+            fail("points[", i, "] = [", p.at(i, 0), ", ", p.at(i, 1), ", ", p.at(i, 2),
+                 "] is not finite in single precision (relative to the shapes' centre)");
+    }
     return pts;
 }
 

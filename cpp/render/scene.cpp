@@ -77,6 +77,10 @@ Boundary parse_boundary(const json& j, const Field& f) {
     Boundary b;
     static_cast<BoundaryData&>(b) = kind->parse(j, f);
     b.type = kind->id;
+    // Between equal indices there is no interface, whatever its roughness: light passes
+    // straight, with no reflection. That is the index-matched boundary (the default); the
+    // rough BSDF's half vector wi + wo vanishes there (NaN pixels).
+    if (std::string(b.kind().name) == "dielectric" && b.x == 1.f) return Boundary();
     return b;
 }
 

@@ -445,7 +445,7 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         return args.func(args)
-    except (SceneError, ConnectionError) as e:
+    except (SceneError, OSError) as e:  # OSError: a path that cannot be written, a lost cluster
         print(f"sssphere: error: {e}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:  # outside the work that stops by itself and says what it kept

@@ -57,8 +57,8 @@ def _medium_estimates(scene: Scene, i: int, shape: dict, tau: float) -> dict:
     deep_fraction = float(deep.mean()) if r.size else 0.0
     steps_per_event = float(np.sum(1.0 / np.maximum(n, 1.0)) / max(r.size, 1))
     return {
-        "mean_free_path": (1.0 / sigma_t).tolist(),
-        "transport_mean_free_path": (1.0 / sigma_tr).tolist(),
+        "mean_free_path": _lengths(sigma_t),
+        "transport_mean_free_path": _lengths(sigma_tr),
         "multiple_scattering_albedo": [
             rendering._core.multiple_scattering_albedo(float(a)) for a in
             albedo * (1.0 - g) / np.maximum(albedo * (1.0 - g) + 1.0 - albedo, 1e-30)],
@@ -97,8 +97,14 @@ def scene_info(scene: Scene) -> dict[str, Any]:
             "per_camera_path": per_path}
 
 
+def _lengths(sigma: np.ndarray) -> list:
+    """1 / sigma per channel; None (JSON null, shown as inf) where sigma is 0: JSON has no
+    infinity."""
+    return [1.0 / float(x) if x > 0 else None for x in sigma]
+
+
 def _vec(values, digits: int = 4) -> str:
-    values = list(values)
+    values = [float("inf") if v is None else v for v in values]
     if all(v == values[0] for v in values):
         return f"{values[0]:.{digits}g}"
     return "[" + ", ".join(f"{v:.{digits}g}" for v in values) + "]"

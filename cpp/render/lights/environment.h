@@ -229,14 +229,15 @@ inline LightType environment_light_type() {
         const json& m = j["map"];
         const Field fm = f.at("map");
         if (!m.is_string() || m.get<std::string>().empty())
-            fm.error("expected an image file path string (.exr or .hdr), got ", show(m));
+            fm.error("expected an image file path string (.exr), got ", show(m));
         std::filesystem::path path(m.get<std::string>());
         if (path.is_relative()) path = std::filesystem::path(ctx.base_dir) / path;
         std::string ext = path.extension().string();
         for (char& ch : ext) ch = char(std::tolower(ch));
-        if (ext != ".exr" && ext != ".hdr")
+        if (ext !=
+            ".exr")  // our image reader takes .exr and .png, and .png is not linear
             fm.error("'", path.string(), "': unsupported image format '", ext,
-                     "' (allowed: .exr, .hdr: linear radiance)");
+                     "' (allowed: .exr, linear radiance)");
         ImageData img;
         try {
             check_input_file(path.string(), "environment map");
