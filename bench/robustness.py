@@ -12,6 +12,9 @@ Three measurements (docs/robustness.md explains what they test):
   the image must not change. Per channel, the relative difference of the image mean to
   k = 1 and its z-score (from the renders' variances).
 * translation: a small sphere (radius 0.1) and its camera and lights moved by T.
+* scale limits: an opaque diffuse sphere of radius k/2 (extent k) under an environment and a
+  point light, at extents up to the parser's limits [1e-8, 1e10] against extent 1, and
+  just past them, where the scene must be refused (the message is recorded).
 
     python -m bench.robustness            # ~2 min on 2 cores
     python -m bench.robustness --quick    # fewer cases and samples
@@ -127,6 +130,37 @@ def invariance(cases, integrator: str, spp: int, radius: float, label: str, back
     return rows
 
 
+def lit_ball(extent: float, res: int = 32) -> dict:
+    """An opaque diffuse ball `extent` across under an environment and a point light."""
+    k = extent / 2
+    return {"camera": {"origin": [0.3 * k, 0.2 * k, 4 * k], "target": [0, 0, 0], "fov": 30,
+                       "width": res, "height": res},
+            "shapes": [{"sphere": {"center": [0, 0, 0], "radius": k},
+                        "surface": {"type": "diffuse", "reflectance": 0.5}}],
+            "lights": [{"type": "environment", "radiance": 1},
+                       {"type": "point", "position": [3 * k, 3 * k, 3 * k], "intensity": 20 * k * k}]}
+
+
+def scale_limits(spp: int) -> list[dict]:
+    def render(extent):
+        return sssphere.render_full(lit_ball(extent), integrator="pt", spp=spp, seed=2)
+
+    ref, rows = render(1.0), []
+    for extent in (1.01e-8, 1e-4, 1e4, 0.99e10):  # an icosphere is a hair narrower than its sphere
+        rows.append({"extent": extent, **compare(ref, render(extent))})
+        print(f"scale limits extent={extent:g}: rel. diff " + ", ".join(f"{x:+.2e}" for x in rows[-1]["rel_diff"])
+              + "  z " + ", ".join(f"{x:+.1f}" for x in rows[-1]["z"]), flush=True)
+    for extent in (5e-9, 2e10):
+        try:
+            sssphere.load_scene(lit_ball(extent))
+            refused = None
+        except sssphere.SceneError as e:
+            refused = str(e)
+        rows.append({"extent": extent, "refused": refused})
+        print(f"scale limits extent={extent:g}: " + (f"refused: {refused}" if refused else "NOT refused"), flush=True)
+    return rows
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--quick", action="store_true")
@@ -147,6 +181,7 @@ def main(argv=None) -> int:
                   for row in invariance(scales, i, spp, 1.0, "scale", args.backend)],
         "translation": [row for i in integrators
                         for row in invariance(moves, i, spp, 0.1, "translation", args.backend)],
+        "scale_limits": scale_limits(spp),
     }
     args.output.parent.mkdir(parents=True, exist_ok=True)
     args.output.write_text(json.dumps(result, indent=1) + "\n")

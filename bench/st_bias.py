@@ -8,7 +8,14 @@ means per channel with the one-sigma from both renders' variances. Seeds are fix
     python -m bench.st_bias --scene scenes/sphere.json --spp 256
     python -m bench.st_bias --scene scenes/showcase.json --resolution 96 --spp 256
 
-Writes bench/results/st_bias.json (one entry per scene, replacing an earlier one).
+`--set PATH=VALUE` edits the scene as on the command lines, e.g. a near-white medium under a
+point light alone, where the `hits` NEE of a step leans on EventGen (docs/sphere-tracing.md):
+
+    python -m bench.st_bias --scene scenes/sphere.json --resolution 32 --spp 1024 \
+        --set 'shapes[0].medium={"sigma_t": 100, "albedo": 0.9999, "g": 0}' \
+        --set 'lights=[{"type": "point", "position": [3, 3, 3], "intensity": 20}]'
+
+Writes bench/results/st_bias.json (one entry per scene and edits, replacing an earlier one).
 """
 
 from __future__ import annotations
@@ -25,6 +32,7 @@ HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 
 import sssphere  # noqa: E402
+from sssphere import _core  # noqa: E402
 
 
 def main(argv=None) -> int:
@@ -34,10 +42,12 @@ def main(argv=None) -> int:
     p.add_argument("--spp", type=int, default=1024)
     p.add_argument("--threads", type=int, default=0, help="0 = all cores")
     p.add_argument("--models", default=None, help="model directory (default: the repository's models/)")
+    p.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
+                   help="edit the scene (as sssphere render --set); repeatable")
     p.add_argument("--output", type=Path, default=HERE / "results" / "st_bias.json")
     args = p.parse_args(argv)
 
-    d = json.loads(args.scene.read_text())
+    d = json.loads(_core.edit_scene_json(args.scene.read_text(), str(args.scene), args.set, 0, 0))
     d["camera"]["width"] = d["camera"]["height"] = args.resolution
     d.pop("render", None)
     # Relative paths (meshes, maps) as the scene file resolves them.
@@ -54,7 +64,7 @@ def main(argv=None) -> int:
     mean_pt = pt.image.astype(np.float64).mean(axis=(0, 1))
     entry = {"scene": str(args.scene.resolve().relative_to(REPO) if args.scene.resolve().is_relative_to(REPO)
                           else args.scene),
-             "resolution": args.resolution, "spp": args.spp,
+             "set": args.set, "resolution": args.resolution, "spp": args.spp,
              "date": datetime.datetime.now().isoformat(timespec="seconds")}
     for name, r in renders.items():
         mean = r.image.astype(np.float64).mean(axis=(0, 1))
@@ -72,7 +82,7 @@ def main(argv=None) -> int:
     out = {}
     if args.output.exists():
         out = json.loads(args.output.read_text())
-    out[entry["scene"]] = entry
+    out[" ".join([entry["scene"], *args.set])] = entry
     args.output.parent.mkdir(parents=True, exist_ok=True)
     args.output.write_text(json.dumps(out, indent=1) + "\n")
     print(f"wrote {args.output}")

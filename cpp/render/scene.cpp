@@ -414,7 +414,7 @@ RenderSettings parse_render(const json& j, const Field& f, const std::string& ba
 constexpr double kMinThickness = 1.5e-4, kMaxDistance = 1e5;
 // The shapes' extent in scene units: past these, Embree's float ray-triangle test
 // overflows (its numerator grows as the cube of the coordinates) or loses its precision
-// to subnormals. Images are identical from 1e-10 to 1e12 (docs/robustness.md).
+// to subnormals. Image means agreed to 3e-5 from 1e-10 to 1e12 (docs/robustness.md).
 constexpr double kMinExtent = 1e-8, kMaxExtent = 1e10;
 
 void warn_past_limits(SceneDesc& d, double extent) {

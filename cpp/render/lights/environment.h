@@ -234,8 +234,8 @@ inline LightType environment_light_type() {
         if (path.is_relative()) path = std::filesystem::path(ctx.base_dir) / path;
         std::string ext = path.extension().string();
         for (char& ch : ext) ch = char(std::tolower(ch));
-        if (ext !=
-            ".exr")  // our image reader takes .exr and .png, and .png is not linear
+        // Our image reader takes .exr and .png, and a .png is not linear radiance.
+        if (ext != ".exr")
             fm.error("'", path.string(), "': unsupported image format '", ext,
                      "' (allowed: .exr, linear radiance)");
         ImageData img;
