@@ -1,15 +1,17 @@
 #!/usr/bin/env python3
 """Is a bias of `st` the models' or the integrator's? One scene rendered with `pt`, with `st`
-on exact sphere walks (unbiased: only the integrator and the geometry can be wrong) and with
-`st` on the learned models, each against `pt` directly: the relative difference of the image
-means per channel with the one-sigma from both renders' variances. Seeds are fixed.
+on exact sphere walks (unbiased: only the integrator and the geometry can be wrong), with
+`st` on the learned models, and with `st` on the models with `step_nee="event"` (EventGen's
+representative event for NEE), each against `pt` directly: the relative difference of the
+image means per channel with the one-sigma from both renders' variances. Seeds are fixed.
 
     python -m bench.st_bias                       # scenes/bunny.json, 64x64, 1024 spp: ~40 s
     python -m bench.st_bias --scene scenes/sphere.json --spp 256
     python -m bench.st_bias --scene scenes/showcase.json --resolution 96 --spp 256
 
 `--set PATH=VALUE` edits the scene as on the command lines, e.g. a near-white medium under a
-point light alone, where the `hits` NEE of a step leans on EventGen (docs/sphere-tracing.md):
+point light alone, where `hits` keeps its steps clear of the boundary and `event` leans on
+EventGen (docs/sphere-tracing.md, "What is approximate"):
 
     python -m bench.st_bias --scene scenes/sphere.json --resolution 32 --spp 1024 \
         --set 'shapes[0].medium={"sigma_t": 100, "albedo": 0.9999, "g": 0}' \
@@ -58,7 +60,8 @@ def main(argv=None) -> int:
 
     renders = {"pt": run(11, integrator="pt"),
                "st_walks": run(12, integrator="st", sphere_sampler="walk"),
-               "st_models": run(13, integrator="st", models=args.models)}
+               "st_models": run(13, integrator="st", models=args.models),
+               "st_event": run(14, integrator="st", models=args.models, step_nee="event")}
     pt = renders["pt"]
     n = pt.image.shape[0] * pt.image.shape[1]
     mean_pt = pt.image.astype(np.float64).mean(axis=(0, 1))
@@ -66,6 +69,7 @@ def main(argv=None) -> int:
                           else args.scene),
              "set": args.set, "resolution": args.resolution, "spp": args.spp,
              "date": datetime.datetime.now().isoformat(timespec="seconds")}
+    print(f"{'pt':10s} {pt.seconds:6.1f} s")
     for name, r in renders.items():
         mean = r.image.astype(np.float64).mean(axis=(0, 1))
         row = {"seconds": r.seconds, "events_per_path": r.mean_events_per_path,

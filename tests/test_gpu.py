@@ -641,8 +641,8 @@ def test_gpu_delta_lights_agree_with_cpu(integrator, model_dir):
     """Point and directional lights, seen only by light sampling, beside an area light and the
     environment (one light chosen per event, MIS for the two that paths also hit), in an
     index-matched medium with a chromatic albedo: "pt" with NEE agrees with the CPU's, and so
-    does "st", whose steps connect EventGen's representative event to the point and
-    directional lights (weighted by Lambda, for a channel picked per step)."""
+    does "st", whose balls keep clear of the boundary and the point light (SphereTracing::
+    clearance, the GPU's step_radius)."""
     scene = sssphere.load_scene(sphere_scene(sigma_t=30.0, g=0.7, boundary=INDEX_MATCHED,
                                              lights=[POINT, AREA, DIRECTIONAL, ENV]))
     cpu, gpu = _render_pair(scene, integrator=integrator, nee=True, models=model_dir)

@@ -247,14 +247,14 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
         fail("cut_models is an option of integrator 'st' (the integrator is '",
              integrator, "')");
     if (integrator == "st") {
-        // The same checks as the CPU's "st" (ranges of the models against the media).
-        // With NEE, EventGen's range of phi too where steps draw events.
+        // The same checks as the CPU's "st" (ranges of the models against the media),
+        // and its clearances.
         SphereTracing st(scene, sphere_threshold, SphereSampler::Model, models, nee,
                          StepNee::Hits, cut_models);
         h.params[1] = sphere_threshold;
         h.params[2] = st.sigma_max();
-        h.event_phi[0] = st.event_phi(0.f);
-        h.event_phi[1] = st.event_phi(1.f);
+        for (int i = 0; i < scene.num_shapes(); ++i)
+            h.shapes[i].sigma_t[3] = st.clearance(i);
         if (st.model()) out.model = pack_gpu_model(*st.model());  // loaded once
         if (st.cut_model()) bake_cut_planes(scene, st, out);
     }

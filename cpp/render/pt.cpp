@@ -159,7 +159,7 @@ struct BoundaryScatter {
 }  // namespace
 
 Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
-                              int channel, Rng& rng, bool mis, bool delta_only) const {
+                              int channel, Rng& rng, bool mis) const {
     const Shape& s = scene_.desc().shapes[shape];
     // A straight shadow ray never leaves a smooth dielectric boundary (docs/notation.md,
     // "Next-event estimation").
@@ -177,7 +177,7 @@ Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
     }
     return sample_light(
                p, MediumScatter{s.medium.phase, p, d, shape, grid, r, sigma_min, kept},
-               rng, mis, delta_only) *
+               rng, mis) *
            shadow_weight;
 }
 
@@ -280,20 +280,21 @@ bool PathTracer::take_step(PathState& ps, const WorldSphereStep& step) const {
         survival[c] = float(survival_power(albedo[c], step.N));
         if (req.with_event) nee_weight[c] *= float(event_weight_sum(albedo[c], step.N));
     }
-    // NEE from the representative event, weighted by Lambda = sum_j phi^j, with the
-    // throughput on entering the sphere.
-    // StepNee::Hits: only point and directional lights are sampled; every other light
-    // reaches the step's events through the exit flight, whose hit counts with weight 1
-    // (specular below), as in pt without NEE.
-    // StepNee::Event: MIS needs the same vertex on both sides: the first event (at o) is
-    // known, so it keeps pt's MIS, and its phase-sampled light hit (only possible for
-    // N = 1) keeps its weight. For N >= 2 the last event is unknown: its light hit gets
-    // weight 0 (phase_pdf = 0 below) and the events k >= 2 use light sampling alone.
+    // StepNee::Hits: the step's events sample no light; their light reaches them through
+    // the exit flight, whose hit counts with weight 1 (specular below), as in pt without
+    // NEE. Point and directional lights, which no flight hits, are kept away from them
+    // instead (SphereTracing::clearance).
+    // StepNee::Event: NEE from the representative event, weighted by Lambda = sum_j
+    // phi^j, with the throughput on entering the sphere. MIS needs the same vertex on
+    // both sides: the first event (at o) is known, so it keeps pt's MIS, and its
+    // phase-sampled light hit (only possible for N = 1) keeps its weight. For N >= 2 the
+    // last event is unknown: its light hit gets weight 0 (phase_pdf = 0 below) and the
+    // events k >= 2 use light sampling alone.
     const bool hits = st_->step_nee() == StepNee::Hits;
     if (req.with_event && !is_black(nee_weight))
         ps.L += ps.beta * nee_weight *
                 direct_light(step.X, -1.f, step.W, ps.shape, ps.channel, ps.rng,
-                             step.first_event, hits);
+                             step.first_event);
     ps.beta *= survival;
     bool alive = !is_black(ps.beta);
     if (alive) {
@@ -556,7 +557,8 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             bool shrink = r < 0.f;
             if constexpr (kSphereTracing)
                 shrink = shrink && query_shape == shape &&
-                         sigma_step * query_cell_bound < st_->threshold() &&
+                         sigma_step * query_cell_bound <
+                             st_->threshold() + st_->clearance(shape) &&
                          grid.cell_of(o) == query_cell;
             if (shrink) {
                 r = std::max(0.f, r_o - t * (1.f + 1e-6f) - grid.guard());
@@ -582,10 +584,15 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
                     spectral = false;
                     beta_start = 3.f;
                 };
-                if (sigma_step * r >= st_->threshold()) {
+                // Where the step's events would need light sampling of point or
+                // directional lights, the ball keeps clear of the boundary and of the
+                // point lights (SphereTracing::clearance), measured in the smallest
+                // extinction (the channel is picked below).
+                const float r_step = st_->step_radius(shape, o, r, sigma_step);
+                if (sigma_step * r_step >= st_->threshold()) {
                     to_one_channel();
                     suspend();
-                    request_step(ps, r);
+                    request_step(ps, r_step);
                     return false;
                 }
                 // Too close to the boundary for a sphere: a cut sphere step where a plane

@@ -105,11 +105,9 @@ private:
     // (weighted by the number of lights). mis = false: for a vertex whose phase-sampled
     // continuation cannot be weighted (a sphere step's events k >= 2), each light's whole
     // direct light from shadow rays alone: a delta light's sample, any other light's
-    // sample and a phase-sampled ray, combined by MIS. delta_only: the light is chosen
-    // among the point and directional lights only (weighted by their number): a sphere
-    // step's events with StepNee::Hits, whose other lights come from hits.
+    // sample and a phase-sampled ray, combined by MIS.
     Vec3 direct_light(const Vec3& p, float r, const Vec3& d, int shape, int channel,
-                      Rng& rng, bool mis = true, bool delta_only = false) const;
+                      Rng& rng, bool mis = true) const;
     // Transmittance from p (inside shape `shape`, or -1 for vacuum) along unit w over
     // `dist`, exact from the boundaries one ray crosses (RayTracer::crossings); 0 when a
     // dielectric boundary or an emitter is in the way, or past kMaxShadowCrossings

@@ -9,6 +9,7 @@
 #include "media/sphere_walk.h"
 #include "nn/cut_step_model.h"
 #include "nn/scattering_model.h"
+#include "render/lights/registry.h"
 #include "shared/sphere_step.h"
 
 namespace sss {
@@ -39,14 +40,27 @@ SphereTracing::SphereTracing(const Scene& scene, float threshold, SphereSampler 
     if (!(threshold >= 0.f))
         fail("sphere_threshold must be a number >= 0 (inf: no sphere steps), got ",
              threshold);
+    const auto& lights = scene_.desc().lights;
+    const bool delta_lights = std::any_of(lights.begin(), lights.end(),
+                                          [](const Light& l) { return l.is_delta(); });
+    for (const Light& l : lights)
+        if (l.is_delta() &&
+            light_sample(l, Vec3(0.f), 0.5f, 0.5f, scene_.desc().light_floats.data())
+                    .dist < kInf)
+            points_.push_back(l);
+    clearance_.assign(size_t(scene_.num_shapes()), 0.f);
     // A path's first step needs the sphere thick enough in every channel (spectral MIS
     // before it; docs/notation.md, "Colour"), so the smallest extinction decides.
-    for (int i = 0; i < scene_.num_shapes(); ++i)
-        if (!scene_.desc().shapes[i].is_surface() &&
-            min_component(scene_.desc().shapes[i].medium.sigma_t) *
-                    scene_.grid(i).max_query() >=
-                threshold_)
+    for (int i = 0; i < scene_.num_shapes(); ++i) {
+        const Shape& s = scene_.desc().shapes[i];
+        if (s.is_surface()) continue;
+        if (step_nee_ == StepNee::Hits && nee_ && delta_lights &&
+            s.boundary.passes_shadow_rays())
+            clearance_[size_t(i)] = kDeltaLightClearance;
+        if (min_component(s.medium.sigma_t) * scene_.grid(i).max_query() >=
+            threshold_ + clearance_[size_t(i)])
             may_step_ = true;
+    }
     if (!std::isinf(threshold))
         for (const Shape& s : scene_.desc().shapes)
             if (!s.is_surface() && !s.medium.phase.kind().sphere_steps)
@@ -148,7 +162,8 @@ void SphereTracing::load_cuts(const std::string& dir) {
     cut_sigma_min_.assign(shapes.size(), 0.f);
     for (size_t i = 0; i < shapes.size(); ++i) {
         const Shape& s = shapes[i];
-        if (s.is_surface() || wants_event(int(i)) || !s.medium.phase.kind().sphere_steps)
+        if (s.is_surface() || wants_event(int(i)) || clearance_[i] > 0.f ||
+            !s.medium.phase.kind().sphere_steps)
             continue;
         const float sigma_min = min_component(s.medium.sigma_t);
         if (!(sigma_min > 0.f)) continue;
@@ -213,11 +228,19 @@ WorldSphereStep cut_to_world(const StepRequest& r, const CutStep& c) {
 }  // namespace
 
 bool SphereTracing::wants_event(int shape) const {
-    if (!nee_ || !scene_.desc().shapes[shape].boundary.passes_shadow_rays()) return false;
-    const auto& lights = scene_.desc().lights;
-    if (step_nee_ == StepNee::Event) return !lights.empty();
-    return std::any_of(lights.begin(), lights.end(),
-                       [](const Light& l) { return l.is_delta(); });
+    return step_nee_ == StepNee::Event && nee_ && !scene_.desc().lights.empty() &&
+           scene_.desc().shapes[shape].boundary.passes_shadow_rays();
+}
+
+float SphereTracing::cleared_radius(Vec3 p, float r, float sigma, float clearance) const {
+    // Too close to the boundary for a step whatever the lights: no need to look at them.
+    if (sigma * r < threshold_ + clearance) return r - clearance / sigma;
+    float light_dist = kInf;
+    for (const LightData& l : points_)
+        light_dist = std::min(
+            light_dist,
+            light_sample(l, p, 0.5f, 0.5f, scene_.desc().light_floats.data()).dist);
+    return cleared_step_radius(r, light_dist, clearance, sigma);
 }
 
 float SphereTracing::event_phi(float phi) const {

@@ -70,8 +70,9 @@ public:
     // the value and the range.
     //
     // With `cut_models` (a directory; empty: none) it also loads the cut sphere models
-    // and builds plane certificates (geometry/cut_planes.h) for every medium whose events
-    // get no light sampling (wants_event false): those media take cut steps (cut_step).
+    // and builds plane certificates (geometry/cut_planes.h) for every medium whose steps
+    // need neither a representative event (wants_event) nor a clearance (clearance):
+    // those media take cut steps (cut_step).
     SphereTracing(const Scene& scene, float threshold, SphereSampler sampler,
                   const std::string& models, bool nee, StepNee step_nee = StepNee::Hits,
                   const std::string& cut_models = "");
@@ -87,10 +88,23 @@ public:
     // Steps are shrunk so that sigma = sigma_t * r' <= sigma_max.
     float sigma_max() const { return sigma_max_; }
     StepNee step_nee() const { return step_nee_; }
-    // Whether a step in `shape` samples its representative event (NEE on, an
-    // index-matched boundary: a dielectric-bounded medium gets no NEE, as in pt; and
-    // lights it connects to: any with StepNee::Event, point or directional with Hits).
+    // Whether a step in `shape` samples its representative event: StepNee::Event, NEE on,
+    // an index-matched boundary (a dielectric-bounded medium gets no NEE, as in pt) and
+    // any light.
     bool wants_event(int shape) const;
+    // The mean free paths a step's ball in `shape` keeps from the boundary and from the
+    // point lights: kDeltaLightClearance where its events would need light sampling that
+    // the exit flight cannot replace (StepNee::Hits, NEE on, an index-matched boundary,
+    // a point or directional light), else 0.
+    float clearance(int shape) const { return clearance_[size_t(shape)]; }
+    // The radius of the ball a step at collision p in `shape` may take, given the grid's
+    // bound r at p and the extinction sigma that measures the clearance (the smallest of
+    // the channels the path may go on in): r, or the ball clear of the boundary and the
+    // point lights (cleared_step_radius). A step needs sigma times it >= threshold().
+    float step_radius(int shape, Vec3 p, float r, float sigma) const {
+        const float c = clearance_[size_t(shape)];
+        return c == 0.f ? r : cleared_radius(p, r, sigma, c);
+    }
     // The albedo EventGen is asked about for scene albedo phi (clamped into its range).
     float event_phi(float phi) const;
     // The learned models it samples steps from (loaded once, by the constructor); null
@@ -136,6 +150,7 @@ public:
 
 private:
     void load_cuts(const std::string& dir);
+    float cleared_radius(Vec3 p, float r, float sigma, float clearance) const;
 
     const Scene& scene_;
     float threshold_;
@@ -145,6 +160,8 @@ private:
     float sigma_max_ = kWalkSigmaMax;
     bool may_step_ = false;
     float phi_lo_ = 0.f, phi_hi_ = 1.f;
+    std::vector<float> clearance_;   // per shape (clearance())
+    std::vector<LightData> points_;  // the delta lights at a finite distance
     std::unique_ptr<ScatteringModel> model_;
     std::unique_ptr<CutStepModel> cut_model_;
     std::vector<std::unique_ptr<CutPlanes>> cut_planes_;  // per shape; null: no cut steps

@@ -5,12 +5,14 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <vector>
 
 #include "core/check.h"
 #include "render/camera.h"
 #include "render/pt.h"
 #include "render/renderer.h"
+#include "shared/sphere_step.h"
 #include "testing/errors.h"
 #include "testing/model_dir.h"
 #include "testing/scenes.h"
@@ -187,16 +189,28 @@ TEST(SphereTracer, ExactWalksUnderAllKindsOfLightMatchPt) {
     // environment. StepNee::Event: NEE from a step's events k >= 2 has no MIS partner, so
     // it combines a light sample and a phase-sampled ray for the area light and takes
     // phase-sampled rays for the environment. StepNee::Hits: the steps' events see the
-    // area light and the environment only through the exit flights' hits (weight 1) and
-    // connect to the point light alone. With exact walks st must agree with pt (NEE, MIS)
-    // up to noise in both modes: 4x4 block means compared by chi-square, and the sum over
-    // the sphere (4 sigma), with both renders' variances, per channel. A grey medium, and
-    // a chromatic one (spectral MIS until the first step, then one channel picked afresh:
-    // the background stays exact).
-    for (const Vec3& sigma_t : {Vec3(6.f), Vec3(4.f, 6.f, 10.f)}) {
-        SCOPED_TRACE("sigma_t " + std::to_string(sigma_t.z));
-        SceneDesc d =
-            sphere_scene(sigma_t, Vec3(0.95f), 0.7f, BoundaryType::IndexMatched, true);
+    // area light and the environment only through the exit flights' hits (weight 1), and
+    // the balls keep kDeltaLightClearance mean free paths from the boundary (what the
+    // point light gives their events is left out: below 1e-4 of the image here). With
+    // exact walks st must agree with pt (NEE, MIS) up to noise in both modes: 4x4 block
+    // means compared by chi-square, and the sum over the sphere (4 sigma), with both
+    // renders' variances, per channel. A grey medium, and a chromatic one (spectral MIS
+    // until the first step, then one channel picked afresh: the background stays exact).
+    // Hits needs a denser sphere, and a whiter one that paths reach deep into, for steps
+    // clear of the boundary.
+    struct Case {
+        StepNee mode;
+        Vec3 sigma_t;
+        float albedo;
+    };
+    for (const Case& c : {Case{StepNee::Event, Vec3(6.f), 0.95f},
+                          Case{StepNee::Event, Vec3(4.f, 6.f, 10.f), 0.95f},
+                          Case{StepNee::Hits, Vec3(20.f), 0.995f},
+                          Case{StepNee::Hits, Vec3(20.f, 24.f, 32.f), 0.995f}}) {
+        SCOPED_TRACE(std::string(c.mode == StepNee::Event ? "event" : "hits") +
+                     ", sigma_t " + std::to_string(c.sigma_t.z));
+        SceneDesc d = sphere_scene(c.sigma_t, Vec3(c.albedo), 0.7f,
+                                   BoundaryType::IndexMatched, true);
         // edge1 x edge2 points down, at the sphere
         d.lights.push_back(parse_light(R"({"type": "area", "corner": [-1, 1.8, 1],
             "edge1": [0, 0, -2], "edge2": [2, 0, 0], "radiance": 5})"));
@@ -204,14 +218,11 @@ TEST(SphereTracer, ExactWalksUnderAllKindsOfLightMatchPt) {
         Scene scene(d, 2);
         const std::vector<BlockSum> sa =
             block_sums(render(scene, pt_options(256, 5)), false);
-        for (StepNee mode : {StepNee::Event, StepNee::Hits}) {
-            SCOPED_TRACE(mode == StepNee::Event ? "event" : "hits");
-            const RenderResult b = render(scene, exact_walks(mode, 256, 6));
-            // Blocks of background in both (the environment exactly) have variance 0.
-            expect_same_image(sa, block_sums(b, false), 20);
-            EXPECT_GT(b.total_sphere_steps, b.total_paths / 10);
-            EXPECT_EQ(b.variance[0], 0.f);  // the corner pixel sees the environment only
-        }
+        const RenderResult b = render(scene, exact_walks(c.mode, 256, 6));
+        // Blocks of background in both (the environment exactly) have variance 0.
+        expect_same_image(sa, block_sums(b, false), 20);
+        EXPECT_GT(b.total_sphere_steps, b.total_paths / 10);
+        EXPECT_EQ(b.variance[0], 0.f);  // the corner pixel sees the environment only
     }
 }
 
@@ -305,33 +316,87 @@ TEST(SphereTracer, WhereNoStepFitsItIsPt) {
     // no step fits anywhere, so may_step() is false and the renderer traces st as pt
     // (the image would be pt's either way; the flag is what this test pins down). A
     // path's first step needs the sphere thick enough in every channel: sigma_t 9 in one
-    // channel is not enough, (7, 9, 12) fits one at the centre.
+    // channel is not enough, (7, 9, 12) fits one at the centre. Under a point light
+    // (StepNee::Hits, NEE on) a ball also keeps kDeltaLightClearance = 10 mean free paths
+    // from the boundary: (7, 9, 12) then fits none, (17, 19, 22) does.
     test::ModelDir models;
     models.write_random(2);
-    Scene thin(
-        sphere_scene(Vec3(3.f), Vec3(0.9f), 0.4f, BoundaryType::IndexMatched, true), 2);
-    Scene one_channel(sphere_scene(Vec3(3.f, 3.f, 9.f), Vec3(0.9f), 0.4f,
-                                   BoundaryType::IndexMatched, true),
-                      2);
-    Scene deep(sphere_scene(Vec3(7.f, 9.f, 12.f), Vec3(0.9f), 0.4f,
-                            BoundaryType::IndexMatched, true),
-               2);
-    EXPECT_FALSE(
-        SphereTracing(one_channel, 6.f, SphereSampler::Model, models.path(), true)
-            .may_step());
-    RenderOptions st = st_options(models.path(), 6.f);
-    EXPECT_FALSE(
-        SphereTracing(thin, 6.f, SphereSampler::Model, models.path(), true).may_step());
+    auto sphere = [](Vec3 sigma_t, bool point_light) {
+        return sphere_scene(sigma_t, Vec3(0.9f), 0.4f, BoundaryType::IndexMatched,
+                            point_light);
+    };
+    auto may_step = [&](const Scene& scene, bool nee, StepNee mode = StepNee::Hits) {
+        return SphereTracing(scene, 6.f, SphereSampler::Model, models.path(), nee, mode)
+            .may_step();
+    };
+    Scene thin(sphere(Vec3(3.f), false), 2),
+        one_channel(sphere(Vec3(3.f, 3.f, 9.f), false), 2),
+        deep(sphere(Vec3(7.f, 9.f, 12.f), false), 2),
+        deep_lit(sphere(Vec3(7.f, 9.f, 12.f), true), 2),
+        deeper_lit(sphere(Vec3(17.f, 19.f, 22.f), true), 2);
+    EXPECT_FALSE(may_step(one_channel, true));
+    EXPECT_FALSE(may_step(thin, true));
+    EXPECT_TRUE(may_step(deep, true));
+    EXPECT_FALSE(may_step(deep_lit, true));
+    EXPECT_TRUE(may_step(deep_lit, false));  // no NEE: no clearance
     EXPECT_TRUE(
-        SphereTracing(deep, 6.f, SphereSampler::Model, models.path(), true).may_step());
+        may_step(deep_lit, true, StepNee::Event));  // EventGen's connection instead
+    EXPECT_TRUE(may_step(deeper_lit, true));
+    RenderOptions st = st_options(models.path(), 6.f);
     st.spp = 4;
     RenderOptions pt;
     pt.spp = 4;
     pt.threads = 2;
-    RenderResult a = render(thin, pt), c = render(thin, st);
-    EXPECT_EQ(a.image, c.image);
-    EXPECT_EQ(c.total_sphere_steps, 0u);
+    for (const Scene* scene : {&thin, &deep_lit}) {
+        RenderResult a = render(*scene, pt), c = render(*scene, st);
+        EXPECT_EQ(a.image, c.image);
+        EXPECT_EQ(c.total_sphere_steps, 0u);
+    }
     EXPECT_GT(render(deep, st).total_sphere_steps, 0u);
+}
+
+TEST(SphereTracer, BallsKeepClearOfTheBoundaryAndPointLights) {
+    // Where a step's events would need light sampling of a point or directional light
+    // (StepNee::Hits, NEE, an index-matched boundary), the ball keeps
+    // kDeltaLightClearance mean free paths from the boundary and from every point light;
+    // elsewhere it is the grid's bound. Extinction 100: the clearance is 0.1.
+    test::ModelDir models;
+    models.write_random(2);
+    const float c = kDeltaLightClearance / 100.f;
+    auto tracing = [&](const Scene& scene, bool nee, StepNee mode = StepNee::Hits) {
+        return std::make_unique<SphereTracing>(scene, 6.f, SphereSampler::Model,
+                                               models.path(), nee, mode);
+    };
+    SceneDesc inside =
+        sphere_scene(Vec3(100.f), Vec3(0.9f), 0.4f, BoundaryType::IndexMatched);
+    inside.lights.push_back(
+        parse_light(R"({"type": "point", "position": [0.2, 0, 0], "intensity": 1})"));
+    Scene lit_inside(inside, 2);
+    auto st = tracing(lit_inside, true);
+    EXPECT_EQ(st->clearance(0), kDeltaLightClearance);
+    EXPECT_FLOAT_EQ(st->step_radius(0, Vec3(0.f), 0.9f, 100.f), 0.2f - c);
+    EXPECT_FLOAT_EQ(st->step_radius(0, Vec3(0.f, 0.5f, 0.f), 0.45f, 100.f),
+                    0.45f - c);  // the light is farther than the boundary
+    EXPECT_LT(st->step_radius(0, Vec3(0.2f, 0.f, 0.f), 0.7f, 100.f),
+              0.f);  // at the light
+    EXPECT_EQ(tracing(lit_inside, false)->clearance(0), 0.f);
+    EXPECT_EQ(tracing(lit_inside, true, StepNee::Event)->clearance(0), 0.f);
+    EXPECT_EQ(tracing(lit_inside, false)->step_radius(0, Vec3(0.f), 0.9f, 100.f), 0.9f);
+
+    SceneDesc sun =
+        sphere_scene(Vec3(100.f), Vec3(0.9f), 0.4f, BoundaryType::IndexMatched);
+    sun.lights.push_back(parse_light(
+        R"({"type": "directional", "direction": [0, -1, 0], "irradiance": 1})"));
+    Scene sunlit(sun, 2);
+    EXPECT_FLOAT_EQ(tracing(sunlit, true)->step_radius(0, Vec3(0.f), 0.9f, 100.f),
+                    0.9f - c);
+    // No shadow ray leaves a dielectric boundary: its events sample no light anyway.
+    sun.shapes[0].boundary = test::boundary(BoundaryType::Dielectric);
+    Scene glass(sun, 2);
+    EXPECT_EQ(tracing(glass, true)->clearance(0), 0.f);
+    // Area lights and the environment alone: the exit flights' hits.
+    Scene env(sphere_scene(Vec3(100.f), Vec3(0.9f), 0.4f, BoundaryType::IndexMatched), 2);
+    EXPECT_EQ(tracing(env, true)->clearance(0), 0.f);
 }
 
 TEST(SphereTracer, IdenticalForAnyThreadCount) {
@@ -436,9 +501,9 @@ TEST(SphereTracer, RefusesWhatTheModelsCannotDo) {
     EXPECT_HAS(m, "shapes[0] ('sphere')");
     EXPECT_HAS(m, "g = 0.7 is outside the training range [-0.5, 0.5]");
 
-    // EventGen is needed (and the albedo checked against its range) where steps connect
-    // to lights: always with StepNee::Event, only for point and directional lights with
-    // Hits.
+    // EventGen is needed (and the albedo checked against its range) only where steps
+    // connect to lights: with StepNee::Event. Hits keeps its balls clear of point lights
+    // instead.
     SceneDesc phi = desc;
     phi.shapes[0].medium.albedo = Vec3(0.8f, 0.95f, 0.8f);
     RenderOptions event = st_options(models.path(), 2.f);
@@ -447,8 +512,8 @@ TEST(SphereTracer, RefusesWhatTheModelsCannotDo) {
     EXPECT_EQ(err(phi, st_options(models.path(), 2.f)), "");  // environment only: hits
     SceneDesc phi_point = sphere_scene(Vec3(10.f), Vec3(0.8f, 0.95f, 0.8f), 0.3f,
                                        BoundaryType::IndexMatched, true);
-    EXPECT_HAS(err(phi_point, st_options(models.path(), 2.f)),
-               "albedo 0.95 is outside EventGen's training range");
+    EXPECT_HAS(err(phi_point, event), "albedo 0.95 is outside EventGen's training range");
+    EXPECT_EQ(err(phi_point, st_options(models.path(), 2.f)), "");
     RenderOptions no_nee = st_options(models.path(), 2.f);
     no_nee.nee = false;  // EventGen is not used: any albedo
     EXPECT_EQ(err(phi, no_nee), "");

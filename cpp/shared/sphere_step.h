@@ -48,6 +48,22 @@ SSS_FN Frame sphere_step_frame(Vec3 w_in, float u) {
     return r;
 }
 
+// A step's events get no light sampling (StepNee::Hits: their light reaches the path
+// through the exit flight), which no point or directional light can be reached by. So
+// where a medium's events would sample such lights, a step's ball keeps this many mean
+// free paths from the boundary and from every point light instead: the events it leaves
+// out would each connect through at least that optical depth, a transmittance below
+// e^-10 = 4.5e-5 (docs/sphere-tracing.md, "NEE for a sphere step").
+SSS_CONST float kDeltaLightClearance = 10.f;
+
+// The radius of the ball a step at a collision may take, given the grid's bound r there,
+// the distance to the nearest point light (kInf: none) and the clearance in mean free
+// paths of extinction sigma. Negative: no ball.
+SSS_FN float cleared_step_radius(float r, float light_dist, float clearance,
+                                 float sigma) {
+    return min(r, light_dist) - clearance / sigma;
+}
+
 // The decoders' outputs (finite) made valid: (alpha, beta) into the unit disc, X into the
 // unit ball, W to unit length. A point outside is scaled onto the circle or sphere and
 // then nudged inside against rounding. The lengths are taken of the components divided by

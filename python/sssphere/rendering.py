@@ -222,9 +222,10 @@ def render_full(
     tracing; it validates the integrator without model error). ``step_nee`` says how the
     events inside a sphere step get their direct light when ``nee`` is on: ``"hits"`` (the
     default) from the step's exit flight when it reaches an area light or the environment,
-    with EventGen's representative event connecting only to point and directional lights;
-    ``"event"`` (the paper's) from EventGen's event connecting to every kind of light
-    (docs/sphere-tracing.md, "NEE for a sphere step"). ``cut_models`` (experimental): the
+    while under point and directional lights, which no flight reaches, the steps keep 10 mean
+    free paths from the boundary and the point lights; ``"event"`` (the paper's) from
+    EventGen's representative event connecting to every kind of light (docs/sphere-tracing.md,
+    "NEE for a sphere step"). ``cut_models`` (experimental): the
     directory of cutlengthgen.json and cutpathgen.json (the repository's ``models/cut``);
     collisions too close to the boundary for a sphere step
     then take cut sphere steps where a plane certifies the region, in media whose scattering
@@ -253,7 +254,7 @@ def render_full(
 
     ``backend="vulkan"`` renders on a Vulkan device (a GPU, or Mesa's lavapipe on the CPU;
     docs/gpu.md): ``"pt"`` and ``"st"`` with the CPU's estimators (light sampling with
-    ``nee=True``, ``step_nee="hits"`` for ``"st"``, EventGen and ``cut_models`` included).
+    ``nee=True``, ``step_nee="hits"`` for ``"st"``, and ``cut_models``).
     ``step_nee="event"``, ``sphere_sampler="walk"`` and ``threads`` are CPU-only.
     """
     if not isinstance(scene, Scene):

@@ -42,7 +42,7 @@ SSS_LAYOUT_CONST int kGpuMaxLights = 16;
 SSS_LAYOUT_CONST uint32_t kGpuWritten = 0x80000000u;
 
 struct GpuShape {
-    vec4 sigma_t;   // xyz: sigma_t per channel
+    vec4 sigma_t;   // xyz: sigma_t per channel; w: "st"'s clearance (SphereTracing)
     vec4 albedo;    // xyz: albedo
     vec4 boundary;  // render/boundaries/boundary.h's BoundaryData: x its type, yzw xyz
     vec4 phase;     // render/phase/phase.h's PhaseData: x its type, y, z x, y
@@ -94,7 +94,6 @@ struct GpuLight {
     vec4 emitters[kGpuMaxEmitters]; /* mesh counts.x + i: rgb; w: index in lights */    \
     uvec4 lighting;                 /* lights, NEE, point + directional, floats */      \
     GpuLight lights[kGpuMaxLights];                                                     \
-    vec4 event_phi;                 /* x, y: EventGen's range of phi */                 \
     vec4 cut_params;                /* x: the cut models' largest sigma; y: min depth */\
     GpuCutGrid cut_grids[kGpuMaxShapes];
 // clang-format on
@@ -126,9 +125,9 @@ static_assert(offsetof(GpuSceneHeader, lighting) ==
 static_assert(offsetof(GpuSceneHeader, lights) ==
               (8 + 9 * kGpuMaxShapes + kGpuMaxEmitters) * 16);
 static_assert(offsetof(GpuSceneHeader, cut_grids) ==
-              (10 + 9 * kGpuMaxShapes + kGpuMaxEmitters + 4 * kGpuMaxLights) * 16);
+              (9 + 9 * kGpuMaxShapes + kGpuMaxEmitters + 4 * kGpuMaxLights) * 16);
 static_assert(sizeof(GpuSceneHeader) ==
-              (10 + 13 * kGpuMaxShapes + kGpuMaxEmitters + 4 * kGpuMaxLights) * 16);
+              (9 + 13 * kGpuMaxShapes + kGpuMaxEmitters + 4 * kGpuMaxLights) * 16);
 static_assert(sizeof(GpuRenderPush) == 5 * 4);  // scalars: 4 bytes each in both
 }  // namespace sss
 #endif

@@ -1,8 +1,9 @@
 // Integrators "pt" and "st" on the GPU: the loop of PathTracer::run (cpp/render/pt.cpp).
 // With the specialization constant NEE (the baked scene's lighting.y) every scattering
 // event samples one light, as PathTracer::direct_light with MIS; a sphere step's exit
-// flight counts the lights it hits with weight 1, and its events see point and directional
-// lights through EventGen's representative event (StepNee::Hits). Without it emitters
+// flight counts the lights it hits with weight 1, and its ball keeps clear of the
+// boundary and the point lights where point or directional lights would need its events
+// to sample them (StepNee::Hits, SphereTracing::clearance). Without it emitters
 // count only when a path hits them (nee = false), which in a scene whose media all have
 // dielectric boundaries is also what NEE computes (a straight shadow ray never leaves such
 // a medium). The includer defines SSS_ST (0 or 1).
@@ -191,8 +192,7 @@ vec3 sample_light(vec3 p, vec3 d, int shape, PhaseData ph, int vertex, SurfaceDa
 // unknown) in `shape`, the photon travelling along d: sample_light, after a shadow ray
 // whose transmittance the bound puts below kShadowRoulette is kept with probability
 // bound / kShadowRoulette and reweighted.
-vec3 direct_light(vec3 p, float r, vec3 d, int shape, int channel, bool delta_only,
-                  inout RngState rng) {
+vec3 direct_light(vec3 p, float r, vec3 d, int shape, int channel, inout RngState rng) {
     GpuShape s = shapes[shape];
     if (!boundary_passes_shadow_rays(boundary_data(s))) return vec3(0.0);
     float sigma_min =
@@ -206,7 +206,7 @@ vec3 direct_light(vec3 p, float r, vec3 d, int shape, int channel, bool delta_on
     }
     Hit none;
     return sample_light(p, d, shape, phase_data(s), kMediumVertex, surface_data(s), none,
-                        delta_only, vec3(r, sigma_min, kept), rng) *
+                        false, vec3(r, sigma_min, kept), rng) *
            shadow_weight;
 }
 
@@ -322,6 +322,19 @@ void cross(inout Path p, Hit hit) {
 }
 
 #if SSS_ST
+// SphereTracing::step_radius: the grid's bound r at p, or the ball that keeps the shape's
+// clearance (sigma_t.w mean free paths of sigma) from the boundary and the point lights
+// (the delta lights at a finite distance, among the first lighting.z of lights[]).
+float step_radius(GpuShape s, vec3 p, float r, float sigma) {
+    float c = s.sigma_t.w;
+    if (c == 0.0) return r;
+    if (sigma * r < params.y + c) return r - c / sigma;
+    float light_dist = kInf;
+    for (uint i = 0u; i < lighting.z; ++i)
+        light_dist = min(light_dist, light_sample(light_data(lights[i]), p, 0.5, 0.5).dist);
+    return cleared_step_radius(r, light_dist, c, sigma);
+}
+
 // Where the path goes on in one channel before a step (PathTracer::run's to_one_channel):
 // with spectral MIS, a channel picked afresh, weight 3.
 void to_one_channel(inout Path p) {
@@ -448,7 +461,7 @@ void path_iterate(inout Path p) {
         float r = r_end;
         bool shrink = r < 0.0;
 #if SSS_ST
-        shrink = shrink && sigma_step * p.query_cell_bound < params.y &&
+        shrink = shrink && sigma_step * p.query_cell_bound < params.y + s.sigma_t.w &&
                  grid_cell_of(p.shape, p.o) == p.query_cell;
 #endif
         if (shrink) {
@@ -458,10 +471,11 @@ void path_iterate(inout Path p) {
             r = path_grid_query(p, p.o);
         }
 #if SSS_ST
-        if (sigma_step * r >= params.y) {
+        float r_step = step_radius(s, p.o, r, sigma_step);
+        if (sigma_step * r_step >= params.y) {
             to_one_channel(p);
             p.pending = true;  // one sphere step replaces the events inside the sphere
-            p.r_step = r;
+            p.r_step = r_step;
             return;
         }
         // Too close to the boundary for a sphere: a cut sphere step where a plane
@@ -491,7 +505,7 @@ void path_iterate(inout Path p) {
         }
         if (NEE)
             p.L += path_weight(p) * direct_light(p.o, p.r_shrunk ? -1.0 : r, p.d, p.shape,
-                                                 p.spectral ? -1 : p.channel, false, p.rng);
+                                                 p.spectral ? -1 : p.channel, p.rng);
         vec3 d_new = phase_sample(phase_data(s), p.d, rng_uniform(p.rng), rng_uniform(p.rng));
         if (NEE) {  // for the MIS weight of a light this direction may hit
             p.phase_pdf = phase_eval(phase_data(s), dot(p.d, d_new));
@@ -519,11 +533,9 @@ void path_iterate(inout Path p) {
 }
 
 #if SSS_ST
-// The sphere step a pending path waits for (PathTracer::request_step and take_step):
-// centre o, the grid's bound r_step, shrunk so that sigma_t r' <= sigma_max; with NEE in
-// an index-matched medium lit by point or directional lights, EventGen's representative
-// event connects to one of them, weighted by Lambda = sum_j phi^j; survival phi^N, then
-// the exit point and direction.
+// The sphere step a pending path waits for (PathTracer::request_step and take_step with
+// StepNee::Hits): centre o, the radius r_step (step_radius), shrunk so that sigma_t r' <=
+// sigma_max; no light sampling; survival phi^N, then the exit point and direction.
 void path_sphere_step(inout Path p) {
     GpuShape s = shapes[p.shape];
     float sigma_t = p.channel < 0 ? s.sigma_t.x : s.sigma_t[p.channel];
@@ -531,35 +543,10 @@ void path_sphere_step(inout Path p) {
     p.pending = false;
     float sigma = min(sigma_t * p.r_step, params.z);
     float radius = min(p.r_step, sigma / sigma_t);
-    bool with_event = NEE && lighting.z > 0u && boundary_passes_shadow_rays(boundary_data(s));
-    // The event is drawn for one albedo: the carried channel's, or, for RGB throughput
-    // with a chromatic albedo, a channel picked uniformly whose light connection then
-    // counts 3 times in that channel only.
-    float phi = s.albedo[p.channel < 0 ? 0 : p.channel];
-    vec3 nee_weight = vec3(1.0);
-    if (with_event && p.channel < 0 &&
-        !(s.albedo.x == s.albedo.y && s.albedo.x == s.albedo.z)) {
-        int c = min(2, int(rng_uniform(p.rng) * 3.0));
-        phi = s.albedo[c];
-        nee_weight = vec3(0.0);
-        nee_weight[c] = 3.0;
-    }
-    phi = clamp(phi, event_phi.x, event_phi.y);  // SphereTracing::event_phi
     // s.phase.y: Henyey-Greenstein's g (st takes only phase functions whose PhaseKind has
-    // sphere_steps).
-    SphereStepSample st = sample_sphere_step(sigma, s.phase.y, phi, with_event, p.rng);
+    // sphere_steps); no representative event, so no albedo for it.
+    SphereStepSample st = sample_sphere_step(sigma, s.phase.y, 0.5, false, p.rng);
     Frame f = sphere_step_frame(p.d, rng_uniform(p.rng));
-    if (with_event) {
-        nee_weight *= vec3(event_weight_sum(s.albedo.x, st.N),
-                           event_weight_sum(s.albedo.y, st.N),
-                           event_weight_sum(s.albedo.z, st.N));
-        if (!is_black(nee_weight)) {
-            bool first = st.X == vec3(0.0) && st.W == vec3(0.0, 0.0, 1.0);
-            vec3 x = first ? p.o : p.o + frame_to_world(f, st.X) * radius;
-            vec3 w = first ? p.d : normalize(frame_to_world(f, st.W));
-            p.L += p.beta * nee_weight * direct_light(x, -1.0, w, p.shape, p.channel, true, p.rng);
-        }
-    }
     p.beta *= vec3(survival_power(s.albedo.x, st.N), survival_power(s.albedo.y, st.N),
                    survival_power(s.albedo.z, st.N));
     if (is_black(p.beta)) {
