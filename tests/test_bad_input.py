@@ -338,12 +338,35 @@ def test_malformed_ply_and_off_files_get_a_line_or_element_named(tmp_path, name,
         ({"seed": -1}, "seed must be an integer >= 0"),
         ({"threads": -2}, "threads must be"),
         ({"integrator": "mc"}, "integrator 'mc' is not allowed \\(allowed: 'pt', 'st'\\)"),
+        # st's options given to pt would change nothing: refused, not ignored
+        ({"integrator": "pt", "step_nee": "event"},
+         "step_nee 'event' is an option of integrator 'st' \\(the integrator is 'pt'\\)"),
+        ({"integrator": "pt", "sphere_sampler": "walk"}, "sphere_sampler 'walk' is an option of integrator 'st'"),
     ],
 )
 def test_bad_render_arguments(small_scene, kwargs, expected):
     scene = sssphere.load_scene(small_scene)
     with pytest.raises(SceneError, match=expected):
         sssphere.render(scene, **kwargs)
+
+
+@pytest.mark.parametrize(
+    "kwargs, expected",
+    [
+        ({"seed": -1}, "seed must be an integer >= 0, got -1"),
+        ({"seed": 2.5}, "seed must be an integer >= 0, got 2.5"),
+        ({"threads": -3}, "threads must be an integer >= 0"),
+        ({"samples": 0}, "aov samples must be an integer >= 1, got 0"),
+        ({"samples": True}, "aov samples must be an integer >= 1, got True"),
+        ({"samples": 1 << 40}, "aov samples must be an integer >= 1"),
+    ],
+)
+def test_bad_first_hit_aov_arguments(small_scene, kwargs, expected):
+    """first_hit_aovs takes seed and threads as a render does (it raised pybind's TypeError
+    for a negative seed and took threads=-3)."""
+    scene = sssphere.load_scene(small_scene)
+    with pytest.raises(SceneError, match=expected):
+        sssphere.first_hit_aovs(scene, **kwargs)
 
 
 def test_bad_image_paths(tmp_path):

@@ -69,6 +69,9 @@ def test_render_scene_file_to_exr_and_png(tmp_path, small_scene):
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--set", "shapes[0].medium.albedo=[1,2,3]"],
          "s.json: shapes[0].medium.albedo: value [1,2,3] is not allowed"),
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--set", "spp"], "expected PATH=VALUE"),
+        (["render", "{scene}", "-o", "{tmp}/x.exr", "--set", " =3"], "--set  =3: no PATH before '='"),
+        (["render", "{scene}", "-o", "{tmp}/x.exr", "--integrator", "pt", "--step-nee", "event"],
+         "step_nee 'event' is an option of integrator 'st' (the integrator is 'pt')"),
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--width", "0"], "--width: must be >= 1"),
     ],
 )
@@ -366,3 +369,14 @@ def test_unwritable_export_paths_are_one_line_errors(tmp_path, small_scene):
     r = run_cli("export-mitsuba", tmp_path / "s.json", tmp_path / "d.xml")
     assert r.returncode == 1 and "Traceback" not in r.stderr, r.stderr
     assert r.stderr.startswith("sssphere: error:") and "d.xml" in r.stderr, r.stderr
+
+
+def test_a_reader_that_leaves_early_ends_the_command_quietly():
+    """`sssphere presets | head -1`: when the reader of stdout has gone, the command ends as
+    one killed by SIGPIPE (status 141) without a message (it said "error: Broken pipe")."""
+    with subprocess.Popen([sys.executable, "-m", "sssphere.cli", "presets"],
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as proc:
+        proc.stdout.close()  # before the child has imported anything, let alone written
+        err = proc.stderr.read()
+        assert proc.wait(timeout=120) == 128 + signal.SIGPIPE, err
+    assert err == ""

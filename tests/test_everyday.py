@@ -114,6 +114,11 @@ def test_read_layers_refuses_what_is_not_an_exr(tmp_path):
     with pytest.raises(SceneError, match=r"\.exr"):
         sssphere.write_layers(tmp_path / "a.png", [("", ("R", "G", "B"),
                                                    np.zeros((2, 2, 3), np.float32))])
+    # A channel named twice (here "a.Y" from two layers) is refused, not mixed up.
+    one = np.zeros((2, 2, 1), np.float32)
+    with pytest.raises(SceneError, match="channel 'a.Y' is given twice"):
+        sssphere.write_layers(tmp_path / "b.exr", [("a", ("Y",), one), ("a", ("Y",), one + 1)])
+    assert not (tmp_path / "b.exr").exists()
 
 
 def _relative_mse(image, reference):

@@ -114,6 +114,12 @@ void write_exr_layers(const std::string& path, int width, int height,
     if (names.size() > size_t(kMaxLayeredChannels))
         fail(path, ": ", names.size(), " channels (allowed: at most ",
              kMaxLayeredChannels, ")");
+    // A name given twice would leave one channel's data under both in the file.
+    for (size_t i = 0; i < names.size(); ++i)
+        for (size_t j = 0; j < i; ++j)
+            if (names[i] == names[j])
+                fail(path, ": channel '", names[i],
+                     "' is given twice (layer and channel names must be unique)");
     const size_t pixels = size_t(width) * height, n = names.size();
     std::vector<float> interleaved(pixels * n);
     size_t first = 0;

@@ -7,6 +7,7 @@
 #include <pybind11/stl.h>
 
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "core/check.h"
@@ -222,12 +223,28 @@ void bind_render(py::module_& m) {
         "forward direction of Chiang et al.'s fit (render/medium_presets.h).");
     m.def(
         "first_hit_aovs",
-        [](const Scene& scene, uint64_t seed, int samples, int threads) {
-            if (samples < 1) fail("aov samples must be at least 1, got ", samples);
+        [](const Scene& scene, py::object seed, py::object samples, py::object threads) {
+            // seed and threads as a render takes them (types, ranges, messages).
+            py::kwargs kw;
+            kw["seed"] = seed;
+            kw["threads"] = threads;
+            const RenderOptions r = resolve_render_options(
+                RenderSettings(), "", overrides_from(py::dict(), kw), "");
+            int n = 0;
+            bool ok = !is_bool(samples) && PyIndex_Check(samples.ptr());
+            if (ok) {
+                const py::int_ v(samples);
+                ok = v >= py::int_(1) &&
+                     v <= py::int_(std::numeric_limits<int32_t>::max());
+                if (ok) n = v.cast<int>();
+            }
+            if (!ok)
+                fail("aov samples must be an integer >= 1, got ",
+                     std::string(py::repr(samples)));
             FirstHitAovs a;
             {
                 py::gil_scoped_release release;
-                a = first_hit_aovs(scene, seed, samples, threads);
+                a = first_hit_aovs(scene, r.seed, n, r.threads);
             }
             const py::ssize_t H = a.height, W = a.width;
             py::dict d;

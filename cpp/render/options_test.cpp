@@ -106,6 +106,15 @@ TEST(RenderOptions, BadValuesNameTheOptionAndWhatIsAllowed) {
                "step_nee 'event' is CPU-only");
     EXPECT_HAS(err([](auto& o) { o.backend = "cuda"; }),
                "backend 'cuda' is not allowed (allowed: 'cpu', 'vulkan')");
+    // Options of "st" given to "pt": refused (they would change nothing).
+    EXPECT_HAS(
+        err([](auto& o) { o.integrator = "pt", o.step_nee = "event"; }),
+        "s.json: step_nee 'event' is an option of integrator 'st' (the integrator is "
+        "'pt')");
+    EXPECT_HAS(err([](auto& o) { o.integrator = "pt", o.sphere_sampler = "walk"; }),
+               "sphere_sampler 'walk' is an option of integrator 'st'");
+    EXPECT_EQ(err([](auto& o) { o.integrator = "pt", o.step_nee = "hits"; }), "");
+    EXPECT_EQ(err([](auto& o) { o.integrator = "st", o.step_nee = "event"; }), "");
 }
 
 TEST(RenderOptions, CommandLineTextIsParsedAndChecked) {
@@ -114,6 +123,7 @@ TEST(RenderOptions, CommandLineTextIsParsedAndChecked) {
     set_override_from_text(o, "sphere_threshold", "inf");
     set_override_from_text(o, "nee", "false");
     set_override_from_text(o, "step_nee", "event");
+    set_override_from_text(o, "integrator", "st");
     RenderOptions r = resolve(RenderSettings(), o);
     EXPECT_EQ(r.spp, 12);
     EXPECT_TRUE(std::isinf(r.sphere_threshold));

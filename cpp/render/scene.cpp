@@ -577,6 +577,10 @@ void set_scene_field(json& root, const std::string& assignment) {
     };
     const std::string path = trim(assignment.substr(0, eq));
     const std::string text = trim(assignment.substr(eq + 1));
+    if (path.empty())
+        fail("--set ", assignment,
+             ": no PATH before '='; expected PATH=VALUE, e.g. "
+             "shapes[0].medium.sigma_t=1000");
     json value = json::parse(text, nullptr, false);
     if (value.is_discarded()) value = text;
     // Tokens: names, and [index] after a name.

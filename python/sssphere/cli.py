@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import re
 import signal
 import sys
@@ -444,7 +445,14 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     signal.signal(signal.SIGTERM, _on_sigterm)
     try:
-        return args.func(args)
+        status = args.func(args)
+        sys.stdout.flush()  # here, where a closed pipe is caught below, not at exit
+        return status
+    except BrokenPipeError:  # the reader of our output left (`sssphere presets | head`)
+        # Quiet, as a command killed by SIGPIPE; stdout to /dev/null so that Python's own
+        # flush at exit does not complain again.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 128 + signal.SIGPIPE
     except (SceneError, OSError) as e:  # OSError: a path that cannot be written, a lost cluster
         print(f"sssphere: error: {e}", file=sys.stderr)
         return 1
