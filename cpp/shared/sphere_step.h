@@ -48,12 +48,13 @@ SSS_FN Frame sphere_step_frame(Vec3 w_in, float u) {
     return r;
 }
 
-// A step's events get no light sampling (StepNee::Hits: their light reaches the path
-// through the exit flight), which no point or directional light can be reached by. So
-// where a medium's events would sample such lights, a step's ball keeps this many mean
-// free paths from the boundary and from every point light instead: the events it leaves
-// out would each connect through at least that optical depth, a transmittance below
-// e^-10 = 4.5e-5 (docs/sphere-tracing.md, "NEE for a sphere step").
+// StepNee::Hits: a step's events sample no light; the exit flight brings them the light
+// of area lights and the environment, but no flight reaches a point or directional light.
+// So where a medium's events would sample such lights, a step's ball keeps this many mean
+// free paths from the boundary and from every point light, and its events' connections
+// are left out: each would cross at least that optical depth of the medium, a
+// transmittance below e^-10 = 4.5e-5 (docs/sphere-tracing.md, "Point and directional
+// lights: clearance").
 SSS_CONST float kDeltaLightClearance = 10.f;
 
 // The radius of the ball a step at a collision may take, given the grid's bound r there,
