@@ -356,9 +356,10 @@ def test_bad_render_arguments(small_scene, kwargs, expected):
         ({"seed": -1}, "seed must be an integer >= 0, got -1"),
         ({"seed": 2.5}, "seed must be an integer >= 0, got 2.5"),
         ({"threads": -3}, "threads must be an integer >= 0"),
-        ({"samples": 0}, "aov samples must be an integer >= 1, got 0"),
-        ({"samples": True}, "aov samples must be an integer >= 1, got True"),
-        ({"samples": 1 << 40}, "aov samples must be an integer >= 1"),
+        ({"seed": None}, "seed must be an integer >= 0, got None"),
+        ({"samples": 0}, "aov samples must be an integer from 1 to 2147483647, got 0"),
+        ({"samples": True}, "aov samples must be an integer from 1 to 2147483647, got True"),
+        ({"samples": 1 << 40}, "aov samples must be an integer from 1 to 2147483647, got 1099"),
     ],
 )
 def test_bad_first_hit_aov_arguments(small_scene, kwargs, expected):

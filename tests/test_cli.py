@@ -230,7 +230,7 @@ def test_ctrl_c_writes_partial_image_cpp_cli(tmp_path, slow_scene):
 @pytest.mark.skipif(not _core.gpu_status()[0], reason="no Vulkan device")
 def test_backend_option_renders_on_the_gpu(tmp_path, small_scene):
     # The CLI's image is the Python API's on the same backend, with NEE and without, for
-    # both integrators (st's steps connect EventGen's event to the point light).
+    # both integrators (st's steps keep their clearance from the point light).
     (tmp_path / "s.json").write_text(json.dumps(small_scene))
     for integrator in ("pt", "st"):
         for flags, nee in ((["--no-nee"], False), ([], True)):
@@ -380,3 +380,16 @@ def test_a_reader_that_leaves_early_ends_the_command_quietly():
         err = proc.stderr.read()
         assert proc.wait(timeout=120) == 128 + signal.SIGPIPE, err
     assert err == ""
+
+
+def test_a_broken_pipe_other_than_stdout_is_an_error(monkeypatch, capsys):
+    """Only a closed stdout ends quietly: a broken pipe elsewhere (a cluster connection, a
+    FIFO given as the output) is reported as any OSError is."""
+    from sssphere import cli
+
+    def broken(args):
+        raise BrokenPipeError(32, "Broken pipe")
+
+    monkeypatch.setattr(cli, "_cmd_presets", broken)
+    assert cli.main(["presets"]) == 1
+    assert "sssphere: error: [Errno 32] Broken pipe" in capsys.readouterr().err

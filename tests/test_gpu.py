@@ -657,6 +657,20 @@ def test_gpu_delta_lights_agree_with_cpu(integrator, model_dir):
     assert np.all(z > 3 * Z_MAX), z
 
 
+def test_gpu_clearance_with_chromatic_extinction_and_a_light_inside_agrees_with_cpu(model_dir):
+    """The clearance of st's steps (SphereTracing::step_radius, render.glsl's step_radius):
+    chromatic extinction (measured in the smallest channel before the one carried is picked)
+    and a point light inside the medium, which the balls keep clear of, beside a directional
+    light and the environment."""
+    inside = {"type": "point", "position": [0.45, 0, 0], "intensity": [2, 2, 2]}
+    scene = sssphere.load_scene(sphere_scene(sigma_t=[40.0, 50.0, 65.0], albedo=(0.995, 0.99, 0.98),
+                                             g=0.5, boundary=INDEX_MATCHED,
+                                             lights=[inside, DIRECTIONAL, ENV]))
+    cpu, gpu = _render_pair(scene, integrator="st", nee=True, models=model_dir)
+    assert gpu.mean_sphere_steps_per_path > 0.05, gpu.mean_sphere_steps_per_path
+    assert_renders_agree(cpu, gpu, "clearance, chromatic, light inside")
+
+
 def test_too_many_lights_are_refused():
     lights = [dict(AREA, corner=[-1.5, 2.5 + 0.01 * i, 1.5]) for i in range(17)]
     scene = sssphere.load_scene(sphere_scene(res=(4, 4), lights=lights))

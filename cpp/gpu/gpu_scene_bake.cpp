@@ -161,7 +161,8 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
     if (desc.lights.size() > size_t(kGpuMaxLights))
         fail(desc.source, ": ", desc.lights.size(),
              " lights; the GPU path renders at most ", kGpuMaxLights);
-    // The point and directional lights first: a sphere step's event samples only those.
+    // The point and directional lights first: a regularized smooth dielectric's vertices
+    // sample only those, and a step's clearance looks only at those.
     std::vector<size_t> order;
     for (int delta = 1; delta >= 0; --delta)
         for (size_t i = 0; i < desc.lights.size(); ++i)

@@ -22,8 +22,8 @@ std::vector<float> pack_gpu_cut_model(const CutStepModel& model);
 // Checks that the GPU path can render `scene` as asked and throws sss::Error naming the
 // field and what is allowed otherwise: at most kGpuMaxShapes shapes and kGpuMaxLights
 // lights. With nee the shaders sample the lights as pt.cpp does, where a medium has an
-// index-matched boundary (elsewhere no shadow ray leaves it), and "st" steps connect
-// EventGen's event to point and directional lights (StepNee::Hits). With integrator "st",
+// index-matched boundary (elsewhere no shadow ray leaves it), and "st" steps keep their
+// clearance from point and directional lights (StepNee::Hits). With integrator "st",
 // `models` is the decoders' directory, checked against the media as SphereTracing does;
 // `cut_models` (empty: none) the cut sphere models' directory: the media SphereTracing
 // gives cut steps get their plane certificates (GpuSceneHeader::cut_grids) and the

@@ -224,22 +224,25 @@ void bind_render(py::module_& m) {
     m.def(
         "first_hit_aovs",
         [](const Scene& scene, py::object seed, py::object samples, py::object threads) {
-            // seed and threads as a render takes them (types, ranges, messages).
+            // seed and threads as a render takes them (types, ranges, messages); None,
+            // which a render reads as "not given", is not a value here.
+            if (seed.is_none()) fail("seed must be an integer >= 0, got None");
+            if (threads.is_none()) fail("threads must be an integer >= 0, got None");
             py::kwargs kw;
             kw["seed"] = seed;
             kw["threads"] = threads;
             const RenderOptions r = resolve_render_options(
                 RenderSettings(), "", overrides_from(py::dict(), kw), "");
+            constexpr int kMaxSamples = std::numeric_limits<int32_t>::max();
             int n = 0;
             bool ok = !is_bool(samples) && PyIndex_Check(samples.ptr());
             if (ok) {
                 const py::int_ v(samples);
-                ok = v >= py::int_(1) &&
-                     v <= py::int_(std::numeric_limits<int32_t>::max());
+                ok = v >= py::int_(1) && v <= py::int_(kMaxSamples);
                 if (ok) n = v.cast<int>();
             }
             if (!ok)
-                fail("aov samples must be an integer >= 1, got ",
+                fail("aov samples must be an integer from 1 to ", kMaxSamples, ", got ",
                      std::string(py::repr(samples)));
             FirstHitAovs a;
             {

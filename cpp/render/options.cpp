@@ -159,9 +159,9 @@ const std::vector<OptionSpec>& render_option_specs() {
          {"hits", "event"},
          "NAME",
          "st: the direct light of a sphere step's events: hits (default: from its exit "
-         "flight; under point and directional lights steps keep clear of the boundary) "
-         "or "
-         "event (EventGen's representative event connects to every light; CPU only)",
+         "flight; under point and directional lights steps keep clear of the boundary "
+         "and the point lights) or event (EventGen's representative event connects to "
+         "every light; CPU only)",
          true,
          "hits or event"},
         {"backend",

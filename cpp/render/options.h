@@ -27,9 +27,10 @@ enum class SphereSampler { Model, Walk };
 // (docs/sphere-tracing.md#nee-for-a-sphere-step).
 //   Hits:  no light sampling at the step's events for area lights and the environment;
 //          their direct light is what the step's exit flight collects when it reaches a
-//          light (weight 1). Point and directional lights, which no flight can hit, get a
-//          connection from EventGen's representative event. Needs no EventGen where the
-//          scene has no delta lights.
+//          light (weight 1). Point and directional lights, which no flight can hit, are
+//          kept away instead: the step's ball keeps kDeltaLightClearance mean free paths
+//          from the boundary and the point lights (SphereTracing::clearance). Never
+//          evaluates EventGen.
 //   Event: the paper's: EventGen's representative event gets a connection to one light
 //          chosen among all, weighted by Lambda, with the MIS rule of the docs.
 enum class StepNee { Hits, Event };

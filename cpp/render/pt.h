@@ -83,8 +83,8 @@ private:
     // "st": applies the sphere step the path waited for (weights, NEE from its
     // representative event, the exit) to its state; false when the path ends there.
     bool take_step(PathState& state, const WorldSphereStep& step) const;
-    // "st": fills state.step, the request for a step at the path's position, where the
-    // grid gives r.
+    // "st": fills state.step, the request for a step at the path's position, in a ball
+    // of radius r (the grid's bound, or SphereTracing::step_radius's).
     void request_step(PathState& state, float r) const;
     // "st" with cut_models: fills state.step, the request for a cut sphere step at the
     // path's position, where the plane certificate gives normal n and distance s.

@@ -120,11 +120,12 @@ SphereTracing::SphereTracing(const Scene& scene, float threshold, SphereSampler 
             const float phi = m.albedo[c];
             if (event && (phi < phi_lo_ - kPhiClampTolerance ||
                           phi > phi_hi_ + kPhiClampTolerance))
-                fail(context(), "albedo ", phi,
-                     " is outside EventGen's training range of phi [", phi_lo_, ", ",
-                     phi_hi_,
-                     "] (NEE needs EventGen; use nee=False, integrator 'pt', or models "
-                     "trained for it)");
+                fail(
+                    context(), "albedo ", phi,
+                    " is outside EventGen's training range of phi [", phi_lo_, ", ",
+                    phi_hi_,
+                    "] (step_nee 'event' needs EventGen; use step_nee 'hits', nee=False, "
+                    "integrator 'pt', or models trained for it)");
             for (float s : sigma_ends) {
                 try {
                     model_->check_inputs(s, m.phase.x, event ? event_phi(phi) : 0.5f,
@@ -233,8 +234,9 @@ bool SphereTracing::wants_event(int shape) const {
 }
 
 float SphereTracing::cleared_radius(Vec3 p, float r, float sigma, float clearance) const {
-    // Too close to the boundary for a step whatever the lights: no need to look at them.
-    if (sigma * r < threshold_ + clearance) return r - clearance / sigma;
+    // Too close to the boundary for a step whatever the lights: no need to look at them
+    // (and no ball, even where r - clearance / sigma would round up to the threshold).
+    if (sigma * r < threshold_ + clearance) return -1.f;
     float light_dist = kInf;
     for (const LightData& l : points_)
         light_dist = std::min(

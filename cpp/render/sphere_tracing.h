@@ -100,7 +100,8 @@ public:
     // The radius of the ball a step at collision p in `shape` may take, given the grid's
     // bound r at p and the extinction sigma that measures the clearance (the smallest of
     // the channels the path may go on in): r, or the ball clear of the boundary and the
-    // point lights (cleared_step_radius). A step needs sigma times it >= threshold().
+    // point lights (cleared_step_radius; negative where none fits). A step needs sigma
+    // times it >= threshold().
     float step_radius(int shape, Vec3 p, float r, float sigma) const {
         const float c = clearance_[size_t(shape)];
         return c == 0.f ? r : cleared_radius(p, r, sigma, c);

@@ -379,6 +379,8 @@ TEST(SphereTracer, BallsKeepClearOfTheBoundaryAndPointLights) {
                     0.45f - c);  // the light is farther than the boundary
     EXPECT_LT(st->step_radius(0, Vec3(0.2f, 0.f, 0.f), 0.7f, 100.f),
               0.f);  // at the light
+    // sigma r = 15 < tau + c = 16: no ball, whatever the lights.
+    EXPECT_LT(100.f * st->step_radius(0, Vec3(0.f, 0.5f, 0.f), 0.15f, 100.f), 6.f);
     EXPECT_EQ(tracing(lit_inside, false)->clearance(0), 0.f);
     EXPECT_EQ(tracing(lit_inside, true, StepNee::Event)->clearance(0), 0.f);
     EXPECT_EQ(tracing(lit_inside, false)->step_radius(0, Vec3(0.f), 0.9f, 100.f), 0.9f);

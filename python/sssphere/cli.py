@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 import re
+import select
 import signal
 import sys
 import time
@@ -437,6 +438,17 @@ def _on_sigterm(signum, frame):
     raise KeyboardInterrupt
 
 
+def _stdout_reader_gone() -> bool:
+    """Whether stdout is a pipe whose reading end is closed (poll reports an error on the
+    writing end then)."""
+    try:
+        poll = select.poll()
+        poll.register(sys.stdout.fileno(), select.POLLOUT)
+        return any(events & select.POLLERR for _, events in poll.poll(0))
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
 def _interrupted_status() -> int:
     return 128 + signal.SIGTERM if _terminated else 130
 
@@ -448,9 +460,13 @@ def main(argv: list[str] | None = None) -> int:
         status = args.func(args)
         sys.stdout.flush()  # here, where a closed pipe is caught below, not at exit
         return status
-    except BrokenPipeError:  # the reader of our output left (`sssphere presets | head`)
-        # Quiet, as a command killed by SIGPIPE; stdout to /dev/null so that Python's own
-        # flush at exit does not complain again.
+    except BrokenPipeError as e:
+        if not _stdout_reader_gone():  # another pipe (a cluster connection, a FIFO)
+            print(f"sssphere: error: {e}", file=sys.stderr)
+            return 1
+        # The reader of our output left (`sssphere presets | head`): quiet, as a command
+        # killed by SIGPIPE; stdout to /dev/null so that Python's own flush at exit does
+        # not complain again.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 128 + signal.SIGPIPE
     except (SceneError, OSError) as e:  # OSError: a path that cannot be written, a lost cluster

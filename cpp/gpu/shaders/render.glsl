@@ -328,7 +328,7 @@ void cross(inout Path p, Hit hit) {
 float step_radius(GpuShape s, vec3 p, float r, float sigma) {
     float c = s.sigma_t.w;
     if (c == 0.0) return r;
-    if (sigma * r < params.y + c) return r - c / sigma;
+    if (sigma * r < params.y + c) return -1.0;
     float light_dist = kInf;
     for (uint i = 0u; i < lighting.z; ++i)
         light_dist = min(light_dist, light_sample(light_data(lights[i]), p, 0.5, 0.5).dist);
