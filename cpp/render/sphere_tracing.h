@@ -82,7 +82,8 @@ public:
 
     float threshold() const { return threshold_; }
     // Whether any medium of the scene has a point deep enough for a step (sigma_t r >=
-    // threshold with r the grid's bound). When none has, "st" is "pt" exactly, and the
+    // threshold + clearance with r the grid's bound, sigma_t the smallest channel's).
+    // When none has, "st" is "pt" exactly, and the
     // renderer traces it as "pt" (no paths in flight).
     bool may_step() const { return may_step_; }
     // Steps are shrunk so that sigma = sigma_t * r' <= sigma_max.
