@@ -83,8 +83,8 @@ public:
     float threshold() const { return threshold_; }
     // Whether any medium of the scene has a point deep enough for a step (sigma_t r >=
     // threshold + clearance with r the grid's bound, sigma_t the smallest channel's).
-    // When none has, "st" is "pt" exactly, and the
-    // renderer traces it as "pt" (no paths in flight).
+    // When none has, "st" is "pt" exactly, and the renderer traces it as "pt" (no paths
+    // in flight).
     bool may_step() const { return may_step_; }
     // Steps are shrunk so that sigma = sigma_t * r' <= sigma_max.
     float sigma_max() const { return sigma_max_; }
