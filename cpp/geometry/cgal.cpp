@@ -88,13 +88,7 @@ TriangleMesh load_mesh(const std::string& path, MeshKind kind) {
 
     std::vector<Point> points;
     std::vector<std::vector<std::size_t>> polygons;
-    if (ext == ".ply" || ext == ".off") {
-        // Our readers: CGAL's crash on malformed PLY and OFF files (polygon_readers.h).
-        PolygonSoup soup = ext == ".ply" ? read_ply(path) : read_off(path);
-        for (size_t i = 0; i + 2 < soup.xyz.size(); i += 3)
-            points.emplace_back(soup.xyz[i], soup.xyz[i + 1], soup.xyz[i + 2]);
-        polygons = std::move(soup.polygons);
-    } else {
+    if (ext == ".stl") {
         bool ok = false;
         try {
             ok = CGAL::IO::read_polygon_soup(path, points, polygons,
@@ -103,6 +97,15 @@ TriangleMesh load_mesh(const std::string& path, MeshKind kind) {
             fail(path, ": cannot parse mesh: ", e.what());
         }
         if (!ok) fail(path, ": cannot parse mesh (malformed ", ext, " file)");
+    } else {
+        // Our readers (polygon_readers.h): CGAL's crash on malformed PLY and OFF files
+        // and do not say where an OBJ file is malformed.
+        PolygonSoup soup = ext == ".ply"   ? read_ply(path)
+                           : ext == ".off" ? read_off(path)
+                                           : read_obj(path);
+        for (size_t i = 0; i + 2 < soup.xyz.size(); i += 3)
+            points.emplace_back(soup.xyz[i], soup.xyz[i + 1], soup.xyz[i + 2]);
+        polygons = std::move(soup.polygons);
     }
     if (points.empty() || polygons.empty()) fail(path, ": mesh has no faces");
 

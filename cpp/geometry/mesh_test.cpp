@@ -124,6 +124,52 @@ TEST(Mesh, ObjQuadsAreTriangulatedAndStlVerticesMerged) {
     EXPECT_NEAR(s.volume(), 1.0, 1e-6);
 }
 
+// OBJ files are read by polygon_readers.cpp: every form of a face's vertex, negative
+// indices, continued lines and what a mesh does not need give the same cube; each
+// malformed line is named.
+TEST(Mesh, ObjFacesInEveryFormReadAsOneCube) {
+    const std::string v =
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1 1.0\n";
+    const std::string extras =
+        "# a comment\nmtllib cube.mtl\no cube\ng side\ns off\nusemtl wax\nvt 0 0\n"
+        "vn 0 0 1\nl 1 2\n";
+    const std::string f =
+        "f 1/1 4/1 3/1 2/1\r\nf 5//1 6//1 7//1 8//1\nf -8/1/1 -7/1/1 -3/1/1 -4/1/1\n"
+        "f 3 4 \\\n 8 7  # continued\nfo 2 3 7 6\nf 1 5 8 4\n";
+    TriangleMesh m = load_mesh(TempFile("cube.obj", extras + v + f).path());
+    EXPECT_EQ(m.triangles.size(), 12u);
+    EXPECT_NEAR(m.volume(), 1.0, 1e-6);
+}
+
+TEST(Mesh, MalformedObjLinesAreNamed) {
+    const std::string v =
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n";
+    const std::string f = "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\n";
+    const struct {
+        std::string text, expected;
+    } cases[] = {
+        {"v 0 0\n" + v + f, "line 1: vertex 1 needs three numbers x y z"},
+        {v + "v 1 nan 0\n" + f, "line 9: vertex 9 is not finite"},
+        {v + f + "f 3 4 x 7\n", "line 12: vertex index 'x' is not allowed"},
+        {v + f + "f 3 4 0 7\n", "line 12: vertex index '0' is not allowed"},
+        {v + f + "f 3 4 99999999999999999999 7\n", "line 12: vertex index '9999"},
+        {v + f + "f 3 4\n", "line 12: a face needs at least 3 vertices, this one has 2"},
+        {v + f + "f 3 4 9 7\n", "line 12: vertex index 9 but the file has 8 vertices"},
+        {v + f + "f 3 4 -9 7\n",
+         "line 12: vertex index -9 reaches back before the first"},
+        {v + "hello world\n" + f, "line 9: unknown keyword 'hello'"},
+        {std::string("\x01\x02junk\n") + v + f, "line 1: unknown keyword '??junk'"},
+        {v + f + "cstype bspline\n", "line 12: free-form geometry ('cstype')"},
+    };
+    for (const auto& c : cases) {
+        TempFile obj("bad.obj", c.text);
+        const std::string e = error_of(obj.path());
+        EXPECT_NE(e.find(obj.path() + ": malformed OBJ file, " + c.expected),
+                  std::string::npos)
+            << e << "\nexpected: " << c.expected;
+    }
+}
+
 TEST(Mesh, TransformAndNormalize) {
     TriangleMesh m = make_icosphere({0, 0, 0}, 1.f, 2);
     Transform t{{-2, 1, 1}, {0, 90, 0}, {5, 0, 0}};

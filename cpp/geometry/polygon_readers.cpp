@@ -387,4 +387,113 @@ PolygonSoup read_off(const std::string& path) {
     return soup;
 }
 
+// --- OBJ ---------------------------------------------------------------------------
+
+namespace {
+
+// OBJ keywords that carry nothing a polygon mesh needs: read and ignored.
+bool ignored_obj_keyword(const std::string& k) {
+    static const char* const kIgnored[] = {
+        "vt",    "vn",       "vp",       "l",          "p",         "o",      "g",
+        "s",     "mg",       "usemtl",   "mtllib",     "maplib",    "usemap", "lod",
+        "bevel", "c_interp", "d_interp", "shadow_obj", "trace_obj", "call",   "csh"};
+    return std::find_if(std::begin(kIgnored), std::end(kIgnored),
+                        [&](const char* w) { return k == w; }) != std::end(kIgnored);
+}
+
+// Free-form geometry (curves and surfaces), which has no polygons to read.
+bool freeform_obj_keyword(const std::string& k) {
+    static const char* const kFreeform[] = {
+        "cstype", "deg",  "bmat", "step", "curv", "curv2", "surf",  "parm",
+        "trim",   "hole", "scrv", "sp",   "end",  "con",   "ctech", "stech"};
+    return std::find_if(std::begin(kFreeform), std::end(kFreeform),
+                        [&](const char* w) { return k == w; }) != std::end(kFreeform);
+}
+
+// A word as an error message may quote it: at most 24 bytes, control bytes as '?'.
+std::string quoted(const std::string& w) {
+    std::string q = w.substr(0, 24);
+    for (char& c : q)
+        if (std::iscntrl(static_cast<unsigned char>(c))) c = '?';
+    return q.size() < w.size() ? q + "..." : q;
+}
+
+}  // namespace
+
+PolygonSoup read_obj(const std::string& path) {
+    const std::string data = read_all(path);
+    PolygonSoup soup;
+    std::istringstream in(data);
+    std::vector<int> face_lines;  // the line of each face, for the indices checked last
+    std::string line;
+    auto next_line = [&](std::string& l) {
+        if (!std::getline(in, l)) return false;
+        if (!l.empty() && l.back() == '\r') l.pop_back();
+        return true;
+    };
+    int n = 0;
+    while (next_line(line)) {
+        const int first = ++n;
+        // A line ending in '\' goes on on the next.
+        for (std::string more; !line.empty() && line.back() == '\\' && next_line(more);
+             ++n)
+            line.back() = ' ', line += more;
+        const size_t hash = line.find('#');
+        if (hash != std::string::npos) line.resize(hash);
+        const std::vector<std::string> w = words_of(line);
+        if (w.empty()) continue;
+        auto bad = [&](const auto&... why) {
+            fail(path, ": malformed OBJ file, line ", first, ": ", why...);
+        };
+        const std::string& key = w[0];
+        if (key == "v") {
+            double v[3] = {0.0, 0.0, 0.0};
+            if (w.size() < 4 || !parse_double(w[1], v[0]) || !parse_double(w[2], v[1]) ||
+                !parse_double(w[3], v[2]))
+                bad("vertex ", soup.xyz.size() / 3 + 1, " needs three numbers x y z");
+            if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2]))
+                bad("vertex ", soup.xyz.size() / 3 + 1, " is not finite");
+            soup.xyz.insert(soup.xyz.end(), v, v + 3);
+        } else if (key == "f" || key == "fo") {
+            if (w.size() - 1 > kMaxFaceVertices)
+                bad("a face has more than ", kMaxFaceVertices, " vertices");
+            const uint64_t defined = soup.xyz.size() / 3;
+            std::vector<std::size_t> polygon;
+            for (size_t k = 1; k < w.size(); ++k) {
+                // v, v/vt, v/vt/vn or v//vn: the vertex index is the part before '/'.
+                const std::string v = w[k].substr(0, w[k].find('/'));
+                char* end = nullptr;
+                errno = 0;
+                const long long i = std::strtoll(v.c_str(), &end, 10);
+                if (v.empty() || *end != '\0' || errno == ERANGE || i == 0)
+                    bad("vertex index '", quoted(w[k]),
+                        "' is not allowed (allowed: non-zero integers; 1 is the first "
+                        "vertex, -1 the last one read)");
+                if (i < 0 && uint64_t(-(i + 1)) >= defined)
+                    bad("vertex index ", i, " reaches back before the first vertex (",
+                        defined, " read so far)");
+                polygon.push_back(i > 0 ? std::size_t(i - 1)
+                                        : std::size_t(defined - uint64_t(-(i + 1)) - 1));
+            }
+            if (polygon.size() < 3)
+                bad("a face needs at least 3 vertices, this one has ", polygon.size());
+            soup.polygons.push_back(std::move(polygon));
+            face_lines.push_back(first);
+        } else if (freeform_obj_keyword(key)) {
+            bad("free-form geometry ('", key,
+                "') is not supported (allowed: polygons, 'f' lines)");
+        } else if (!ignored_obj_keyword(key)) {
+            bad("unknown keyword '", quoted(key), "' (a mesh needs 'v' and 'f' lines)");
+        }
+    }
+    const uint64_t vertices = soup.xyz.size() / 3;
+    for (size_t f = 0; f < soup.polygons.size(); ++f)
+        for (std::size_t i : soup.polygons[f])
+            if (i >= vertices)
+                fail(path, ": malformed OBJ file, line ", face_lines[f],
+                     ": vertex index ", i + 1, " but the file has ", vertices,
+                     " vertices");
+    return soup;
+}
+
 }  // namespace sss

@@ -1,8 +1,9 @@
-// Readers for the PLY and OFF polygon formats. CGAL's readers for these two crash on
-// malformed files (found by fuzzing: tests/fuzz/regressions/mesh_ply, mesh_off), so
-// load_mesh uses these instead; OBJ and STL still go through CGAL. Both read a polygon
-// soup and check everything they read: malformed input throws sss::Error naming the file,
-// the line or element, and what is allowed.
+// Readers for the PLY, OFF and OBJ polygon formats. CGAL's readers for PLY and OFF crash
+// on malformed files (found by fuzzing: tests/fuzz/regressions/mesh_ply, mesh_off), and
+// its OBJ reader says only "malformed" (or reads "f 1 2 x" as a face of two vertices), so
+// load_mesh uses these instead; STL still goes through CGAL. Each reads a polygon soup
+// and checks everything it reads: malformed input throws sss::Error naming the file, the
+// line or element, and what is allowed.
 #pragma once
 
 #include <cstddef>
@@ -24,5 +25,12 @@ PolygonSoup read_ply(const std::string& path);
 // OFF in ASCII (also COFF, NOFF, CNOFF, STOFF ...: colours, normals and texture
 // coordinates after a vertex's x, y, z or a face's indices are ignored).
 PolygonSoup read_off(const std::string& path);
+
+// OBJ: 'v' lines (x y z; a w or colours after them are ignored) and 'f' lines (indices
+// v, v/vt, v/vt/vn or v//vn, counted from 1, or back from the last vertex read when
+// negative), joined across a trailing '\'. Texture coordinates, normals, groups,
+// materials and lines are read and ignored; free-form geometry and unknown keywords are
+// refused.
+PolygonSoup read_obj(const std::string& path);
 
 }  // namespace sss
