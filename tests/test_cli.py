@@ -128,6 +128,24 @@ def test_ctrl_c_writes_partial_image_python_cli(tmp_path, slow_scene):
     assert np.all(np.isfinite(img)) and img.max() > 0
 
 
+
+@pytest.mark.parametrize("cli, sig, code", [("python", signal.SIGINT, 130), ("cpp", signal.SIGTERM, 143)])
+def test_interrupted_before_the_first_pass_writes_nothing_and_says_so(tmp_path, slow_scene, cli, sig, code):
+    """A render stopped before its first pass (1 spp of every pixel) has finished has no
+    image to keep: it writes nothing, rather than an all-black image, and says so. Here
+    the first pass is a million paths of ~1000 events, tens of seconds."""
+    scene = json.loads(slow_scene.read_text())
+    scene["camera"]["width"] = scene["camera"]["height"] = 1024
+    slow_scene.write_text(json.dumps(scene))
+    out = tmp_path / "never.exr"
+    cmd = [sys.executable, "-m", "sssphere.cli", "render"] if cli == "python" else [_cpp_cli()]
+    start = time.monotonic()
+    got, err = _interrupt_after_start([*cmd, str(slow_scene), "-o", str(out)], tmp_path, sig)
+    assert got == code, err
+    assert time.monotonic() - start < 60, err  # stopped mid-pass, not at its end
+    assert f"interrupted before the first pass finished: wrote nothing to {out}" in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["slow.json"]
+
 def _read_pty(fd: int, until: bytes | None, timeout: float) -> bytes:
     """What the child writes to the terminal `fd` until `until` appears (None: until it
     closes the terminal) or `timeout` seconds pass."""

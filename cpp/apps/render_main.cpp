@@ -169,6 +169,14 @@ int main(int argc, char** argv) {
             return g_signal == 0;
         });
         if (!quiet) std::fprintf(stderr, "\n");
+        const int interrupted = 128 + (g_signal ? int(g_signal) : SIGINT);
+        if (r.cancelled && r.spp == 0) {  // an all-black image would look like a render
+            std::fprintf(
+                stderr,
+                "interrupted before the first pass finished: wrote nothing to %s\n",
+                out_path.c_str());
+            return interrupted;
+        }
         if (aovs)
             write_with_aovs(out_path, scene, opt, r);
         else
@@ -193,7 +201,7 @@ int main(int argc, char** argv) {
                                    : "wrote",
             out_path.c_str(), r.seconds, r.spp, paths > 0 ? r.total_events / paths : 0.0,
             steps.c_str(), r.device.empty() ? "" : " on ", r.device.c_str());
-        return r.cancelled ? 128 + (g_signal ? int(g_signal) : SIGINT) : 0;
+        return r.cancelled ? interrupted : 0;
     } catch (const std::exception& e) {
         std::cerr << "sssphere-render: error: " << e.what() << "\n";
         return 1;

@@ -83,6 +83,10 @@ def _cmd_render(args: argparse.Namespace) -> int:
         result = rendering._result(rendering._render(scene, bar, {}, text, args.ray))
     finally:
         bar.close()
+    if result.interrupted and result.spp == 0:  # an all-black image would look like a render
+        print(f"interrupted before the first pass finished: wrote nothing to {out}",
+              file=sys.stderr)
+        return _interrupted_status()
     result = rendering.with_aovs(scene, result, args.aovs, args.denoise)
     result.save(out, aovs=args.aovs)
     what = ("interrupted: wrote the partial image" if result.interrupted
@@ -126,6 +130,8 @@ def _render_turntable(args: argparse.Namespace, scene, text: dict, load_s: float
     written = []
 
     def save(k: int, result) -> None:
+        if result.spp == 0:  # interrupted before its first pass: nothing to keep
+            return
         out = pattern % k
         result.save(out, aovs=args.aovs)
         written.append(out)
