@@ -525,13 +525,22 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
         // boundary either. r_end is kept for the collision there.
         const Vec3 end = o + d * t;
         float r_end = -1.f;
+        bool ray_cast = false;
         if (!(t < r_o)) {
             if (t < kInf) r_end = query(end);
-            if (!(t < r_o + r_end))
-                at_boundary = scene_.tracer().intersect(o, d, 0.f, t, &hit);
+            ray_cast = !(t < r_o + r_end);
+            if (ray_cast) at_boundary = scene_.tracer().intersect(o, d, 0.f, t, &hit);
         }
-        if (!at_boundary && !(t < kInf)) {
-            // No boundary ahead of an unbounded flight: numerical leak out of the mesh.
+        if (!at_boundary &&
+            (!(t < kInf) || (ray_cast && !grid.empty() && grid.cell_of(end) < 0))) {
+            // A numerical leak out of the mesh: no boundary ahead of an unbounded flight,
+            // or one whose ray met no boundary but ends outside the grid, which holds the
+            // mesh with a cell to spare. (A collision that lands on the surface, to the
+            // float, starts a flight whose ray cannot see the crossing at its origin:
+            // such a photon walks on outside until it meets the surface again or leaves
+            // the grid; with albedo 1 it walked for ever.) It goes on along d from where
+            // it is, as from the crossing. render.glsl does the same.
+            if (t < kInf) o = end;
             shape = -1;
             continue;
         }

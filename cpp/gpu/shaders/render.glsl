@@ -434,13 +434,16 @@ void path_iterate(inout Path p) {
     p.r_at_o = -1.0;
     vec3 end = p.o + p.d * t;
     float r_end = -1.0;
-    bool at_boundary = false;
+    bool at_boundary = false, ray_cast = false;
     if (!(t < r_o)) {
         if (t < kInf) r_end = path_grid_query(p, end);
-        if (!(t < r_o + r_end)) at_boundary = intersect(p.o, p.d, t, hit);
+        ray_cast = !(t < r_o + r_end);
+        if (ray_cast) at_boundary = intersect(p.o, p.d, t, hit);
     }
-    if (!at_boundary && !(t < kInf)) {
-        p.shape = -1;  // numerical leak out of the mesh
+    if (!at_boundary && (!(t < kInf) || (ray_cast && grid_cell_of(p.shape, end) < 0))) {
+        // A numerical leak out of the mesh (pt.cpp): on along d from where it is.
+        if (t < kInf) p.o = end;
+        p.shape = -1;
         return;
     }
     if (p.spectral) {
