@@ -278,6 +278,30 @@ def test_what_fuzzing_found_in_the_mesh_readers(tmp_path):
     assert len(v) == 8 and t.max() == 7
 
 
+
+def test_obj_faces_in_every_form_read_as_the_off_cube_and_bad_lines_are_named(tmp_path):
+    """Our OBJ reader: faces as v, v/vt, v/vt/vn, v//vn and negative indices give the
+    triangles of the same cube written as OFF; a malformed line is refused by number."""
+    _write_off(tmp_path / "cube.off", CUBE_V, CUBE_F)
+    forms = ["{}", "{}/1", "{}/1/1", "{}//1", "-{}"]
+    lines = ["vt 0 0", "vn 0 0 1"] + [f"v {x} {y} {z}" for x, y, z in CUBE_V]
+    for i, face in enumerate(CUBE_F):
+        form = forms[i % len(forms)]
+        lines.append("f " + " ".join(
+            form.format(len(CUBE_V) - k) if form.startswith("-") else form.format(k + 1)
+            for k in face))
+    (tmp_path / "cube.obj").write_text("\n".join(lines) + "\n")
+    v_off, t_off = sssphere.load_mesh(tmp_path / "cube.off")
+    v_obj, t_obj = sssphere.load_mesh(tmp_path / "cube.obj")
+    np.testing.assert_array_equal(v_obj, v_off)
+    np.testing.assert_array_equal(t_obj, t_off)
+
+    lines[len(lines) - 2] = "f 3 4 x 7"
+    (tmp_path / "bad.obj").write_text("\n".join(lines) + "\n")
+    with pytest.raises(SceneError, match=rf"bad\.obj: malformed OBJ file, line {len(lines) - 1}: "
+                                         r"vertex index 'x' is not allowed"):
+        sssphere.load_mesh(tmp_path / "bad.obj")
+
 def _ply(fmt, verts, faces, vtype="float", itype="int"):
     head = (f"ply\nformat {fmt} 1.0\ncomment ours\nelement vertex {len(verts)}\n"
             f"property {vtype} x\nproperty {vtype} y\nproperty {vtype} z\n"
