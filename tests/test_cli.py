@@ -84,6 +84,43 @@ def test_cli_errors_are_clear(tmp_path, small_scene, args, expected):
     assert "Traceback" not in r.stderr
 
 
+
+@pytest.mark.parametrize("cli", ["python", "cpp"])
+def test_outputs_that_would_lose_the_render_or_an_input_are_refused_before_it(tmp_path, small_scene,
+                                                                             cli):
+    """An output that is a directory, or lies where no file can be made, was found only once
+    the render had finished (its image lost); one naming a file the scene reads (its
+    environment map) overwrote it. All are refused before the render. An output through a
+    symbolic link replaces the link's target and keeps the link."""
+    sky = tmp_path / "sky.exr"
+    shutil.copy(os.path.join(REPO, "scenes", "sky.exr"), sky)
+    small_scene["lights"] = [light for light in small_scene["lights"]
+                             if light["type"] != "environment"]
+    small_scene["lights"].append({"type": "environment", "map": "sky.exr"})
+    small_scene["render"]["spp"] = 1 << 16  # a render that is never reached
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    (tmp_path / "d.exr").mkdir()
+    before = sky.read_bytes()
+    cmd = ["render"] if cli == "python" else []
+    run = (lambda *a: run_cli(*cmd, *a)) if cli == "python" else \
+        (lambda *a: subprocess.run([_cpp_cli(), *map(str, a)], capture_output=True, text=True,
+                                   timeout=120))
+    for out, expected in ((tmp_path / "d.exr", "d.exr: is a directory"),
+                          ("/proc/sss.exr", "/proc/sss.exr: cannot write in '/proc': "),
+                          (sky, f"sky.exr: is a file the scene reads ('{sky}')")):
+        r = run(tmp_path / "s.json", "-o", out)
+        assert r.returncode == 1 and expected in r.stderr, r.stderr
+    assert sky.read_bytes() == before
+
+    small_scene["render"]["spp"] = 1
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    (tmp_path / "link.exr").symlink_to("target.exr")
+    (tmp_path / "target.exr").write_bytes(b"old")
+    r = run(tmp_path / "s.json", "-o", tmp_path / "link.exr")
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "link.exr").is_symlink()
+    assert sssphere.read_image(tmp_path / "target.exr").shape == (16, 24, 3)
+
 def _default_signals():
     # A shell that starts a job in the background without job control (`cmd &` in a
     # script, as a CI runner may) makes it ignore SIGINT, and an ignored SIGINT is
@@ -145,6 +182,75 @@ def test_interrupted_before_the_first_pass_writes_nothing_and_says_so(tmp_path, 
     assert time.monotonic() - start < 60, err  # stopped mid-pass, not at its end
     assert f"interrupted before the first pass finished: wrote nothing to {out}" in err, err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["slow.json"]
+
+
+@pytest.fixture
+def cli_in_process():
+    """sssphere.cli.main run in this process, its SIGTERM handler undone afterwards."""
+    from sssphere import cli
+
+    previous = signal.getsignal(signal.SIGTERM)
+    yield cli.main
+    signal.signal(signal.SIGTERM, previous)
+
+
+def test_ctrl_c_once_the_render_has_finished_still_writes_it(tmp_path, small_scene, monkeypatch,
+                                                             capsys, cli_in_process):
+    """Ctrl-C while the finished render's AOVs are made (or it is denoised, written, a Ray
+    cluster shut down) delays the exit: the whole render is written, and the status says
+    it was interrupted. It used to reach the top level and write nothing."""
+    from sssphere import rendering
+
+    expected = sssphere.render(sssphere.load_scene(small_scene), spp=4, seed=5)
+    real_with_aovs = rendering.with_aovs
+
+    def with_aovs_under_ctrl_c(*args, **kwargs):
+        os.kill(os.getpid(), signal.SIGINT)  # its handler runs at the next bytecode
+        return real_with_aovs(*args, **kwargs)
+
+    monkeypatch.setattr(rendering, "with_aovs", with_aovs_under_ctrl_c)
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    out = tmp_path / "after.exr"
+    status = cli_in_process(["render", str(tmp_path / "s.json"), "-o", str(out), "--spp", "4",
+                             "--seed", "5", "--aovs", "--quiet"])
+    err = capsys.readouterr().err
+    assert status == 130, err
+    assert "interrupted once the render had finished: wrote" in err, err
+    np.testing.assert_array_equal(sssphere.read_layers(out)[""], expected)
+
+
+def test_a_second_ctrl_c_while_the_partial_image_is_written_does_not_lose_it(
+        tmp_path, slow_scene, monkeypatch, capsys, cli_in_process):
+    """The first Ctrl-C stops the render; a second one, while its AOVs are made and it is
+    written, is only noted (a third would abandon the write)."""
+    from sssphere import rendering
+
+    real_render, real_with_aovs = rendering._render, rendering.with_aovs
+    calls = []
+
+    def render_under_ctrl_c(scene, progress, *args, **kwargs):
+        def progress_under_ctrl_c(fraction):
+            calls.append(fraction)
+            if len(calls) == 3:  # the render is under way: Ctrl-C
+                os.kill(os.getpid(), signal.SIGINT)
+            return progress(fraction)
+        return real_render(scene, progress_under_ctrl_c, *args, **kwargs)
+
+    def with_aovs_under_ctrl_c(*args, **kwargs):
+        os.kill(os.getpid(), signal.SIGINT)
+        return real_with_aovs(*args, **kwargs)
+
+    monkeypatch.setattr(rendering, "_render", render_under_ctrl_c)
+    monkeypatch.setattr(rendering, "with_aovs", with_aovs_under_ctrl_c)
+    out = tmp_path / "partial.exr"
+    status = cli_in_process(["render", str(slow_scene), "-o", str(out), "--aovs", "--quiet"])
+    err = capsys.readouterr().err
+    assert status == 130, err
+    assert "interrupted again: still writing what was rendered" in err, err
+    spp = int(re.search(r"interrupted: wrote the partial image .* (\d+) spp", err).group(1))
+    assert 0 < spp < 1 << 16, err
+    layers = sssphere.read_layers(out)
+    assert np.all(np.isfinite(layers[""])) and layers[""].max() > 0 and "albedo" in layers
 
 def _read_pty(fd: int, until: bytes | None, timeout: float) -> bytes:
     """What the child writes to the terminal `fd` until `until` appears (None: until it

@@ -149,6 +149,9 @@ int main(int argc, char** argv) {
         sss::check_output_image(out_path);
         sss::SceneDesc desc =
             sss::load_scene_file(scene_path, assignments, width, height);
+        std::vector<std::string> inputs = desc.inputs;
+        inputs.push_back(scene_path);
+        sss::check_output_is_not_an_input(out_path, inputs);
         for (const std::string& w : desc.warnings)
             std::cerr << "sssphere-render: warning: " << w << "\n";
         sss::RenderOverrides overrides;

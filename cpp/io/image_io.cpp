@@ -1,12 +1,15 @@
 #include "io/image_io.h"
 
 #include <OpenImageIO/imageio.h>
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -33,14 +36,63 @@ float linear_to_srgb(float v) {
     return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.f / 2.4f) - 0.055f;
 }
 
+namespace {
+
+// The temporary file an image is written to before it is renamed to `target`.
+std::filesystem::path temporary_beside(const std::filesystem::path& target) {
+    return target.parent_path() /
+           ("." + target.stem().string() + ".tmp-" + std::to_string(::getpid()) +
+            target.extension().string());
+}
+
+}  // namespace
+
+std::string output_target(const std::string& path) {
+    namespace fs = std::filesystem;
+    fs::path target(path);
+    std::error_code ec;
+    for (int links = 0; links < 40 && fs::is_symlink(target, ec); ++links) {
+        const fs::path to = fs::read_symlink(target, ec);
+        if (ec) break;
+        target = to.is_absolute() ? to : target.parent_path() / to;
+    }
+    return target.string();
+}
+
 void check_output_image(const std::string& path) {
     namespace fs = std::filesystem;
     const std::string ext = lower_extension(path);
     if (ext != ".exr" && ext != ".png")
         fail(path, ": unsupported image format '", ext, "' (allowed: .exr, .png)");
-    fs::path parent = fs::path(path).parent_path();
+    const fs::path target(output_target(path));
+    fs::path parent = target.parent_path();
     if (!parent.empty() && !fs::is_directory(parent))
         fail(path, ": output directory '", parent.string(), "' does not exist");
+    std::error_code ec;
+    if (fs::is_directory(target, ec))
+        fail(path, ": is a directory (an output image needs a file name)");
+    // Whether a file can be made there: the temporary file the image is written to.
+    const std::string probe = temporary_beside(target).string();
+    const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0644);
+    if (fd < 0 && errno != EEXIST)
+        fail(path, ": cannot write in '", parent.empty() ? "." : parent.string(),
+             "': ", std::strerror(errno));
+    if (fd >= 0) {
+        ::close(fd);
+        ::unlink(probe.c_str());
+    }
+}
+
+void check_output_is_not_an_input(const std::string& path,
+                                  const std::vector<std::string>& inputs) {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    const fs::path target(output_target(path));
+    if (!fs::exists(target, ec)) return;
+    for (const std::string& input : inputs)
+        if (fs::equivalent(target, input, ec))
+            fail(path, ": is a file the scene reads ('", input,
+                 "'): writing the image would overwrite it (choose another output)");
 }
 
 namespace {
@@ -51,11 +103,8 @@ namespace {
 void write_atomically(const std::string& path, const OIIO::ImageSpec& spec,
                       OIIO::TypeDesc type, const void* data) {
     namespace fs = std::filesystem;
-    const fs::path target(path);
-    const std::string tmp = (target.parent_path() /
-                             ("." + target.stem().string() + ".tmp-" +
-                              std::to_string(::getpid()) + target.extension().string()))
-                                .string();
+    const fs::path target(output_target(path));
+    const std::string tmp = temporary_beside(target).string();
     auto cleanup = [&] {
         std::error_code ec;
         fs::remove(tmp, ec);

@@ -7,9 +7,19 @@
 
 namespace sss {
 
-// Throws sss::Error unless `path` can be an output image: a .exr or .png name in an
-// existing directory (checked before a render, not after it).
+// Throws sss::Error unless `path` can be an output image: a .exr or .png name, not a
+// directory, in an existing directory where a file can be created (checked before a
+// render, not after it).
 void check_output_image(const std::string& path);
+
+// Throws sss::Error if `path` names one of `inputs` (the files a scene reads) or a link
+// to one: writing it would overwrite what the scene is made of.
+void check_output_is_not_an_input(const std::string& path,
+                                  const std::vector<std::string>& inputs);
+
+// The file an image written to `path` replaces: `path`, or where its symbolic links lead
+// (an output through a link replaces the link's target, not the link).
+std::string output_target(const std::string& path);
 
 // `pixels` holds height * width * channels floats, row 0 at the top.
 void write_image(const std::string& path, const std::vector<float>& pixels, int width,

@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -166,4 +167,62 @@ TEST(ImageIo, RefusesTruncatedAndLyingPngChunks) {
     EXPECT_NE(read_error(big_file.path()).find("more than the file holds"),
               std::string::npos)
         << read_error(big_file.path());
+}
+
+namespace {
+std::string output_error(const std::function<void()>& f) {
+    try {
+        f();
+    } catch (const Error& e) {
+        return e.what();
+    }
+    return "";
+}
+}  // namespace
+
+// Outputs are checked before a render: a directory, or a directory where no file can be
+// made, is refused up front (not after the render, with its image lost).
+TEST(ImageIo, OutputsThatCannotBeWrittenAreRefusedFirst) {
+    namespace fs = std::filesystem;
+    const fs::path dir = fs::temp_directory_path() / "sss_ImageIo_outputs.exr";
+    fs::create_directories(dir);
+    EXPECT_NE(
+        output_error([&] { check_output_image(dir.string()); }).find("is a directory"),
+        std::string::npos);
+    fs::remove(dir);
+    const std::string e = output_error([] { check_output_image("/proc/sss.exr"); });
+    EXPECT_NE(e.find("/proc/sss.exr: cannot write in '/proc': "), std::string::npos) << e;
+    TempFile fine("fine.exr", "");
+    EXPECT_EQ(output_error([&] { check_output_image(fine.path()); }), "");
+    EXPECT_EQ(fs::file_size(fine.path()), 0u);  // checked, not touched
+}
+
+// An image written through a symbolic link replaces the link's target; the scene's own
+// files, named directly or through a link, are refused as outputs.
+TEST(ImageIo, OutputsGoThroughLinksAndNeverOverAnInput) {
+    namespace fs = std::filesystem;
+    TempFile target("target.exr", "old");
+    const fs::path link = fs::path(target.path()).parent_path() / "sss_ImageIo_link.exr";
+    fs::remove(link);
+    fs::create_symlink(fs::path(target.path()).filename(), link);
+    write_image(link.string(), std::vector<float>(2 * 3 * 3, 0.5f), 2, 3);
+    EXPECT_TRUE(fs::is_symlink(link));
+    int w = 0, h = 0, c = 0;
+    EXPECT_EQ(read_image(target.path(), &w, &h, &c).size(), 18u);
+    EXPECT_EQ(output_target(link.string()), target.path());
+
+    TempFile map("map.exr", "x");
+    const std::vector<std::string> inputs{"/nonexistent.obj", map.path()};
+    const std::string e =
+        output_error([&] { check_output_is_not_an_input(map.path(), inputs); });
+    EXPECT_NE(e.find("is a file the scene reads ('" + map.path() + "')"),
+              std::string::npos)
+        << e;
+    EXPECT_EQ(output_error([&] { check_output_is_not_an_input(link.string(), inputs); }),
+              "");
+    EXPECT_NE(output_error([&] {
+                  check_output_is_not_an_input(link.string(), {target.path()});
+              }).find("is a file the scene reads"),
+              std::string::npos);
+    fs::remove(link);
 }

@@ -36,6 +36,10 @@ PYBIND11_MODULE(_image, m) {
         },
         py::arg("path"), py::arg("image"));
 
+    m.def("check_output_image", &sss::check_output_image, py::arg("path"));
+    m.def("check_output_is_not_an_input", &sss::check_output_is_not_an_input,
+          py::arg("path"), py::arg("inputs"));
+
     m.def(
         "read_image",
         [](const std::string& path) {

@@ -121,6 +121,7 @@ PYBIND11_MODULE(_core, m) {
         .def_property_readonly("height",
                                [](const Scene& s) { return s.desc().camera.height; })
         .def_property_readonly("source", [](const Scene& s) { return s.desc().source; })
+        .def_property_readonly("inputs", [](const Scene& s) { return s.desc().inputs; })
         .def_property_readonly("base_dir",
                                [](const Scene& s) { return s.desc().base_dir; })
         .def_property_readonly("warnings",

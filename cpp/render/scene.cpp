@@ -205,6 +205,7 @@ Medium parse_medium(const json& j, const Field& f) {
 struct ParsedShape {
     Shape shape;
     std::vector<Vec3d> positions;
+    std::string file;  // the mesh file, if any
 };
 
 Surface parse_surface(const json& j, const Field& f) {
@@ -292,12 +293,14 @@ ParsedShape parse_shape(const json& j, const Field& f, const std::string& base_d
     const MeshKind mesh_kind = s.is_surface() ? MeshKind::Open : MeshKind::Closed;
     // The sphere's centre joins the transform (in double): the mesh is built about 0.
     Vec3d center;
+    std::string file;
     if (has_mesh) {
         const json& m = j["mesh"];
         if (!m.is_string())
             f.at("mesh").error("expected a file path string, got ", show(m));
         std::filesystem::path p(m.get<std::string>());
         if (p.is_relative()) p = std::filesystem::path(base_dir) / p;
+        file = p.string();
         try {
             s.mesh = meshes ? meshes->load(p.string(), mesh_kind)
                             : load_mesh(p.string(), mesh_kind);
@@ -353,11 +356,11 @@ ParsedShape parse_shape(const json& j, const Field& f, const std::string& base_d
     for (const Vec3d& p : positions)
         if (!is_finite(p.to_float()))
             f.at("transform").error("moves the mesh out of single-precision range");
-    if (s.is_surface()) return {std::move(s), std::move(positions)};
+    if (s.is_surface()) return {std::move(s), std::move(positions), file};
     s.medium = parse_medium(j["medium"], f.at("medium"));
     if (j.contains("boundary"))
         s.boundary = parse_boundary(j["boundary"], f.at("boundary"));
-    return {std::move(s), std::move(positions)};
+    return {std::move(s), std::move(positions), file};
 }
 
 Light parse_light(const json& j, const Field& f, const LightContext& ctx) {
@@ -510,6 +513,7 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
             ps.shape.mesh.positions[i] = (ps.positions[i] - d.origin).to_float();
         ps.shape.mesh.origin = Vec3d();
         d.shapes.push_back(std::move(ps.shape));
+        if (!ps.file.empty()) d.inputs.push_back(ps.file);
     }
     d.camera = parse_camera(camera, f.at("camera"), d.origin);
     if (root.contains("lights")) {
@@ -521,6 +525,7 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
         ctx.frame = d.origin;
         ctx.base_dir = base_dir;
         ctx.floats = &d.light_floats;
+        ctx.inputs = &d.inputs;
         for (size_t i = 0; i < lights.size(); ++i) {
             d.lights.push_back(parse_light(lights[i], f.at("lights").at(i), ctx));
             if (d.lights.back().kind().environment && ++environments > 1)

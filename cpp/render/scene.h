@@ -90,6 +90,9 @@ struct Light : LightData {
 struct SceneDesc {
     std::string source;          // file name (or "<dict>") used in error messages
     std::string base_dir = ".";  // where relative file names (meshes, maps) start
+    // The files it reads besides the scene file (meshes, environment maps), as named
+    // there (relative ones joined to base_dir): an output must not be one of them.
+    std::vector<std::string> inputs;
     Vec3d origin;  // the render frame's origin in the scene file's coordinates
     Camera camera;
     std::vector<Shape> shapes;

@@ -20,7 +20,6 @@ from sssphere import rendering
 from sssphere.rendering import RENDER_OPTIONS
 from sssphere.scene import SceneError, SceneWarning, load_scene_with
 
-IMAGE_SUFFIXES = (".exr", ".png")
 
 
 def _checked(convert, ok, requirement: str):
@@ -45,13 +44,15 @@ _positive_float = _checked(float, lambda v: 0 < v < float("inf"), "a positive nu
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
+    from sssphere import _image
+
     out = Path(args.output)
-    if out.suffix.lower() not in IMAGE_SUFFIXES:
-        raise SceneError(f"{out}: unsupported image format {out.suffix!r} (allowed: .exr, .png)")
-    if out.parent != Path("") and not out.parent.is_dir():
-        raise SceneError(f"{out}: output directory {str(out.parent)!r} does not exist")
     if args.turntable:
         _frame_pattern(args.output, args.turntable)
+    outputs = ([args.output % k for k in range(args.turntable)] if args.turntable
+               else [args.output])
+    # Before the render, not after it: the format, the directory, that a file can be made
+    _image.check_output_image(outputs[0])
     _check_ray(args.ray)
     # The render options as typed, checked and resolved in C++ with the scene's (one table
     # for both command lines and the API: render/options.h)
@@ -71,6 +72,8 @@ def _cmd_render(args: argparse.Namespace) -> int:
     for w in caught:
         print(f"sssphere: warning: {w.message}", file=sys.stderr)
     load_s = time.monotonic() - t0
+    for path in outputs:
+        _image.check_output_is_not_an_input(path, [*scene.inputs, str(args.scene)])
     if args.denoise:  # a missing extra is said before the render, not after it
         try:
             rendering._denoiser()
@@ -78,18 +81,21 @@ def _cmd_render(args: argparse.Namespace) -> int:
             raise SystemExit(f"sssphere: error: --denoise: {e}") from None
     if args.turntable:
         return _render_turntable(args, scene, text, load_s)
-    bar = Progress(f"rendering {Path(args.scene).name}", enabled=not args.quiet)
-    try:
-        result = rendering._result(rendering._render(scene, bar, {}, text, args.ray))
-    finally:
-        bar.close()
-    if result.interrupted and result.spp == 0:  # an all-black image would look like a render
-        print(f"interrupted before the first pass finished: wrote nothing to {out}",
-              file=sys.stderr)
-        return _interrupted_status()
-    result = rendering.with_aovs(scene, result, args.aovs, args.denoise)
-    result.save(out, aovs=args.aovs)
+    with _Signals() as signals:
+        bar = Progress(f"rendering {Path(args.scene).name}", enabled=not args.quiet)
+        try:
+            result = rendering._result(
+                rendering._render(scene, signals.progress(bar), {}, text, args.ray))
+        finally:
+            bar.close()
+        if result.interrupted and result.spp == 0:  # an all-black image would look like one
+            print(f"interrupted before the first pass finished: wrote nothing to {out}",
+                  file=sys.stderr)
+            return _interrupted_status()
+        result = rendering.with_aovs(scene, result, args.aovs, args.denoise)
+        result.save(out, aovs=args.aovs)
     what = ("interrupted: wrote the partial image" if result.interrupted
+            else "interrupted once the render had finished: wrote" if signals.count
             else "time limit reached: wrote" if result.time_limit_reached else "wrote")
     steps = ""
     if result.mean_sphere_steps_per_path > 0:
@@ -111,7 +117,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
     )
     if not np.all(np.isfinite(result.image)):
         print("warning: the image has non-finite pixels", file=sys.stderr)
-    return _interrupted_status() if result.interrupted else 0
+    return _interrupted_status() if result.interrupted or signals.count else 0
 
 
 _FRAME_NUMBER = re.compile(r"%0?\d*d")
@@ -139,13 +145,15 @@ def _render_turntable(args: argparse.Namespace, scene, text: dict, load_s: float
     bar = Progress(f"rendering {args.turntable} frames of {Path(args.scene).name}",
                    enabled=not args.quiet)
     t0 = time.monotonic()
-    try:
-        results = rendering.render_frames(scene, rendering.orbit_cameras(scene, args.turntable),
-                                          progress=bar, on_frame=save, aovs=args.aovs,
-                                          denoise=args.denoise, _text=text, ray_address=args.ray)
-    finally:
-        bar.close()
-    interrupted = bool(results) and results[-1].interrupted
+    with _Signals() as signals:
+        try:
+            results = rendering.render_frames(
+                scene, rendering.orbit_cameras(scene, args.turntable),
+                progress=signals.progress(bar), on_frame=save, aovs=args.aovs,
+                denoise=args.denoise, _text=text, ray_address=args.ray)
+        finally:
+            bar.close()
+    interrupted = bool(results) and results[-1].interrupted or signals.count > 0
     shown = written[0] + (f" ... {written[-1]}" if len(written) > 1 else "") if written else ""
     print(f"{'interrupted: wrote' if interrupted else 'wrote'} {len(written)} of "
           f"{args.turntable} frames {shown} ({scene.width}x{scene.height}; scene built in "
@@ -442,6 +450,41 @@ def _on_sigterm(signum, frame):
     global _terminated
     _terminated = True
     raise KeyboardInterrupt
+
+
+class _Signals:
+    """SIGINT and SIGTERM while a render runs and its image is written. The first stops the
+    render at its next progress check (about ten times a second), as Ctrl-C does in the
+    API; none raises, so the image rendered so far is still written whole, however late
+    the signal comes (a render that had finished, its AOVs, the denoiser, the write, a
+    Ray cluster's shutdown) and however often it is repeated. A third one abandons the
+    write (KeyboardInterrupt), for a write that hangs."""
+
+    def __init__(self):
+        self.count = 0
+
+    def __enter__(self) -> "_Signals":
+        self._previous = {s: signal.signal(s, self._on_signal)
+                          for s in (signal.SIGINT, signal.SIGTERM)}
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for s, handler in self._previous.items():
+            signal.signal(s, handler)
+
+    def _on_signal(self, signum, frame) -> None:
+        global _terminated
+        _terminated = _terminated or signum == signal.SIGTERM
+        self.count += 1
+        if self.count == 2:
+            print("\nsssphere: interrupted again: still writing what was rendered "
+                  "(once more abandons it)", file=sys.stderr, flush=True)
+        elif self.count >= 3:
+            raise KeyboardInterrupt
+
+    def progress(self, bar: Progress):
+        """bar as a render's progress callback that also stops the render once signalled."""
+        return lambda fraction: bar(fraction) is not False and self.count == 0
 
 
 def _stdout_reader_gone() -> bool:

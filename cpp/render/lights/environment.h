@@ -238,6 +238,7 @@ inline LightType environment_light_type() {
         if (ext != ".exr")
             fm.error("'", path.string(), "': unsupported image format '", ext,
                      "' (allowed: .exr, linear radiance)");
+        if (ctx.inputs) ctx.inputs->push_back(path.string());
         ImageData img;
         try {
             check_input_file(path.string(), "environment map");

@@ -91,6 +91,7 @@ struct LightContext {
     Vec3d frame;
     std::string base_dir = ".";
     std::vector<float>* floats = nullptr;
+    std::vector<std::string>* inputs = nullptr;  // the files a light reads are added here
 };
 
 // The C++ side of a light type.
