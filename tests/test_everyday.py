@@ -4,6 +4,7 @@ animations, shapes from numpy arrays."""
 import copy
 import math
 import sys
+import threading
 
 import numpy as np
 import pytest
@@ -322,6 +323,26 @@ def test_info_predicts_the_events_of_paths_entering_a_ball_where_theory_is_exact
     assert abs(measured - predicted) < 4 * sigma + 0.005 * predicted, (measured, predicted, sigma)
 
 
+
+def test_info_counts_the_clearance_of_steps_under_point_lights(small_scene):
+    """st's default NEE keeps a step 10 mean free paths from the boundary where its events
+    sample a point light (index-matched): info's share of the volume deep enough to step
+    shrinks as the renderer's does, and only there (not without the point light, nor behind
+    a dielectric)."""
+    from sssphere.info import scene_info
+
+    small_scene["shapes"][0]["medium"]["sigma_t"] = 60
+
+    def deep(edit=lambda s: None):
+        scene = copy.deepcopy(small_scene)
+        edit(scene)
+        return scene_info(sssphere.load_scene(scene))["shapes"][0]["deep_fraction"]
+
+    cleared = deep()
+    assert 0 < cleared < deep(lambda s: s["lights"].pop(0))  # the point light removed
+    assert cleared < deep(lambda s: s["shapes"][0].update(
+        boundary={"type": "dielectric", "ior": 1.4}))
+
 def test_info_command_describes_the_scene(small_scene, tmp_path):
     import json
     import subprocess
@@ -341,3 +362,43 @@ def test_info_command_describes_the_scene(small_scene, tmp_path):
     assert ball["triangles"] == 1280 and ball["grid_resolution"] == 64
     assert ball["mean_path_length"] == pytest.approx(4 * ball["volume"] / ball["area"])
     assert 0 < ball["coverage"] < 1 and info["lights"] == ["point", "environment"]
+
+
+def test_an_edit_while_the_scene_renders_is_refused_and_the_render_unchanged(small_scene):
+    """A material or light edited while another thread renders the same scene changed that
+    render part-way (a data race in C++). Such an edit is now refused, naming the field;
+    the render equals one of the unedited scene, and the edit works once it has returned."""
+    scene = sssphere.load_scene(small_scene)
+    expected = sssphere.render(sssphere.load_scene(small_scene), spp=64, seed=3)
+    started, edited = threading.Event(), threading.Event()
+    errors = []
+
+    def progress(fraction):
+        started.set()
+        edited.wait(timeout=60)  # the render goes on only once the edit was tried
+        return True
+
+    def edit():
+        started.wait(timeout=60)
+        for field, value in (("sigma_t", 100), ("albedo", 0.5)):
+            try:
+                setattr(scene.shapes[0].medium, field, value)
+            except SceneError as e:
+                errors.append(str(e))
+        try:
+            scene.lights[0].intensity = 100
+        except SceneError as e:
+            errors.append(str(e))
+        edited.set()
+
+    editor = threading.Thread(target=edit)
+    editor.start()
+    got = sssphere.render_full(scene, spp=64, seed=3, progress=progress)
+    editor.join()
+    np.testing.assert_array_equal(got.image, expected)
+    assert len(errors) == 3, errors
+    assert "shapes[0].medium.sigma_t: cannot be changed while the scene is being rendered" \
+        in errors[0], errors
+    assert "lights[0].intensity" in errors[2]
+    scene.shapes[0].medium.sigma_t = 100  # the render has returned
+    assert scene.shapes[0].medium.sigma_t == 100

@@ -175,13 +175,14 @@ def _render(scene: Scene, progress, options: dict, text: Optional[dict] = None,
     (render/options.h: defaults < the scene's render block < command-line text < these);
     with ``ray_address``, the same render split into tasks on that Ray cluster
     (sssphere.cluster)."""
-    if ray_address is not None:
-        from sssphere import cluster
+    with scene._rendered():
+        if ray_address is not None:
+            from sssphere import cluster
 
-        return cluster.render(scene, ray_address, progress, options, text,
-                              os.fspath(DEFAULT_MODELS))
-    given = {k: v for k, v in options.items() if v is not None}
-    return _core.render(scene, os.fspath(DEFAULT_MODELS), progress, text or {}, **given)
+            return cluster.render(scene, ray_address, progress, options, text,
+                                  os.fspath(DEFAULT_MODELS))
+        given = {k: v for k, v in options.items() if v is not None}
+        return _core.render(scene, os.fspath(DEFAULT_MODELS), progress, text or {}, **given)
 
 
 def render_full(
@@ -366,7 +367,8 @@ def first_hit_aovs(scene: Union[Scene, str, os.PathLike, dict], seed: int = 0,
     scene, camera and seed alone."""
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
-    return _core.first_hit_aovs(scene, seed=seed, samples=samples, threads=threads)
+    with scene._rendered():
+        return _core.first_hit_aovs(scene, seed=seed, samples=samples, threads=threads)
 
 
 def _denoiser():

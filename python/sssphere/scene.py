@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import json
 import math
 import os
+import threading
 import warnings
 from pathlib import Path
 from typing import Any, Union
@@ -63,12 +65,16 @@ class Scene(_core.Scene):
     area light's geometry changed, a shape's distance grid when its mesh or its grid
     resolution did (``rebuilt`` says what the last change built; materials, lights other
     than area lights' quads, the camera and render settings build nothing). Mesh files are
-    not read again unless they changed on disk. Do not edit a scene while another thread
-    renders it.
+    not read again unless they changed on disk. An edit while another thread renders the
+    scene is refused (a SceneError): the render would see part of it. A render started
+    during an edit waits for it.
     """
 
     def __init__(self, text: str, base_dir: str, source: str, threads: int = 0):
         meshes = _core.MeshCache()
+        # Renders in progress (rendering.py counts them) and the lock that keeps a rebuild
+        # and a render apart.
+        self._renders, self._editing = 0, threading.Lock()
         super().__init__(text, base_dir, source, threads, meshes)
         self._meshes = meshes
         try:  # the text the C++ parser took, which skips one leading byte order mark
@@ -90,6 +96,17 @@ class Scene(_core.Scene):
                       lambda self, value: self._assign(("lights",), value))
     render = property(lambda self: SceneNode(self, ("render",)),
                       lambda self, value: self._assign(("render",), value))
+
+    @contextlib.contextmanager
+    def _rendered(self):
+        """Held by a render of this scene: edits are refused meanwhile."""
+        with self._editing:
+            self._renders += 1
+        try:
+            yield self
+        finally:
+            with self._editing:
+                self._renders -= 1
 
     def to_dict(self) -> dict:
         """The scene as a dict of the scene file's structure (a copy): load_scene(d,
@@ -137,9 +154,17 @@ class Scene(_core.Scene):
         except (KeyError, IndexError, TypeError):
             raise SceneError(f"{self._source}: {_field_name(path)}: no such field in the "
                              "scene (a list grows by assigning at its length)") from None
-        self._rebuild(json.dumps(doc), self._base_dir, self._source, self._threads,
-                      self._meshes)
-        self._doc = doc
+        with self._editing:
+            if self._renders:
+                raise SceneError(
+                    f"{self._source}: {_field_name(path)}: cannot be changed while the scene "
+                    f"is being rendered (by {self._renders} other thread"
+                    f"{'s' if self._renders > 1 else ''}): change it once the render has "
+                    "returned, or change a copy, "
+                    "load_scene(scene.to_dict(), base_dir=scene.base_dir)")
+            self._rebuild(json.dumps(doc), self._base_dir, self._source, self._threads,
+                          self._meshes)
+            self._doc = doc
         _warned(self, stacklevel=4)
 
 
