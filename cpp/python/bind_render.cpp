@@ -17,6 +17,7 @@
 #include "render/medium_presets.h"
 #include "render/options.h"
 #include "render/scene.h"
+#include "shared/sphere_step.h"
 
 namespace py = pybind11;
 using namespace sss;
@@ -120,6 +121,7 @@ py::dict film_sums(const Film& film) {
 
 void bind_render(py::module_& m) {
     m.attr("DEFAULT_SPHERE_THRESHOLD") = kDefaultSphereThreshold;
+    m.attr("DELTA_LIGHT_CLEARANCE") = kDeltaLightClearance;
     m.def(
         "render_option_specs",
         []() {

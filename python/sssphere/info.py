@@ -15,7 +15,8 @@ from sssphere.scene import Scene
 _VOLUME_SAMPLES = 200_000
 
 
-def _medium_estimates(scene: Scene, i: int, shape: dict, tau: float) -> dict:
+def _medium_estimates(scene: Scene, i: int, shape: dict, tau: float,
+                      clearance: float = 0.0) -> dict:
     """Transport-theory figures for a path that enters medium shape i (docs/info.md).
 
     pt: a path that enters a body of volume V and surface S under uniform, isotropic
@@ -32,7 +33,10 @@ def _medium_estimates(scene: Scene, i: int, shape: dict, tau: float) -> dict:
     absorption), so a fraction f of the events falls where sigma_t r >= tau and sphere
     steps replace them; a step from the centre of a sphere of radius r stands for
     (sigma_t r)(sigma_t' r)/2 events (the diffusion exit time from a sphere). Steps per
-    path: the pt events times the mean of [deep] / n(r) over the volume.
+    path: the pt events times the mean of [deep] / n(r) over the volume. Where the medium's
+    steps keep clear of point lights and the boundary (``clearance`` c mean free paths:
+    st's default NEE in an index-matched medium under a point or directional light), a
+    step needs sigma_t r >= tau + c and covers the radius r - c / sigma_t.
     """
     sigma_t = np.asarray(shape["sigma_t"], np.float64)
     albedo = np.asarray(shape["albedo"], np.float64)
@@ -52,8 +56,10 @@ def _medium_estimates(scene: Scene, i: int, shape: dict, tau: float) -> dict:
     points = lo + rng.random((_VOLUME_SAMPLES, 3)) * (hi - lo)
     inside = scene.grid_inside(i, points)
     r = scene.distance_lower_bound(i, points[inside]).astype(np.float64)
-    deep = float(sigma_t.min()) * r >= tau
-    n = 0.5 * np.outer(r[deep] ** 2, sigma_t * sigma_tr).mean(1)  # events per step
+    sigma_min = float(sigma_t.min())
+    deep = sigma_min * r >= tau + clearance
+    r_step = r[deep] - clearance / sigma_min
+    n = 0.5 * np.outer(r_step ** 2, sigma_t * sigma_tr).mean(1)  # events per step
     deep_fraction = float(deep.mean()) if r.size else 0.0
     steps_per_event = float(np.sum(1.0 / np.maximum(n, 1.0)) / max(r.size, 1))
     return {
@@ -80,17 +86,23 @@ def scene_info(scene: Scene) -> dict[str, Any]:
     options = rendering._core.resolve_render_options(scene, str(rendering.DEFAULT_MODELS))
     first = rendering.first_hit_aovs(scene, seed=0, samples=1)["shape"]
     tau = float(options["sphere_threshold"])
+    lights = scene.lights.to_python() if "lights" in scene.to_dict() else []
+    delta_lights = any(light.get("type") in ("point", "directional") for light in lights)
     shapes = []
     per_path = {"pt_events": 0.0, "st_events": 0.0, "st_steps": 0.0}
     for i in range(scene.num_shapes):
         shape = dict(scene.shape_info(i))
         shape["coverage"] = float(np.mean(first == i))
         if shape["kind"] == "medium":
-            shape.update(_medium_estimates(scene, i, shape, tau))
+            # SphereTracing::clearance: steps keep clear where their events sample such lights
+            cleared = (delta_lights and bool(options["nee"]) and options["step_nee"] == "hits"
+                       and shape["boundary"] == "index_matched")
+            shape.update(_medium_estimates(
+                scene, i, shape, tau,
+                float(rendering._core.DELTA_LIGHT_CLEARANCE) if cleared else 0.0))
             for key in per_path:
                 per_path[key] += shape["coverage"] * shape[key]
         shapes.append(shape)
-    lights = scene.lights.to_python() if "lights" in scene.to_dict() else []
     return {"source": scene.source, "width": scene.width, "height": scene.height,
             "options": options, "shapes": shapes,
             "lights": [light.get("type", "?") for light in lights],
@@ -146,8 +158,8 @@ def format_info(info: dict[str, Any]) -> str:
     lines.append(f"expected per camera path (camera rays that hit a medium directly): "
                  f"pt ~{_count(p['pt_events'])} events; st ~{_count(p['st_events'])} events + "
                  f"~{_count(p['st_steps'])} sphere steps")
-    lines.append("(transport-theory estimates, index-matched boundaries, light entering "
-                 "from all sides: docs/info.md says how far to trust them)")
+    lines.append("(transport-theory estimates for light entering from all sides, "
+                 "uniform collisions: docs/info.md says how far to trust them)")
     return "\n".join(lines)
 
 
