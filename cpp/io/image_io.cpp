@@ -32,7 +32,7 @@ std::string lower_extension(const std::string& path) {
 }  // namespace
 
 float linear_to_srgb(float v) {
-    v = std::clamp(std::isfinite(v) ? v : 0.f, 0.f, 1.f);
+    v = std::isnan(v) ? 0.f : std::clamp(v, 0.f, 1.f);  // +inf is white, not black
     return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.f / 2.4f) - 0.055f;
 }
 

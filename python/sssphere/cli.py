@@ -93,7 +93,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
                   file=sys.stderr)
             return _interrupted_status()
         result = rendering.with_aovs(scene, result, args.aovs, args.denoise)
-        result.save(out, aovs=args.aovs)
+        written = result.save(out, aovs=args.aovs)
     what = ("interrupted: wrote the partial image" if result.interrupted
             else "interrupted once the render had finished: wrote" if signals.count
             else "time limit reached: wrote" if result.time_limit_reached else "wrote")
@@ -102,6 +102,8 @@ def _cmd_render(args: argparse.Namespace) -> int:
         step_ns = 1e9 * result.step_seconds / (result.mean_sphere_steps_per_path * result.samples.sum())
         steps = f" + {result.mean_sphere_steps_per_path:.1f} sphere steps" + (
             f" ({step_ns:.0f} ns each)" if result.step_seconds > 0 else "")
+    aov_files = (f" and {len(written) - 1} AOV files beside it ({Path(written[1]).name}, ...)"
+                 if len(written) > 1 else "")
     where = ""
     if result.cluster is not None:
         c = result.cluster
@@ -109,7 +111,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
         where = (f" on a Ray cluster: {c['tasks_merged']} tasks in {c['processes']} worker "
                  f"processes on {nodes} node{'' if nodes == 1 else 's'};")
     print(
-        f"{what} {out} ({scene.width}x{scene.height}, {result.spp} spp;{where} "
+        f"{what} {out}{aov_files} ({scene.width}x{scene.height}, {result.spp} spp;{where} "
         f"scene built in {load_s:.2f}s, "
         f"rendered in {result.seconds:.2f}s; {result.mean_events_per_path:.1f} scattering "
         f"events{steps} per path)",
@@ -336,6 +338,7 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("render", help="render a scene file to an image")
     r.add_argument("scene", help="scene file (JSON, docs/scene-format.md)")
     r.add_argument("-o", "--output", required=True, help="output image (.exr linear, .png sRGB)")
+    r.add_argument("--version", action="version", version=f"sssphere {__version__}")
     for spec in RENDER_OPTIONS:  # the table both command lines are built from
         if not spec["command_line"]:
             continue

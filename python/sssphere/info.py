@@ -58,7 +58,7 @@ def _medium_estimates(scene: Scene, i: int, shape: dict, tau: float,
     r = scene.distance_lower_bound(i, points[inside]).astype(np.float64)
     sigma_min = float(sigma_t.min())
     deep = sigma_min * r >= tau + clearance
-    r_step = r[deep] - clearance / sigma_min
+    r_step = r[deep] - (clearance / sigma_min if sigma_min > 0 else 0.0)  # none deep at 0
     n = 0.5 * np.outer(r_step ** 2, sigma_t * sigma_tr).mean(1)  # events per step
     deep_fraction = float(deep.mean()) if r.size else 0.0
     steps_per_event = float(np.sum(1.0 / np.maximum(n, 1.0)) / max(r.size, 1))

@@ -159,8 +159,8 @@ class RenderResult:
         write_image(path, self.picture)
         written = [path]
         stem = os.path.splitext(path)[0]
-        for name, _, data in self.layers():
-            write_image(f"{stem}_{name}.exr", data)
+        for name, channels, data in self.layers():  # channels named as in the .exr's layers
+            write_layers(f"{stem}_{name}.exr", [("", channels, data)])
             written.append(f"{stem}_{name}.exr")
         return written
 
