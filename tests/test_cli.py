@@ -110,7 +110,14 @@ def test_outputs_that_would_lose_the_render_or_an_input_are_refused_before_it(tm
                           (sky, f"sky.exr: is a file the scene reads ('{sky}')")):
         r = run(tmp_path / "s.json", "-o", out)
         assert r.returncode == 1 and expected in r.stderr, r.stderr
-    assert sky.read_bytes() == before
+    # an AOV file beside a .png: sky_depth.exr is the scene's map too
+    sky_depth = tmp_path / "sky_depth.exr"
+    sky.rename(sky_depth)
+    small_scene["lights"][-1]["map"] = "sky_depth.exr"
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    r = run(tmp_path / "s.json", "-o", tmp_path / "sky.png", "--aovs")
+    assert r.returncode == 1 and "sky_depth.exr: is a file the scene reads" in r.stderr, r.stderr
+    assert sky_depth.read_bytes() == before and not (tmp_path / "sky.png").exists()
 
     small_scene["render"]["spp"] = 1
     (tmp_path / "s.json").write_text(json.dumps(small_scene))
@@ -220,9 +227,9 @@ def test_ctrl_c_once_the_render_has_finished_still_writes_it(tmp_path, small_sce
 
 
 def test_a_second_ctrl_c_while_the_partial_image_is_written_does_not_lose_it(
-        tmp_path, slow_scene, monkeypatch, capsys, cli_in_process):
+        tmp_path, slow_scene, monkeypatch, capfd, cli_in_process):
     """The first Ctrl-C stops the render; a second one, while its AOVs are made and it is
-    written, is only noted (a third would abandon the write)."""
+    written, is only noted (a third would end the process)."""
     from sssphere import rendering
 
     real_render, real_with_aovs = rendering._render, rendering.with_aovs
@@ -244,13 +251,34 @@ def test_a_second_ctrl_c_while_the_partial_image_is_written_does_not_lose_it(
     monkeypatch.setattr(rendering, "with_aovs", with_aovs_under_ctrl_c)
     out = tmp_path / "partial.exr"
     status = cli_in_process(["render", str(slow_scene), "-o", str(out), "--aovs", "--quiet"])
-    err = capsys.readouterr().err
+    err = capfd.readouterr().err
     assert status == 130, err
     assert "interrupted again: still writing what was rendered" in err, err
     spp = int(re.search(r"interrupted: wrote the partial image .* (\d+) spp", err).group(1))
     assert 0 < spp < 1 << 16, err
     layers = sssphere.read_layers(out)
     assert np.all(np.isfinite(layers[""])) and layers[""].max() > 0 and "albedo" in layers
+
+
+@pytest.mark.parametrize("cli", ["python", "cpp"])
+def test_a_signal_ignored_from_the_start_stays_ignored(tmp_path, slow_scene, cli):
+    """A job started in the background without job control ignores SIGINT: a Ctrl-C meant
+    for the foreground must not stop it. The render runs to its time limit."""
+    cmd = ([sys.executable, "-m", "sssphere.cli", "render"] if cli == "python" else [_cpp_cli()])
+    proc = subprocess.Popen([*cmd, str(slow_scene), "-o", str(tmp_path / "bg.exr"),
+                             "--time-limit", "3"], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    try:
+        first = proc.stderr.read(1)  # the progress bar: the render has started
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 0, first + err
+    assert "time limit reached" in err, err
 
 def _read_pty(fd: int, until: bytes | None, timeout: float) -> bytes:
     """What the child writes to the terminal `fd` until `until` appears (None: until it

@@ -297,7 +297,12 @@ def test_command_line_ray_and_ctrl_c(two_nodes, small_scene, tmp_path):
             proc.kill()
             proc.communicate()
     assert proc.returncode == 130, err
-    assert "interrupted: wrote the partial image" in err and out.is_file()
+    # what was merged, or, if no task had finished (a loaded machine), nothing at all
+    if "interrupted: wrote the partial image" in err:
+        assert np.all(np.isfinite(sssphere.read_image(out)))
+    else:
+        assert "interrupted before the first pass finished: wrote nothing" in err, err
+        assert not out.exists()
     # the cancelled tasks are gone: the cluster's CPUs are free again
     deadline = time.monotonic() + 30
     while ray.available_resources().get("CPU", 0) < 2 and time.monotonic() < deadline:

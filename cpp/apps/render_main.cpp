@@ -59,6 +59,12 @@ std::string flag_of(const std::string& name) {
 // The image and its AOVs as `sssphere render --aovs` writes them (RenderResult.layers,
 // python/sssphere/rendering.py): one multilayer .exr, or OUT_NAME.exr files beside a
 // .png.
+// Beside a .png, AOV `name` goes to STEM_NAME.exr.
+static std::string aov_file(const std::string& out_path, const std::string& name) {
+    return std::filesystem::path(out_path).replace_extension().string() + "_" + name +
+           ".exr";
+}
+
 static void write_with_aovs(const std::string& out_path, const sss::Scene& scene,
                             const sss::RenderOptions& opt, const sss::RenderResult& r) {
     const sss::FirstHitAovs a = sss::first_hit_aovs(
@@ -79,10 +85,9 @@ static void write_with_aovs(const std::string& out_path, const sss::Scene& scene
         return;
     }
     sss::write_image(out_path, r.image, r.width, r.height);
-    const std::string stem = std::filesystem::path(out_path).replace_extension();
-    for (const sss::ImageLayer& l : layers)
-        sss::write_image(stem + "_" + l.name + ".exr", l.data, r.width, r.height,
-                         int(l.channels.size()));
+    for (sss::ImageLayer& l : layers)  // channels named as in the .exr's layers
+        sss::write_exr_layers(aov_file(out_path, l.name), r.width, r.height,
+                              {{"", l.channels, std::move(l.data)}});
 }
 
 int main(int argc, char** argv) {
@@ -149,9 +154,15 @@ int main(int argc, char** argv) {
         sss::check_output_image(out_path);
         sss::SceneDesc desc =
             sss::load_scene_file(scene_path, assignments, width, height);
-        std::vector<std::string> inputs = desc.inputs;
+        std::vector<std::string> inputs = desc.inputs, outputs{out_path};
         inputs.push_back(scene_path);
-        sss::check_output_is_not_an_input(out_path, inputs);
+        std::string ext = std::filesystem::path(out_path).extension().string();
+        for (char& c : ext) c = char(std::tolower((unsigned char)c));
+        if (aovs && ext != ".exr")
+            for (const char* name :
+                 {"variance", "events", "sphere_steps", "albedo", "normal", "depth"})
+                outputs.push_back(aov_file(out_path, name));
+        for (const std::string& o : outputs) sss::check_output_is_not_an_input(o, inputs);
         for (const std::string& w : desc.warnings)
             std::cerr << "sssphere-render: warning: " << w << "\n";
         sss::RenderOverrides overrides;
@@ -161,8 +172,9 @@ int main(int argc, char** argv) {
             desc.render, desc.source, overrides, shipped_models());
         sss::Scene scene(std::move(desc), opt.threads);
 
-        std::signal(SIGINT, on_signal);
-        std::signal(SIGTERM, on_signal);
+        // A signal the process was started ignoring (a background job's SIGINT) stays so.
+        for (int sig : {SIGINT, SIGTERM})
+            if (std::signal(sig, on_signal) == SIG_IGN) std::signal(sig, SIG_IGN);
         sss::RenderResult r = sss::render_with_backend(scene, opt, [&](double f) {
             if (!quiet) {
                 int filled = int(f * 40);
@@ -172,13 +184,13 @@ int main(int argc, char** argv) {
             return g_signal == 0;
         });
         if (!quiet) std::fprintf(stderr, "\n");
-        const int interrupted = 128 + (g_signal ? int(g_signal) : SIGINT);
+        auto interrupted = [] { return 128 + (g_signal ? int(g_signal) : SIGINT); };
         if (r.cancelled && r.spp == 0) {  // an all-black image would look like a render
             std::fprintf(
                 stderr,
                 "interrupted before the first pass finished: wrote nothing to %s\n",
                 out_path.c_str());
-            return interrupted;
+            return interrupted();
         }
         if (aovs)
             write_with_aovs(out_path, scene, opt, r);
@@ -200,11 +212,12 @@ int main(int argc, char** argv) {
         std::fprintf(
             stderr, "%s %s: %.2f s, %d spp, %.1f scattering events%s per path%s%s\n",
             r.cancelled            ? "interrupted; wrote the partial image"
+            : g_signal             ? "interrupted once the render had finished; wrote"
             : r.time_limit_reached ? "time limit reached; wrote"
                                    : "wrote",
             out_path.c_str(), r.seconds, r.spp, paths > 0 ? r.total_events / paths : 0.0,
             steps.c_str(), r.device.empty() ? "" : " on ", r.device.c_str());
-        return r.cancelled ? interrupted : 0;
+        return r.cancelled || g_signal ? interrupted() : 0;
     } catch (const std::exception& e) {
         std::cerr << "sssphere-render: error: " << e.what() << "\n";
         return 1;

@@ -139,6 +139,14 @@ TEST(Mesh, ObjFacesInEveryFormReadAsOneCube) {
     TriangleMesh m = load_mesh(TempFile("cube.obj", extras + v + f).path());
     EXPECT_EQ(m.triangles.size(), 12u);
     EXPECT_NEAR(m.volume(), 1.0, 1e-6);
+    // A byte order mark, superseded keywords and curves beside the polygons: the same.
+    const std::string more = "\xEF\xBB\xBFres 4 4\ncstype bspline\ncurv 0 1 1 2\nend\n";
+    m = load_mesh(TempFile("more.obj", more + v + f).path());
+    EXPECT_EQ(m.triangles.size(), 12u);
+    EXPECT_NE(
+        error_of(TempFile("curves.obj", "v 0 0 0\ncstype bspline\ncurv 0 1 1 1\n").path())
+            .find("free-form geometry (curves, surfaces) and no polygons"),
+        std::string::npos);
 }
 
 TEST(Mesh, MalformedObjLinesAreNamed) {
@@ -159,7 +167,8 @@ TEST(Mesh, MalformedObjLinesAreNamed) {
          "line 12: vertex index -9 reaches back before the first"},
         {v + "hello world\n" + f, "line 9: unknown keyword 'hello'"},
         {std::string("\x01\x02junk\n") + v + f, "line 1: unknown keyword '??junk'"},
-        {v + f + "cstype bspline\n", "line 12: free-form geometry ('cstype')"},
+        {v + f + "call more.obj\n", "line 12: 'call' (another file's geometry)"},
+        {v + f + "v 1 2 3 4 5 6 7 8\n", "line 12: vertex 9 has 8 numbers"},
     };
     for (const auto& c : cases) {
         TempFile obj("bad.obj", c.text);

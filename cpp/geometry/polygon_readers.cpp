@@ -396,7 +396,8 @@ bool ignored_obj_keyword(const std::string& k) {
     static const char* const kIgnored[] = {
         "vt",    "vn",       "vp",       "l",          "p",         "o",      "g",
         "s",     "mg",       "usemtl",   "mtllib",     "maplib",    "usemap", "lod",
-        "bevel", "c_interp", "d_interp", "shadow_obj", "trace_obj", "call",   "csh"};
+        "bevel", "c_interp", "d_interp", "shadow_obj", "trace_obj", "csh",    "bsp",
+        "bzp",   "cdc",      "cdp",      "res"};  // the last five: superseded
     return std::find_if(std::begin(kIgnored), std::end(kIgnored),
                         [&](const char* w) { return k == w; }) != std::end(kIgnored);
 }
@@ -421,10 +422,12 @@ std::string quoted(const std::string& w) {
 }  // namespace
 
 PolygonSoup read_obj(const std::string& path) {
-    const std::string data = read_all(path);
+    std::string data = read_all(path);
+    if (data.rfind("\xEF\xBB\xBF", 0) == 0) data.erase(0, 3);  // a UTF-8 byte order mark
     PolygonSoup soup;
     std::istringstream in(data);
-    std::vector<int> face_lines;  // the line of each face, for the indices checked last
+    std::vector<int> face_lines;
+    bool freeform = false;  // the line of each face, for the indices checked last
     std::string line;
     auto next_line = [&](std::string& l) {
         if (!std::getline(in, l)) return false;
@@ -451,6 +454,10 @@ PolygonSoup read_obj(const std::string& path) {
             if (w.size() < 4 || !parse_double(w[1], v[0]) || !parse_double(w[2], v[1]) ||
                 !parse_double(w[3], v[2]))
                 bad("vertex ", soup.xyz.size() / 3 + 1, " needs three numbers x y z");
+            if (w.size() > 8)  // x y z, then w or r g b (or w r g b)
+                bad("vertex ", soup.xyz.size() / 3 + 1, " has ", w.size() - 1,
+                    " numbers (at most 7: x y z, then w or r g b; a file whose lines end "
+                    "in a bare CR?)");
             if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2]))
                 bad("vertex ", soup.xyz.size() / 3 + 1, " is not finite");
             soup.xyz.insert(soup.xyz.end(), v, v + 3);
@@ -480,12 +487,16 @@ PolygonSoup read_obj(const std::string& path) {
             soup.polygons.push_back(std::move(polygon));
             face_lines.push_back(first);
         } else if (freeform_obj_keyword(key)) {
-            bad("free-form geometry ('", key,
-                "') is not supported (allowed: polygons, 'f' lines)");
+            freeform = true;  // curves and surfaces: only the polygons are read
+        } else if (key == "call") {
+            bad("'call' (another file's geometry) is not supported: merge the files");
         } else if (!ignored_obj_keyword(key)) {
             bad("unknown keyword '", quoted(key), "' (a mesh needs 'v' and 'f' lines)");
         }
     }
+    if (freeform && soup.polygons.empty())
+        fail(path, ": the OBJ file has free-form geometry (curves, surfaces) and no ",
+             "polygons: not supported (allowed: polygons, 'f' lines)");
     const uint64_t vertices = soup.xyz.size() / 3;
     for (size_t f = 0; f < soup.polygons.size(); ++f)
         for (std::size_t i : soup.polygons[f])

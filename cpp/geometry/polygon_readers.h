@@ -29,8 +29,9 @@ PolygonSoup read_off(const std::string& path);
 // OBJ: 'v' lines (x y z; a w or colours after them are ignored) and 'f' lines (indices
 // v, v/vt, v/vt/vn or v//vn, counted from 1, or back from the last vertex read when
 // negative), joined across a trailing '\'. Texture coordinates, normals, groups,
-// materials and lines are read and ignored; free-form geometry and unknown keywords are
-// refused.
+// materials, lines and free-form geometry (curves, surfaces) are read and ignored; a file
+// of free-form geometry only, 'call' and unknown keywords are refused. A byte order mark
+// is skipped.
 PolygonSoup read_obj(const std::string& path);
 
 }  // namespace sss

@@ -12,8 +12,10 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <set>
 #include <string>
+#include <thread>
 
 #include "core/check.h"
 #include "core/files.h"
@@ -71,8 +73,13 @@ void check_output_image(const std::string& path) {
     std::error_code ec;
     if (fs::is_directory(target, ec))
         fail(path, ": is a directory (an output image needs a file name)");
-    // Whether a file can be made there: the temporary file the image is written to.
-    const std::string probe = temporary_beside(target).string();
+    // Whether a file can be made there: a name of this thread's own, so that the probe
+    // never meets another thread's temporary file.
+    const std::string probe =
+        (target.parent_path() /
+         ("." + target.stem().string() + ".probe-" + std::to_string(::getpid()) + "-" +
+          std::to_string(std::hash<std::thread::id>{}(std::this_thread::get_id()))))
+            .string();
     const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0644);
     if (fd < 0 && errno != EEXIST)
         fail(path, ": cannot write in '", parent.empty() ? "." : parent.string(),

@@ -101,9 +101,14 @@ PYBIND11_MODULE(_core, m) {
                const std::string& source, int threads,
                std::shared_ptr<MeshCache> meshes) {
                 SceneDesc desc = parse_scene(text, base_dir, source, meshes.get());
-                py::gil_scoped_release release;
-                Scene next(std::move(desc), threads, s);
-                s = std::move(next);
+                std::optional<Scene> next;
+                {
+                    py::gil_scoped_release release;
+                    next.emplace(std::move(desc), threads, s);
+                }
+                // Replaced with the GIL held: Python never reads half of it (renders,
+                // which release the GIL, are kept apart by Scene._rendered in scene.py).
+                s = std::move(*next);
             },
             py::arg("json_text"), py::arg("base_dir"), py::arg("source"),
             py::arg("threads") = 0, py::arg("meshes") = nullptr,

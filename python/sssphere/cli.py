@@ -52,7 +52,11 @@ def _cmd_render(args: argparse.Namespace) -> int:
     outputs = ([args.output % k for k in range(args.turntable)] if args.turntable
                else [args.output])
     # Before the render, not after it: the format, the directory, that a file can be made
-    _image.check_output_image(outputs[0])
+    for path in outputs:
+        _image.check_output_image(path)
+    if args.aovs:  # the AOV files beside a .png (RenderResult.save)
+        outputs += [f"{os.path.splitext(path)[0]}_{name}.exr" for path in outputs
+                    if not path.lower().endswith(".exr") for name in rendering.AOV_LAYERS]
     _check_ray(args.ray)
     # The render options as typed, checked and resolved in C++ with the scene's (one table
     # for both command lines and the API: render/options.h)
@@ -458,17 +462,20 @@ def _on_sigterm(signum, frame):
 class _Signals:
     """SIGINT and SIGTERM while a render runs and its image is written. The first stops the
     render at its next progress check (about ten times a second), as Ctrl-C does in the
-    API; none raises, so the image rendered so far is still written whole, however late
-    the signal comes (a render that had finished, its AOVs, the denoiser, the write, a
-    Ray cluster's shutdown) and however often it is repeated. A third one abandons the
-    write (KeyboardInterrupt), for a write that hangs."""
+    API; neither raises, so the image rendered so far is still written whole, however late
+    the signal comes (a render that had finished, its AOVs, the denoiser, the write) and if
+    it comes twice. After the second the signals' default actions are back: a third ends
+    the process, for a write that hangs. A signal the process was started ignoring (a
+    background job's SIGINT) stays ignored."""
 
     def __init__(self):
         self.count = 0
 
     def __enter__(self) -> "_Signals":
-        self._previous = {s: signal.signal(s, self._on_signal)
-                          for s in (signal.SIGINT, signal.SIGTERM)}
+        self._previous = {}
+        for s in (signal.SIGINT, signal.SIGTERM):
+            if signal.getsignal(s) is not signal.SIG_IGN:
+                self._previous[s] = signal.signal(s, self._on_signal)
         return self
 
     def __exit__(self, *exc) -> None:
@@ -480,10 +487,11 @@ class _Signals:
         _terminated = _terminated or signum == signal.SIGTERM
         self.count += 1
         if self.count == 2:
-            print("\nsssphere: interrupted again: still writing what was rendered "
-                  "(once more abandons it)", file=sys.stderr, flush=True)
-        elif self.count >= 3:
-            raise KeyboardInterrupt
+            for s in self._previous:
+                signal.signal(s, signal.SIG_DFL)
+            # os.write: a print here could interrupt the progress bar's own write
+            os.write(2, b"\nsssphere: interrupted again: still writing what was rendered "
+                        b"(once more ends it at once)\n")
 
     def progress(self, bar: Progress):
         """bar as a render's progress callback that also stops the render once signalled."""

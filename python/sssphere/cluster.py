@@ -26,7 +26,9 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import signal
 import tempfile
+import threading
 import time
 from typing import Callable, Optional
 
@@ -68,12 +70,19 @@ def connect(address: str):
     ray = _ray()
     if not ray.is_initialized():
         _check_reachable(address)
+        # ray.init puts its own SIGTERM handler (sys.exit) in the main thread: the caller's
+        # (the command line's, which keeps the image rendered so far) is put back.
+        main = threading.current_thread() is threading.main_thread()
+        sigterm = signal.getsignal(signal.SIGTERM) if main else None
         try:
             ray.init(address=None if address == "local" else address,
                      log_to_driver=False, configure_logging=False)
         except ConnectionError as e:
             raise ConnectionError(f"ray_address {address!r}: no Ray cluster there ({e}); start "
                                   "one with `ray start --head` (docs/cluster.md)") from None
+        finally:
+            if main and sigterm is not None:
+                signal.signal(signal.SIGTERM, sigterm)
     return ray
 
 

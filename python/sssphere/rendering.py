@@ -21,6 +21,8 @@ SPHERE_SAMPLERS = tuple(_SPECS["sphere_sampler"]["choices"])
 STEP_NEE = tuple(_SPECS["step_nee"]["choices"])
 BACKENDS = tuple(_SPECS["backend"]["choices"])
 DEFAULT_SPHERE_THRESHOLD = float(_core.DEFAULT_SPHERE_THRESHOLD)
+# Every name RenderResult.layers() may give, in its order.
+AOV_LAYERS = ("noisy", "variance", "events", "sphere_steps", "albedo", "normal", "depth")
 DEFAULT_AOV_SAMPLES = int(_core.DEFAULT_AOV_SAMPLES)
 
 
@@ -124,7 +126,7 @@ class RenderResult:
         """What the result shows and saves: ``denoised`` if there is one, else ``image``."""
         return self.image if self.denoised is None else self.denoised
 
-    def layers(self) -> list[tuple[str, tuple[str, ...], np.ndarray]]:
+    def layers(self) -> list[tuple[str, tuple[str, ...], np.ndarray]]:  # names: AOV_LAYERS
         """The AOVs as (name, channel names, (height, width, channels) array), in the
         order ``save(..., aovs=True)`` writes them: ``noisy`` (the estimate, when the
         picture is denoised), ``variance``, ``events``, ``sphere_steps`` (if the render
@@ -342,8 +344,9 @@ def render_frames(scene: Union[Scene, str, os.PathLike, dict], cameras: list[dic
             def frame_progress(fraction: float, k: int = k):
                 return None if progress is None else progress((k + fraction) / len(cameras))
 
-            result = with_aovs(scene, _result(_render(scene, frame_progress, options, _text,
-                                                      ray_address)), aovs, denoise)
+            result = _result(_render(scene, frame_progress, options, _text, ray_address))
+            if not (result.interrupted and result.spp == 0):  # nothing to add AOVs to
+                result = with_aovs(scene, result, aovs, denoise)
             results.append(result)
             if on_frame is not None:
                 on_frame(k, result)

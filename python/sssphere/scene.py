@@ -158,9 +158,9 @@ class Scene(_core.Scene):
             if self._renders:
                 raise SceneError(
                     f"{self._source}: {_field_name(path)}: cannot be changed while the scene "
-                    f"is being rendered (by {self._renders} other thread"
-                    f"{'s' if self._renders > 1 else ''}): change it once the render has "
-                    "returned, or change a copy, "
+                    f"is being rendered ({self._renders} render"
+                    f"{'s' if self._renders > 1 else ''} of it running): change it once the "
+                    "render has returned, or change a copy, "
                     "load_scene(scene.to_dict(), base_dir=scene.base_dir)")
             self._rebuild(json.dumps(doc), self._base_dir, self._source, self._threads,
                           self._meshes)
