@@ -204,6 +204,28 @@ TEST(Renderer, IdenticalForAnyThreadCount) {
 // grid of 3 cells (almost every flight traces its ray), 48 and 160 (refined near the
 // surface). A bound too large lets a flight pass the boundary: a different image, or
 // paths that never end (seen with r_o - t / 2 and r_o + t / 2 for the shrunk ball).
+// A photon whose state says it is in the medium while it is outside the mesh (a collision
+// that lands on the surface, to the float, then a flight out from there, whose ray cannot
+// see the crossing at its own origin) leaves the medium where a flight ends outside the
+// distance grid, or passes back in where it meets the surface: either way it reaches the
+// furnace's environment with weight 1. With albedo 1 it used to walk on for ever.
+TEST(PathTracer, APhotonLeakedOutOfItsMeshStillEnds) {
+    Scene scene(furnace_scene(Vec3(50.f), 0.9f, BoundaryType::IndexMatched), 2);
+    const int max_bounces = 100000;
+    const PathTracer pt(scene, max_bounces, /*nee=*/false);
+    for (uint64_t seed = 0; seed < 32; ++seed) {
+        PathState ps;
+        pt.start(ps, Vec3(0.f, 0.f, 3.5f), Vec3(0.f, 0.f, -1.f), Rng(seed));
+        ps.shape = 0;  // as after the leak: outside the unit sphere, heading away
+        ps.o = Vec3(0.f, 0.f, 1.01f);
+        ps.d = Vec3(0.f, 0.f, 1.f);
+        while (!pt.advance(ps)) {
+        }
+        EXPECT_LT(ps.out.scatter_events, uint32_t(max_bounces)) << "seed " << seed;
+        EXPECT_NEAR(ps.out.radiance.x, 1.f, 1e-5f) << "seed " << seed;
+    }
+}
+
 TEST(PathTracer, TheGridOnlySavesWork) {
     SceneDesc d = furnace_scene(Vec3(40.f), 0.5f, BoundaryType::Dielectric);
     d.shapes[0].medium.albedo = Vec3(0.98f);
