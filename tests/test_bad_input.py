@@ -359,7 +359,7 @@ def test_malformed_ply_and_off_files_get_a_line_or_element_named(tmp_path, name,
     [
         ({"spp": 0}, "spp must be an integer >= 1"),
         ({"spp": 2.5}, "spp must be an integer"),
-        ({"seed": -1}, "seed must be an integer >= 0"),
+        ({"seed": -1}, "seed must be an integer from 0 to 2\\^63 - 1"),
         ({"threads": -2}, "threads must be"),
         ({"integrator": "mc"}, "integrator 'mc' is not allowed \\(allowed: 'pt', 'st'\\)"),
         # st's options given to pt would change nothing: refused, not ignored
@@ -377,10 +377,10 @@ def test_bad_render_arguments(small_scene, kwargs, expected):
 @pytest.mark.parametrize(
     "kwargs, expected",
     [
-        ({"seed": -1}, "seed must be an integer >= 0, got -1"),
-        ({"seed": 2.5}, "seed must be an integer >= 0, got 2.5"),
+        ({"seed": -1}, "seed must be an integer from 0 to 2\\^63 - 1, got -1"),
+        ({"seed": 2.5}, "seed must be an integer from 0 to 2\\^63 - 1, got 2.5"),
         ({"threads": -3}, "threads must be an integer >= 0"),
-        ({"seed": None}, "seed must be an integer >= 0, got None"),
+        ({"seed": None}, "seed must be an integer from 0 to 2\\^63 - 1, got None"),
         ({"samples": 0}, "aov samples must be an integer from 1 to 2147483647, got 0"),
         ({"samples": True}, "aov samples must be an integer from 1 to 2147483647, got True"),
         ({"samples": 1 << 40}, "aov samples must be an integer from 1 to 2147483647, got 1099"),

@@ -111,7 +111,7 @@ int main(int argc, char** argv) {
         if (spec.kind == sss::OptionSpec::Kind::Flag)
             app.add_flag_callback(
                 "--no-" + flag_of(name), [&given, name] { given[name] = "false"; },
-                spec.help);
+                std::string("turn off ") + spec.help);
         else
             app.add_option_function<std::string>(
                    "--" + flag_of(name),

@@ -228,7 +228,8 @@ void bind_render(py::module_& m) {
         [](const Scene& scene, py::object seed, py::object samples, py::object threads) {
             // seed and threads as a render takes them (types, ranges, messages); None,
             // which a render reads as "not given", is not a value here.
-            if (seed.is_none()) fail("seed must be an integer >= 0, got None");
+            if (seed.is_none())
+                fail("seed must be an integer from 0 to 2^63 - 1, got None");
             if (threads.is_none()) fail("threads must be an integer >= 0, got None");
             py::kwargs kw;
             kw["seed"] = seed;

@@ -87,7 +87,7 @@ const std::vector<OptionSpec>& render_option_specs() {
          "N",
          "random seed (default: the scene's, else 0)",
          true,
-         "an integer >= 0",
+         "an integer from 0 to 2^63 - 1",
          0,
          kMaxInt64},
         {"threads",
@@ -114,8 +114,8 @@ const std::vector<OptionSpec>& render_option_specs() {
          Kind::Flag,
          {},
          "",
-         "light sampling with MIS at every scattering event (default); the command "
-         "lines' --no-nee turns it off: emitters then count only when paths hit them",
+         "light sampling with MIS at every scattering event (on by default; without it "
+         "emitters count only when paths hit them)",
          true,
          "True or False"},
         {"sphere_threshold",

@@ -86,7 +86,8 @@ TEST(RenderOptions, BadValuesNameTheOptionAndWhatIsAllowed) {
         return error_of([&] { resolve(scene, o); });
     };
     EXPECT_HAS(err([](auto& o) { o.spp = 0; }), "spp must be an integer >= 1");
-    EXPECT_HAS(err([](auto& o) { o.seed = -1; }), "seed must be an integer >= 0, got -1");
+    EXPECT_HAS(err([](auto& o) { o.seed = -1; }),
+               "seed must be an integer from 0 to 2^63 - 1, got -1");
     EXPECT_HAS(err([](auto& o) { o.threads = -2; }), "threads must be an integer >= 0");
     EXPECT_HAS(err([](auto& o) { o.max_bounces = -3; }),
                "max_bounces must be an integer >= -1");
@@ -133,7 +134,7 @@ TEST(RenderOptions, CommandLineTextIsParsedAndChecked) {
                "--spp: expected an integer >= 1");
     EXPECT_HAS(
         error_of([&] { set_override_from_text(o, "seed", "99999999999999999999"); }),
-        "--seed: expected an integer >= 0");
+        "--seed: expected an integer from 0 to 2^63 - 1");
     EXPECT_HAS(error_of([&] { set_override_from_text(o, "sphere_threshold", "nan"); }),
                "--sphere-threshold: expected a number >= 0");
     EXPECT_HAS(error_of([&] { set_override_from_text(o, "colour", "red"); }),

@@ -349,7 +349,7 @@ def build_parser() -> argparse.ArgumentParser:
         flag = spec["name"].replace("_", "-")
         if spec["kind"] == "flag":
             r.add_argument(f"--no-{flag}", dest=spec["name"], action="store_const", const="false",
-                           help=spec["help"])
+                           help=f"turn off {spec['help']}")
         else:
             r.add_argument(f"--{flag}", dest=spec["name"], metavar=spec["metavar"], help=spec["help"])
     r.add_argument("--aovs", action="store_true",
