@@ -498,6 +498,22 @@ def test_set_and_image_size_change_the_scene(tmp_path, small_scene, cli):
     np.testing.assert_array_equal(img, expected)
 
 
+@pytest.mark.parametrize("cli", ["python", "cpp"])
+@pytest.mark.parametrize("field", ["camera.width", "camera.height", "camera"])
+def test_set_of_the_image_size_with_width_is_refused(tmp_path, small_scene, cli, field):
+    """--set camera.width=-5 --width 16 rendered at width 16 without a word: --width replaced
+    the --set value before anything read it. Both naming the size is refused."""
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    value = json.dumps(small_scene["camera"]) if field == "camera" else "-5"
+    args = [tmp_path / "s.json", "-o", tmp_path / "x.exr", "--spp", 1, "--quiet",
+            "--set", f"{field}={value}", "--width", 16]
+    r = (run_cli("render", *args) if cli == "python"
+         else subprocess.run([_cpp_cli(), *map(str, args)], capture_output=True, text=True))
+    assert r.returncode != 0 and "Traceback" not in r.stderr, r.stderr
+    assert f"--set {field} and --width/--height both give the image size" in r.stderr, r.stderr
+    assert not (tmp_path / "x.exr").exists()
+
+
 def test_info_json_is_json_for_a_medium_without_extinction(tmp_path, small_scene):
     """A medium of sigma_t 0 (allowed) has an infinite mean free path: `info --json` wrote it
     as `Infinity`, which is not JSON. It is null now, and the text says inf."""

@@ -650,7 +650,16 @@ std::string edit_scene_json(const std::string& json_text, const std::string& sou
                             int height) {
     json root = parse_json(json_text, source);
     if (!root.is_object()) return json_text;  // parse_scene says what is wrong
-    for (const std::string& a : assignments) set_scene_field(root, a);
+    for (const std::string& a : assignments) {
+        // --width and --height would silently replace what this sets (unchecked).
+        const std::string path = a.substr(0, a.find('='));
+        for (const char* field : {"camera", "camera.width", "camera.height"})
+            if (path == field && (width > 0 || height > 0))
+                fail("--set ", path,
+                     " and --width/--height both give the image size: "
+                     "give one of them");
+        set_scene_field(root, a);
+    }
     if (width > 0 || height > 0) {
         json& camera = root["camera"];
         if (!camera.is_object()) return root.dump();
