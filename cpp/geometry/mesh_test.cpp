@@ -130,9 +130,11 @@ TEST(Mesh, ObjQuadsAreTriangulatedAndStlVerticesMerged) {
 TEST(Mesh, ObjFacesInEveryFormReadAsOneCube) {
     const std::string v =
         "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1 1.0\n";
+    // A comment's '\' (a Windows path) does not continue it onto the next line (the
+    // first vertex's).
     const std::string extras =
         "# a comment\nmtllib cube.mtl\no cube\ng side\ns off\nusemtl wax\nvt 0 0\n"
-        "vn 0 0 1\nl 1 2\n";
+        "vn 0 0 1\nl 1 2\n# from C:\\models\\\n";
     const std::string f =
         "f 1/1 4/1 3/1 2/1\r\nf 5//1 6//1 7//1 8//1\nf -8/1/1 -7/1/1 -3/1/1 -4/1/1\n"
         "f 3 4 \\\n 8 7  # continued\nfo 2 3 7 6\nf 1 5 8 4\n";

@@ -437,9 +437,12 @@ PolygonSoup read_obj(const std::string& path) {
     int n = 0;
     while (next_line(line)) {
         const int first = ++n;
-        // A line ending in '\' goes on on the next.
-        for (std::string more; !line.empty() && line.back() == '\\' && next_line(more);
-             ++n)
+        // A line ending in '\' goes on on the next, unless the '\' is in a comment (a
+        // Windows path: "# from C:\models\").
+        auto goes_on = [](const std::string& l) {
+            return !l.empty() && l.back() == '\\' && l.find('#') == std::string::npos;
+        };
+        for (std::string more; goes_on(line) && next_line(more); ++n)
             line.back() = ' ', line += more;
         const size_t hash = line.find('#');
         if (hash != std::string::npos) line.resize(hash);
