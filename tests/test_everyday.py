@@ -2,6 +2,7 @@
 animations, shapes from numpy arrays."""
 
 import copy
+import dataclasses
 import math
 import sys
 import threading
@@ -106,6 +107,12 @@ def test_render_full_aovs_and_multilayer_exr_round_trip(tmp_path):
         ["y.png", "y_variance.exr", "y_events.exr", "y_albedo.exr", "y_normal.exr",
          "y_depth.exr"])
     np.testing.assert_array_equal(sssphere.read_image(tmp_path / "y_normal.exr"), r.normal)
+    # Its repr names every field and each array by dtype and shape, not its numbers.
+    text = repr(r)
+    h, w = r.image.shape[:2]
+    assert f"image=<float32 array ({h}, {w}, 3)>" in text and f"depth=<float32 array ({h}, {w})>" in text
+    assert all(f"{f.name}=" in text for f in dataclasses.fields(r))
+    assert len(text) < 1500, text
 
 
 def test_read_layers_refuses_what_is_not_an_exr(tmp_path):
@@ -233,6 +240,13 @@ def test_a_bad_assignment_raises_the_files_error_and_changes_nothing(small_scene
     assert "shapes[0].medium.albedo" in str(from_edit.value)
     with pytest.raises(SceneError, match="not a finite number"):
         scene.camera.fov = float("nan")
+    # JSON has no complex numbers or sets: named, not json.dumps's TypeError
+    with pytest.raises(SceneError, match=r"camera\.origin\[0\]: a complex is not a scene value"):
+        scene.camera.origin = np.array([0, 0, 4], dtype=complex)
+    bad = copy.deepcopy(small_scene)
+    bad["shapes"][0]["medium"]["sigma_t"] = {1, 2}
+    with pytest.raises(SceneError, match=r"<dict>: shapes\[0\]\.medium\.sigma_t: a set is not"):
+        sssphere.load_scene(bad)
     with pytest.raises(IndexError, match=r"shapes\[3\]: no such field"):
         scene.shapes[3].medium.g = 0.1
     with pytest.raises(SceneError, match=r"shapes\[0\]\.medium\.nonsense: unknown"):

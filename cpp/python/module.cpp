@@ -121,36 +121,56 @@ PYBIND11_MODULE(_core, m) {
             "grid_resolutions", &Scene::grid_resolutions,
             "Distance grid cells along each shape's largest side (0: a "
             "surface).")
-        .def_property_readonly("width",
-                               [](const Scene& s) { return s.desc().camera.width; })
-        .def_property_readonly("height",
-                               [](const Scene& s) { return s.desc().camera.height; })
-        .def_property_readonly("source", [](const Scene& s) { return s.desc().source; })
-        .def_property_readonly("inputs", [](const Scene& s) { return s.desc().inputs; })
-        .def_property_readonly("base_dir",
-                               [](const Scene& s) { return s.desc().base_dir; })
-        .def_property_readonly("warnings",
-                               [](const Scene& s) { return s.desc().warnings; })
-        .def_property_readonly("integrator",
-                               [](const Scene& s) { return s.desc().render.integrator; })
+        .def_property_readonly(
+            "width", [](const Scene& s) { return s.desc().camera.width; },
+            "The image's width in pixels (camera.width).")
+        .def_property_readonly(
+            "height", [](const Scene& s) { return s.desc().camera.height; },
+            "The image's height in pixels (camera.height).")
+        .def_property_readonly(
+            "source", [](const Scene& s) { return s.desc().source; },
+            "Where the scene came from, as messages name it (its file, or '<dict>').")
+        .def_property_readonly(
+            "inputs", [](const Scene& s) { return s.desc().inputs; },
+            "The files the scene reads, as paths: its meshes and environment maps (the "
+            "scene file itself is source). A render's output may not be one of them.")
+        .def_property_readonly(
+            "base_dir", [](const Scene& s) { return s.desc().base_dir; },
+            "The directory the scene's relative paths are read from.")
+        .def_property_readonly(
+            "warnings", [](const Scene& s) { return s.desc().warnings; },
+            "Where the scene goes past the limits of docs/robustness.md (it renders, but "
+            "maybe not within 1 %), one message each; loading raised SceneWarning for "
+            "them.")
+        .def_property_readonly(
+            "integrator", [](const Scene& s) { return s.desc().render.integrator; },
+            "render.integrator: 'pt' or 'st' (what a render uses unless told otherwise).")
         .def_property_readonly(
             "spp",
-            [](const Scene& s) { return s.desc().render.spp.value_or(kDefaultSpp); })
-        .def_property_readonly("seed",
-                               [](const Scene& s) { return s.desc().render.seed; })
-        .def_property_readonly("max_bounces",
-                               [](const Scene& s) { return s.desc().render.max_bounces; })
+            [](const Scene& s) { return s.desc().render.spp.value_or(kDefaultSpp); },
+            "render.spp, else the default samples per pixel.")
+        .def_property_readonly(
+            "seed", [](const Scene& s) { return s.desc().render.seed; },
+            "render.seed (default 0).")
+        .def_property_readonly(
+            "max_bounces", [](const Scene& s) { return s.desc().render.max_bounces; },
+            "render.max_bounces (-1: no limit).")
         .def_property_readonly(
             "sphere_threshold",
-            [](const Scene& s) { return s.desc().render.sphere_threshold; })
+            [](const Scene& s) { return s.desc().render.sphere_threshold; },
+            "render.sphere_threshold: st takes a sphere step where sigma_t * r >= it.")
         .def_property_readonly("models",
                                [](const Scene& s) -> std::optional<std::string> {
                                    if (s.desc().render.models.empty())
                                        return std::nullopt;
                                    return s.desc().render.models;
                                })
-        .def_property_readonly("num_shapes", &Scene::num_shapes)
-        .def("shape_name", [](const Scene& s, int i) { return shape_at(s, i).name; })
+        .def_property_readonly("num_shapes", &Scene::num_shapes,
+                               "The number of shapes (media and surfaces).")
+        .def(
+            "shape_name", [](const Scene& s, int i) { return shape_at(s, i).name; },
+            "The name of shape i: its 'name' field, else its place in the file "
+            "('shapes[2]').")
         .def(
             "shape_mesh",
             [](const Scene& s, int i) {
@@ -206,15 +226,19 @@ PYBIND11_MODULE(_core, m) {
             "area and volume (render units = scene units); a medium's sigma_t, albedo, "
             "phase, g (mean cosine), boundary, ior and grid_resolution; a surface's type "
             "and color.")
-        .def("distance_lower_bound",
-             [](const Scene& s, int i,
-                py::array_t<double, py::array::c_style | py::array::forcecast> p) {
-                 shape_at(s, i);
-                 std::vector<Vec3> pts = points_from(s, p);
-                 std::vector<float> r(pts.size());
-                 for (size_t k = 0; k < pts.size(); ++k) r[k] = s.grid(i).query(pts[k]);
-                 return to_array(r, {py::ssize_t(r.size())});
-             })
+        .def(
+            "distance_lower_bound",
+            [](const Scene& s, int i,
+               py::array_t<double, py::array::c_style | py::array::forcecast> p) {
+                shape_at(s, i);
+                std::vector<Vec3> pts = points_from(s, p);
+                std::vector<float> r(pts.size());
+                for (size_t k = 0; k < pts.size(); ++k) r[k] = s.grid(i).query(pts[k]);
+                return to_array(r, {py::ssize_t(r.size())});
+            },
+            "For each point (an (n, 3) array, scene coordinates), shape i's distance "
+            "grid's conservative lower bound on its distance to the surface: what a "
+            "sphere step's radius comes from (0 outside the grid).")
         .def(
             "grid_inside",
             [](const Scene& s, int i,
@@ -230,13 +254,16 @@ PYBIND11_MODULE(_core, m) {
             "Whether each point (scene coordinates) is inside shape i's medium, by its "
             "distance grid's sign at the nearest node: a guess within a cell of the "
             "surface (for statistics over a volume).")
-        .def("exact_distance",
-             [](const Scene& s, int i,
-                py::array_t<double, py::array::c_style | py::array::forcecast> p) {
-                 std::vector<double> d =
-                     exact_distances(shape_at(s, i).mesh, points_from(s, p));
-                 return to_array(d, {py::ssize_t(d.size())});
-             })
+        .def(
+            "exact_distance",
+            [](const Scene& s, int i,
+               py::array_t<double, py::array::c_style | py::array::forcecast> p) {
+                std::vector<double> d =
+                    exact_distances(shape_at(s, i).mesh, points_from(s, p));
+                return to_array(d, {py::ssize_t(d.size())});
+            },
+            "For each point (an (n, 3) array, scene coordinates), its exact distance to "
+            "shape i's mesh (CGAL's AABB tree; a test oracle for distance_lower_bound).")
         .def("__repr__", [](const Scene& s) {
             std::ostringstream os;
             os << "<sssphere.Scene '" << s.desc().source << "': " << s.desc().camera.width

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import inspect
 import os
-from dataclasses import dataclass
-from typing import Callable, Optional, Union
+from dataclasses import dataclass, fields
+from typing import Any, Callable, Optional, Union
 
 import numpy as np
 
@@ -165,6 +165,18 @@ class RenderResult:
             write_layers(f"{stem}_{name}.exr", [("", channels, data)])
             written.append(f"{stem}_{name}.exr")
         return written
+
+    def __repr__(self) -> str:
+        """The fields, with each array as its dtype and shape (printing a 512x512 image's
+        numbers helps nobody) and ``cluster`` as its number of tasks."""
+        def brief(name: str, value: Any) -> str:
+            if isinstance(value, np.ndarray):
+                return f"{name}=<{value.dtype} array {value.shape}>"
+            if name == "cluster" and value is not None:
+                return f"{name}=<{value.get('tasks_merged', '?')} tasks merged>"
+            return f"{name}={value!r}"
+        body = ", ".join(brief(f.name, getattr(self, f.name)) for f in fields(self))
+        return f"RenderResult({body})"
 
     def _repr_png_(self) -> bytes:
         """Jupyter shows a result as its picture (sRGB, clamped)."""

@@ -89,13 +89,17 @@ class Scene(_core.Scene):
 
     # The scene file's top-level blocks, as editable nodes (assigning one replaces it).
     camera = property(lambda self: SceneNode(self, ("camera",)),
-                      lambda self, value: self._assign(("camera",), value))
+                      lambda self, value: self._assign(("camera",), value),
+                      doc="The camera block, editable (docs/scene-format.md, camera).")
     shapes = property(lambda self: SceneNode(self, ("shapes",)),
-                      lambda self, value: self._assign(("shapes",), value))
+                      lambda self, value: self._assign(("shapes",), value),
+                      doc="The shapes list, editable (docs/scene-format.md, shapes).")
     lights = property(lambda self: SceneNode(self, ("lights",)),
-                      lambda self, value: self._assign(("lights",), value))
+                      lambda self, value: self._assign(("lights",), value),
+                      doc="The lights list, editable (docs/scene-format.md, lights).")
     render = property(lambda self: SceneNode(self, ("render",)),
-                      lambda self, value: self._assign(("render",), value))
+                      lambda self, value: self._assign(("render",), value),
+                      doc="The render block, editable (docs/scene-format.md, render).")
 
     @contextlib.contextmanager
     def _rendered(self):
@@ -130,9 +134,9 @@ class Scene(_core.Scene):
         """Sets (or, with _DELETE, removes) the field at ``path`` and rebuilds what the
         change needs; on an error the scene is unchanged."""
         value = value if value is _DELETE else _jsonable(value)
-        bad = None if value is _DELETE else _find_non_finite(value, _field_name(path))
+        bad = None if value is _DELETE else _find_bad_value(value, _field_name(path))
         if bad:
-            raise SceneError(f"{self._source}: {bad}: value is not a finite number")
+            raise SceneError(f"{self._source}: {bad}")
         doc = copy.deepcopy(self._doc)
         node = doc
         for i, key in enumerate(path[:-1]):
@@ -246,21 +250,28 @@ def _warned(scene: Scene, stacklevel: int = 3) -> Scene:
     return scene
 
 
-def _find_non_finite(value: Any, path: str) -> str | None:
-    """Path of the first NaN or infinite number in a nested dict/list, or None."""
+def _find_bad_value(value: Any, path: str) -> str | None:
+    """What is wrong with the first value in a nested dict/list that JSON cannot state (a
+    NaN or infinite number; a complex number, set or other object), as "field: problem",
+    or None."""
     if isinstance(value, float) and not math.isfinite(value):
-        return path
+        return f"{path}: value is not a finite number"
     if isinstance(value, dict):
         for k, v in value.items():
-            found = _find_non_finite(v, f"{path}.{k}" if path else str(k))
+            found = _find_bad_value(v, f"{path}.{k}" if path else str(k))
             if found:
                 return found
+        return None
     if isinstance(value, (list, tuple)):
         for i, v in enumerate(value):
-            found = _find_non_finite(v, f"{path}[{i}]")
+            found = _find_bad_value(v, f"{path}[{i}]")
             if found:
                 return found
-    return None
+        return None
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return None
+    return (f"{path}: a {type(value).__name__} is not a scene value (numbers, strings, "
+            f"lists and objects are: docs/scene-format.md)")
 
 
 def load_scene(
@@ -293,13 +304,13 @@ def load_scene(
     if isinstance(scene, dict):
         try:
             scene = _jsonable(scene)  # numpy arrays (e.g. a shape's vertices and faces)
-            bad = _find_non_finite(scene, "")
+            bad = _find_bad_value(scene, "")
+            if bad:
+                raise SceneError(f"<dict>: {bad}")
             text = json.dumps(scene)
         except RecursionError:
             raise SceneError("<dict>: nested too deeply (the scene format nests at most a few "
                              "levels)") from None
-        if bad:
-            raise SceneError(f"<dict>: {bad}: value is not a finite number")
         base = str(base_dir) if base_dir is not None else os.getcwd()
         return _warned(Scene(text, base, "<dict>", threads))
     path = Path(scene)
