@@ -389,6 +389,7 @@ def test_backend_option_renders_on_the_gpu(tmp_path, small_scene):
             r = run_cli("render", tmp_path / "s.json", "-o", tmp_path / "gpu.exr", "--spp", 2,
                         "--backend", "vulkan", "--integrator", integrator, "--quiet", *flags)
             assert r.returncode == 0, r.stderr
+            assert f"on {_core.gpu_status()[1]};" in r.stderr, r.stderr  # names the device
             expected = sssphere.render(sssphere.load_scene(small_scene), integrator=integrator,
                                        spp=2, nee=nee, backend="vulkan")
             np.testing.assert_array_equal(sssphere.read_image(tmp_path / "gpu.exr"), expected)

@@ -114,6 +114,8 @@ def _cmd_render(args: argparse.Namespace) -> int:
         nodes = len(c["nodes"])
         where = (f" on a Ray cluster: {c['tasks_merged']} tasks in {c['processes']} worker "
                  f"processes on {nodes} node{'' if nodes == 1 else 's'};")
+    elif result.device:  # backend vulkan: which device (lavapipe is a CPU)
+        where = f" on {result.device};"
     print(
         f"{what} {out}{aov_files} ({scene.width}x{scene.height}, {result.spp} spp;{where} "
         f"scene built in {load_s:.2f}s, "
