@@ -10,6 +10,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -549,6 +550,25 @@ def test_a_reader_that_leaves_early_ends_the_command_quietly():
         err = proc.stderr.read()
         assert proc.wait(timeout=120) == 128 + signal.SIGPIPE, err
     assert err == ""
+
+
+def test_ctrl_c_while_the_command_loads_is_one_line():
+    """Ctrl-C during the imports of the command (NumPy, the C++ module: a second or more)
+    printed a traceback of the import; the `sssphere` script's entry point ends as a later
+    interrupt does. The interrupt arrives here as an import that raises it."""
+    stop = ("import sys\n"
+            "class Stop:\n"
+            "    def find_spec(self, name, path=None, target=None):\n"
+            "        if name == 'numpy':\n"
+            "            raise KeyboardInterrupt\n"
+            "sys.meta_path.insert(0, Stop())\n"
+            "from sssphere import _entry\n"
+            "sys.exit(_entry.main())\n")
+    r = subprocess.run([sys.executable, "-c", stop, "presets"], capture_output=True, text=True,
+                       timeout=120)
+    assert (r.returncode, r.stderr) == (130, "sssphere: interrupted\n")
+    script = Path(sys.executable).parent / "sssphere"  # the installed command uses it
+    assert "sssphere._entry" in script.read_text()
 
 
 def test_a_broken_pipe_other_than_stdout_is_an_error(monkeypatch, capsys):
