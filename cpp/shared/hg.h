@@ -19,8 +19,13 @@ SSS_CONST float kPi = 3.14159265358979323846f;
 SSS_CONST float kHgIsotropicG = 1e-3f;
 
 SSS_FN float hg_eval(float cos_theta, float g) {
-    float denom = 1.f + g * g - 2.f * g * cos_theta;
-    return kInvFourPi * (1.f - g * g) / (denom * sqrt(denom));
+    // 1 + g^2 - 2 g cos as a sum of terms that cannot cancel: computed directly it rounds
+    // to 0 or below near cos = +-1 once |g| > 0.999 (inf or NaN pixels). It is then at
+    // least (1 - |g|)^2 > 0. cos_theta, a dot product, may pass 1 by a rounding.
+    cos_theta = clamp(cos_theta, -1.f, 1.f);
+    float denom = g >= 0.f ? (1.f - g) * (1.f - g) + 2.f * g * (1.f - cos_theta)
+                           : (1.f + g) * (1.f + g) - 2.f * g * (1.f + cos_theta);
+    return kInvFourPi * (1.f - g) * (1.f + g) / (denom * sqrt(denom));
 }
 
 // Cosine between travel directions drawn from HG by inverting its CDF with u in [0, 1).

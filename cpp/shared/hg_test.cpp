@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <vector>
 
 #include "core/rng.h"
@@ -61,6 +62,23 @@ TEST_P(HgTest, SampledDirectionsAreUnitAndAroundIncoming) {
         mean += dot(wi, wo);
     }
     EXPECT_NEAR(mean / n, g, 5.0 / std::sqrt(double(n)));
+}
+
+// Near |g| = 1 the density stays finite and positive, with its peak (1 + |g|) / (4 pi (1
+// - |g|)^2) where it points, even for a cosine a rounding took past +-1: 1 + g^2 - 2 g
+// cos, computed directly, cancelled to 0 or below there (NaN pixels at g = 0.9999).
+TEST(Hg, FiniteAndPeakedForAnisotropiesNearOne) {
+    for (float g : {0.9995f, 0.9999f, 1.f - 0x1p-24f, -0.9999f}) {
+        const float ag = std::abs(g), ahead = g > 0.f ? 1.f : -1.f;
+        const double peak = (1.0 + ag) / (4.0 * double(kPi) * (1.0 - ag) * (1.0 - ag));
+        for (float c : {ahead, std::nextafter(ahead, 2.f * ahead)})
+            EXPECT_NEAR(hg_eval(c, g) / peak, 1.0, 1e-3)
+                << "g = " << g << ", cos = " << c;
+        for (float c : {-1.f, -0.5f, 0.f, 0.5f, 0.99999f, 1.f}) {
+            const float p = hg_eval(c, g);
+            EXPECT_TRUE(std::isfinite(p) && p > 0.f) << "g = " << g << ", cos = " << c;
+        }
+    }
 }
 
 INSTANTIATE_TEST_SUITE_P(Anisotropies, HgTest, ::testing::Values(-0.7f, 0.f, 0.4f, 0.9f));
