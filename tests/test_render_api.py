@@ -4,6 +4,8 @@ import inspect
 import json
 import os
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -94,6 +96,31 @@ def test_progress_callback_can_stop_early(small_scene):
     assert r.samples.sum() < (1 << 14) * r.samples.size
     assert np.all(np.isfinite(r.image))
     assert all(0 <= f <= 1 for f in seen)
+
+
+@pytest.mark.parametrize("integrator", ["pt", "st"])
+def test_a_stop_ends_paths_that_would_not_end_for_hours(tmp_path, integrator):
+    """sigma_t = 1e7 per unit in a unit ball of albedo 1 behind glass: a path takes about
+    1e14 events. A stop was checked only between paths, so neither Ctrl-C nor SIGTERM ended
+    such a render (it had to be killed). Now the first pass is stopped mid-path: nothing
+    is kept (no pass finished). Run in a child so that a regression fails, not hangs."""
+    scene = {"camera": {"origin": [0, 0, 4], "target": [0, 0, 0], "fov": 30, "width": 8,
+                        "height": 8},
+             "shapes": [{"sphere": {"center": [0, 0, 0], "radius": 1},
+                         "medium": {"sigma_t": 1e7, "albedo": 1, "g": 0.5},
+                         "boundary": {"type": "dielectric", "ior": 1.5}}],
+             "lights": [{"type": "environment", "radiance": 1}]}
+    (tmp_path / "s.json").write_text(json.dumps(scene))
+    code = ("import sys, time, sssphere\n"
+            "t0 = time.monotonic()\n"
+            f"r = sssphere.render_full(sys.argv[1], spp=1, integrator='{integrator}',\n"
+            "                          progress=lambda f: time.monotonic() - t0 < 1)\n"
+            "print(r.interrupted, r.spp, round(time.monotonic() - t0, 1))\n")
+    r = subprocess.run([sys.executable, "-c", code, str(tmp_path / "s.json")],
+                       capture_output=True, text=True, timeout=180)
+    assert r.returncode == 0, r.stderr
+    interrupted, spp, _seconds = r.stdout.split()
+    assert (interrupted, spp) == ("True", "0"), r.stdout
 
 
 def test_record_paths_gives_every_paths_counts(small_scene):
@@ -235,7 +262,7 @@ def test_time_limit_stops_with_whole_passes_and_reports_the_spp_reached(small_sc
 def test_time_limit_is_checked(small_scene):
     scene = sssphere.load_scene(small_scene)
     for bad in (-1, float("inf"), "1"):
-        with pytest.raises(ValueError, match="time_limit must be a number >= 0"):
+        with pytest.raises(ValueError, match="time_limit must be a number from 0 to 1e9"):
             sssphere.render_full(scene, time_limit=bad)
     small_scene["render"]["time_limit"] = -2
     with pytest.raises(sssphere.SceneError, match=r"render\.time_limit.*0 \(no limit\) to 1e9"):

@@ -237,7 +237,9 @@ Vec3 PathTracer::sample_light(const Vec3& p, const Scatter& scatter, Rng& rng, b
 
 void PathTracer::start(PathState& ps, const Vec3& o, const Vec3& d,
                        const Rng& rng) const {
+    const std::atomic<bool>* cancel = ps.cancel;  // the slot's, kept for its next paths
     ps = PathState();
+    ps.cancel = cancel;
     ps.rng = rng;
     ps.o = o;
     ps.d = d;
@@ -622,6 +624,12 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             // Real collision: scatter.
             ++out.scatter_events;
             if (max_bounces_ >= 0 && int(out.scatter_events) > max_bounces_) break;
+            // A stop (Ctrl-C) ends even a path of 1e9 events within a second (65536
+            // events are a few ms); the render then drops the tile it was part of, so
+            // the cut path counts nowhere.
+            if ((out.scatter_events & 0xFFFFu) == 0 && ps.cancel &&
+                ps.cancel->load(std::memory_order_relaxed))
+                break;
             beta *= s.medium.albedo;
             if (is_black(beta)) break;
             if (nee_ && !desc.lights.empty())

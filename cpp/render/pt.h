@@ -10,6 +10,7 @@
 // else (flights, boundaries, lights, NEE, roulette) is the same code.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <vector>
 
@@ -52,6 +53,9 @@ struct PathState {
                           // else < 0
     PathSample out;
     StepRequest step;  // valid while the path waits for a sphere step
+    // The render's stop flag, checked every 65536 events: set, the path ends where it
+    // is (its tile is dropped). Kept by PathTracer::start. nullptr: never stops.
+    const std::atomic<bool>* cancel = nullptr;
 };
 
 class PathTracer {

@@ -48,6 +48,7 @@ bool trace_paths(const TileSamples& samples, const PathTracer& tracer, Film& fil
     for (int i = 0; i < samples.items(); ++i) {
         if (i % m == 0 && cancel) return false;
         PathState ps;
+        ps.cancel = &cancel;
         samples.start(i, tracer, ps);
         tracer.advance(ps);
         samples.record(i, ps.out, film);

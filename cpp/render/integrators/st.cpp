@@ -30,6 +30,7 @@ bool trace_in_flight(const PathTracer& tracer, const SphereTracing& st, int coun
                      Start&& camera_ray, Record&& record, const std::atomic<bool>& cancel,
                      double& step_seconds) {
     PathState slot[kPathsInFlight];
+    for (PathState& ps : slot) ps.cancel = &cancel;
     int item[kPathsInFlight];
     bool busy[kPathsInFlight] = {};
     int next = 0;
