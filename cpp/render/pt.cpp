@@ -76,6 +76,10 @@ Vec3 PathTracer::transmittance(const Vec3& p, const Vec3& w, float dist, int sha
             emitter->normal = h.normal;
             return tr;
         }
+        // A surface at the light itself (a lamp standing on a floor) does not block it:
+        // whether the ray meets it there is a matter of rounding (area lights end their
+        // rays as short of the quad: render/lights/area.h).
+        if (shapes[h.mesh].is_surface() && h.t >= kShadowRayEnd * dist) break;
         if (shapes[h.mesh].is_surface() || !shapes[h.mesh].boundary.passes_shadow_rays())
             return Vec3(0.f);
         shape = dot(w, h.normal) < 0.f ? int(h.mesh) : -1;

@@ -108,6 +108,7 @@ vec3 transmittance(vec3 p, vec3 w, float dist, int shape) {
         bool hit = intersect_between(p, w, t_prev, dist, h);
         if (shape >= 0) tr *= beer(shapes[shape].sigma_t.xyz, (hit ? h.t : dist) - t_prev);
         if (!hit || is_black(tr)) return tr;
+        if (is_surface(h.mesh) && h.t >= kShadowRayEnd * dist) return tr;  // at the light
         if (h.mesh >= counts.x || is_surface(h.mesh) ||
             !boundary_passes_shadow_rays(boundary_data(shapes[h.mesh])))
             return vec3(0.0);

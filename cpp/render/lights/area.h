@@ -22,7 +22,7 @@ SSS_FN LightSample area_light_sample(LightData l, Vec3 p, float u1,
     Vec3 w = to / dist;
     if (dot(w, n) >= 0.f) return s;  // behind the one-sided emitter
     s.w = w;
-    s.dist = dist * (1.f - 1e-4f);  // short of the quad, which would block the ray
+    s.dist = dist * kShadowRayEnd;  // short of the quad, which would block the ray
     s.L = l.value;
     s.pdf = area_light_pdf(l.scalar, w, dist, n);
     return s;

@@ -47,6 +47,11 @@ struct LightData {
     float scalar;
 };
 
+// Shadow rays end this fraction of the way to a light (pbrt's shadow epsilon): an area
+// light's own quad, or a surface a point light stands on, is then not in the way, as
+// float rounding would decide (PathTracer::transmittance).
+SSS_CONST float kShadowRayEnd = 1.f - 1e-4f;
+
 // A direction sampled towards a light from a point p: the unit direction w, the length of
 // the shadow ray that tests it (kInf: to infinity; short of an emitter's own surface),
 // the radiance arriving along it (delta lights: the intensity over distance squared, or
