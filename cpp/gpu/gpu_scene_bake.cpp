@@ -102,7 +102,13 @@ namespace {
 
 // The cut decoders and every cut-taking shape's certificates (SphereTracing's), appended
 // to the floats: the cells' entry indices as int32 bits, then 8 floats per entry.
+// No shape taking cut steps (index-matched media, which sample lights at their events):
+// no cut decoders, so the shaders are built without cut steps (CUTS = 0), which lavapipe
+// compiles in seconds rather than minutes.
 void bake_cut_planes(const Scene& scene, const SphereTracing& st, GpuSceneData& out) {
+    bool any = false;
+    for (int i = 0; i < scene.num_shapes(); ++i) any = any || st.cuts(i);
+    if (!any) return;
     GpuSceneHeader& h = out.header;
     out.cut_model = pack_gpu_cut_model(*st.cut_model());
     h.cut_params[0] = st.cut_sigma_hi();
