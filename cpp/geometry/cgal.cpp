@@ -113,8 +113,11 @@ TriangleMesh load_mesh(const std::string& path, MeshKind kind) {
     pos.reserve(points.size());
     for (const Point& p : points) {
         Vec3d v(p.x(), p.y(), p.z());
-        if (!is_finite(v.to_float()))
+        if (!(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z)))
             fail(path, ": vertex ", pos.size(), " is not finite");
+        if (!is_finite(v.to_float()))
+            fail(path, ": vertex ", pos.size(), " (", v.x, ", ", v.y, ", ", v.z,
+                 ") does not fit in single precision (|x| < 3.4e38)");
         pos.push_back(v);
     }
     std::vector<std::vector<uint32_t>> polys;

@@ -160,6 +160,7 @@ TEST(Mesh, MalformedObjLinesAreNamed) {
     } cases[] = {
         {"v 0 0\n" + v + f, "line 1: vertex 1 needs three numbers x y z"},
         {v + "v 1 nan 0\n" + f, "line 9: vertex 9 is not finite"},
+        {v + "v 1 1e39 0\n" + f, "line 9: vertex 9 does not fit in single precision"},
         {v + f + "f 3 4 x 7\n", "line 12: vertex index 'x' is not allowed"},
         {v + f + "f 3 4 0 7\n", "line 12: vertex index '0' is not allowed"},
         {v + f + "f 3 4 99999999999999999999 7\n", "line 12: vertex index '9999"},

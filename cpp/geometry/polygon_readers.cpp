@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include "core/check.h"
@@ -463,6 +464,10 @@ PolygonSoup read_obj(const std::string& path) {
                     "in a bare CR?)");
             if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2]))
                 bad("vertex ", soup.xyz.size() / 3 + 1, " is not finite");
+            for (double c : v)
+                if (std::abs(c) > double(std::numeric_limits<float>::max()))
+                    bad("vertex ", soup.xyz.size() / 3 + 1,
+                        " does not fit in single precision (|x| < 3.4e38)");
             soup.xyz.insert(soup.xyz.end(), v, v + 3);
         } else if (key == "f" || key == "fo") {
             if (w.size() - 1 > kMaxFaceVertices)
