@@ -230,7 +230,10 @@ void bind_render(py::module_& m) {
             // which a render reads as "not given", is not a value here.
             if (seed.is_none())
                 fail("seed must be an integer from 0 to 2^63 - 1, got None");
-            if (threads.is_none()) fail("threads must be an integer >= 0, got None");
+            if (threads.is_none())
+                fail(
+                    "threads must be an integer from 0 to 4096 (0 = all cores), got "
+                    "None");
             py::kwargs kw;
             kw["seed"] = seed;
             kw["threads"] = threads;

@@ -33,9 +33,11 @@ std::string checked_choice(const std::string& name, const std::string& v) {
     fail(name, " '", v, "' is not allowed (allowed: ", quoted_list(s.choices), ")");
 }
 
+// The scene file's render.time_limit has the same range (render/scene.cpp).
 void check_time_limit(double seconds) {
-    if (!(seconds >= 0.0) || std::isinf(seconds))
-        fail("time_limit must be a number >= 0 (seconds; 0: no limit), got ", seconds);
+    if (!(seconds >= 0.0 && seconds <= 1e9))
+        fail("time_limit must be a number from 0 to 1e9 (seconds; 0: no limit), got ",
+             seconds);
 }
 
 void check_sphere_threshold(double tau) {
@@ -96,7 +98,7 @@ const std::vector<OptionSpec>& render_option_specs() {
          "N",
          "CPU worker threads (default 0: all cores)",
          true,
-         "an integer >= 0 (0 = all cores)",
+         "an integer from 0 to 4096 (0 = all cores)",
          0,
          4096},
         {"max_bounces",
@@ -107,7 +109,7 @@ const std::vector<OptionSpec>& render_option_specs() {
          "-1 "
          "only)",
          true,
-         "an integer >= -1 (-1: no limit)",
+         "an integer from -1 (no limit) to 2147483647",
          -1,
          kMaxInt32},
         {"nee",

@@ -69,12 +69,13 @@ TEST(RenderOptions, ATimeLimitWithoutSppLeavesTheTimeToEndTheRender) {
     scene.time_limit = 9.0;  // the scene's limit, overridden by the caller's
     EXPECT_EQ(resolve(scene, {}).time_limit, 9.0);
     EXPECT_EQ(resolve(scene, o).time_limit, 2.5);
-    for (double bad : {-1.0, double(INFINITY), double(NAN)}) {
+    for (double bad : {-1.0, 2e9, double(INFINITY), double(NAN)}) {
         o.time_limit = bad;
-        EXPECT_NE(error_of([&] {
-                      resolve(scene, o);
-                  }).find("time_limit must be a number >= 0 (seconds; 0: no limit)"),
-                  std::string::npos);
+        EXPECT_NE(
+            error_of([&] {
+                resolve(scene, o);
+            }).find("time_limit must be a number from 0 to 1e9 (seconds; 0: no limit)"),
+            std::string::npos);
     }
 }
 
@@ -88,9 +89,12 @@ TEST(RenderOptions, BadValuesNameTheOptionAndWhatIsAllowed) {
     EXPECT_HAS(err([](auto& o) { o.spp = 0; }), "spp must be an integer >= 1");
     EXPECT_HAS(err([](auto& o) { o.seed = -1; }),
                "seed must be an integer from 0 to 2^63 - 1, got -1");
-    EXPECT_HAS(err([](auto& o) { o.threads = -2; }), "threads must be an integer >= 0");
+    EXPECT_HAS(err([](auto& o) { o.threads = -2; }),
+               "threads must be an integer from 0 to 4096");
+    EXPECT_HAS(err([](auto& o) { o.threads = 4097; }),
+               "threads must be an integer from 0 to 4096");
     EXPECT_HAS(err([](auto& o) { o.max_bounces = -3; }),
-               "max_bounces must be an integer >= -1");
+               "max_bounces must be an integer from -1 (no limit) to 2147483647");
     EXPECT_HAS(err([](auto& o) { o.integrator = "mc"; }),
                "integrator 'mc' is not allowed (allowed: 'pt', 'st')");
     EXPECT_HAS(err([](auto& o) { o.step_nee = "paper"; }),

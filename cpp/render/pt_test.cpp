@@ -334,9 +334,10 @@ TEST(RenderParts, BandsOfRowsAddUpToTheWholeRender) {
         const RenderResult r = render(scene, part);
         for (int y = 0; y < H; ++y)
             for (int x = 0; x < W; ++x)
-                if (y < first || y >= first + rows)
+                if (y < first || y >= first + rows) {
                     ASSERT_EQ(r.film.event_counts()[size_t(y) * W + x], 0u)
                         << x << "," << y;
+                }
         sum.add(r.film);
     }
     RenderResult merged;

@@ -389,7 +389,7 @@ RenderSettings parse_render(const json& j, const Field& f, const std::string& ba
                                      "an integer in [0, 2^63 - 1]"));
     if (j.contains("max_bounces"))
         r.max_bounces = int(integer_in(j["max_bounces"], f.at("max_bounces"), -1,
-                                       INT32_MAX, "-1 (no limit) or >= 0"));
+                                       INT32_MAX, "-1 (no limit) to 2147483647"));
     if (j.contains("grid_resolution"))
         r.grid_resolution = int(integer_in(j["grid_resolution"], f.at("grid_resolution"),
                                            2, 512, "2 to 512"));
@@ -397,8 +397,11 @@ RenderSettings parse_render(const json& j, const Field& f, const std::string& ba
         r.time_limit = number_in(j["time_limit"], f.at("time_limit"), 0.0, 1e9,
                                  "0 (no limit) to 1e9 seconds");
     if (j.contains("sphere_threshold"))
-        r.sphere_threshold = float(number_in(
-            j["sphere_threshold"], f.at("sphere_threshold"), 0.0, 1e30, "0 to 1e30"));
+        // JSON has no inf: a number past float's range (1e39) says "no sphere steps",
+        // as sphere_threshold=inf does for the option.
+        r.sphere_threshold =
+            float(number_in(j["sphere_threshold"], f.at("sphere_threshold"), 0.0,
+                            std::numeric_limits<double>::max(), "a number >= 0"));
     if (j.contains("models")) {
         const json& m = j["models"];
         if (!m.is_string() || m.get<std::string>().empty())

@@ -428,8 +428,10 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("output", help="Mitsuba scene (.xml); meshes go to OUTPUT_STEM_meshes/")
     m.add_argument("--spp", type=_positive_int, default=64, help="samples per pixel (default 64)")
     m.add_argument("--seed", type=_non_negative_int, default=0, help="sampler seed (default 0)")
-    m.add_argument("--integrator", choices=["volpath", "volpathmis"], default="volpath",
-                   help="Mitsuba's integrator (default volpath; volpathmis: spectral MIS)")
+    m.add_argument("--integrator", choices=["volpath", "volpathmis"],
+                   help="Mitsuba's integrator (default: volpathmis, spectral MIS, where a "
+                        "medium's sigma_t differs between channels, which volpath converges "
+                        "on too slowly to compare with; else volpath)")
     m.set_defaults(func=_cmd_export_mitsuba)
 
     e = sub.add_parser("eval", help="compare the learned models with ground-truth walks")

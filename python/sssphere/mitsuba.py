@@ -242,18 +242,32 @@ def _xml_value(name: str, value, pad: str) -> list[str]:
     raise ValueError(f"cannot write {name} = {value!r} ({kind}) as Mitsuba XML")
 
 
+def chromatic_extinction(scene) -> bool:
+    """Whether some medium of a loaded scene has a sigma_t that differs between channels."""
+    for i in range(scene.num_shapes):
+        info = scene.shape_info(i)
+        if info["kind"] == "medium" and len(set(info["sigma_t"])) > 1:
+            return True
+    return False
+
+
 def export_mitsuba(scene_path: str | os.PathLike, xml_path: str | os.PathLike, spp: int = 64,
-                   seed: int = 0, integrator: str = "volpath") -> list[str]:
+                   seed: int = 0, integrator: str | None = None) -> list[str]:
     """Write the Mitsuba 3 scene equivalent to an sssphere scene file: ``xml_path`` and, in
     the folder ``<xml stem>_meshes`` beside it, each shape's triangle mesh as PLY (ours, in
     world space, as the tests compare them). Paths in the XML are relative to it, so the
     two can move together; ``mitsuba out.xml`` or ``mi.load_file`` renders it. Mitsuba runs
     with max_depth -1 and rr_depth 100000 (an unbiased estimate comparable with ours).
-    Returns the files written."""
+    ``integrator``: ``"volpath"`` or ``"volpathmis"``; by default ``volpathmis`` where a
+    medium's sigma_t differs between channels (volpath samples distances with one channel
+    and weights the others by ratios: its estimate there is heavy-tailed, far from converged
+    at thousands of samples), else ``volpath``. Returns the files written."""
     from sssphere.scene import load_scene
 
     scene_path, xml_path = os.fspath(scene_path), os.fspath(xml_path)
     ours = load_scene(scene_path)  # a bad file gets the parser's SceneError
+    if integrator is None:
+        integrator = "volpathmis" if chromatic_extinction(ours) else "volpath"
     scene_dict = ours.to_dict()
     xml_dir = os.path.dirname(os.path.abspath(xml_path))
     stem = os.path.splitext(os.path.basename(xml_path))[0]
