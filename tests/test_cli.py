@@ -73,7 +73,9 @@ def test_render_scene_file_to_exr_and_png(tmp_path, small_scene):
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--set", " =3"], "--set  =3: no PATH before '='"),
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--integrator", "pt", "--step-nee", "event"],
          "step_nee 'event' is an option of integrator 'st' (the integrator is 'pt')"),
-        (["render", "{scene}", "-o", "{tmp}/x.exr", "--width", "0"], "--width: must be >= 1"),
+        (["render", "{scene}", "-o", "{tmp}/x.exr", "--width", "0"], "--width: must be 1 to 16384"),
+        (["render", "{scene}", "-o", "{tmp}/x.exr", "--height", "16385"],
+         "--height: must be 1 to 16384, got 16385"),
     ],
 )
 def test_cli_errors_are_clear(tmp_path, small_scene, args, expected):
@@ -376,7 +378,7 @@ def test_ctrl_c_writes_partial_image_cpp_cli(tmp_path, slow_scene):
     out = tmp_path / "partial.png"
     code, err = _interrupt_after_start([exe, str(slow_scene), "-o", str(out)], tmp_path)
     assert code == 130, err
-    assert "interrupted; wrote the partial image" in err
+    assert "interrupted: wrote the partial image" in err
     assert sssphere.read_image(out).shape == (16, 24, 3)
 
 
@@ -394,6 +396,25 @@ def test_backend_option_renders_on_the_gpu(tmp_path, small_scene):
             expected = sssphere.render(sssphere.load_scene(small_scene), integrator=integrator,
                                        spp=2, nee=nee, backend="vulkan")
             np.testing.assert_array_equal(sssphere.read_image(tmp_path / "gpu.exr"), expected)
+
+
+def test_both_command_lines_print_the_same_summary(tmp_path, small_scene):
+    """The summary lines differed in form ("wrote X: 0.2 s, 2 spp, ..." against "wrote X
+    (24x16, 2 spp; ...)"), and sssphere-render did not say it wrote AOV files beside a .png.
+    They are the same, word for word, once the numbers are left out."""
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    lines = []
+    for name, cmd in (("python", [sys.executable, "-m", "sssphere.cli", "render"]),
+                      ("cpp", [_cpp_cli()])):
+        out = tmp_path / f"{name}.png"
+        r = subprocess.run([*cmd, str(tmp_path / "s.json"), "-o", str(out), "--spp", "2",
+                            "--aovs", "--quiet", "--integrator", "st"],
+                           capture_output=True, text=True, timeout=300)
+        assert r.returncode == 0, r.stderr
+        line = r.stderr.strip().splitlines()[-1].replace(str(tmp_path), "DIR").replace(name, "X")
+        lines.append(re.sub(r"[0-9]+(\.[0-9]+)?", "N", line))
+    assert lines[0] == lines[1], lines
+    assert "AOV files beside it (X_variance.exr, ...)" in lines[0], lines[0]
 
 
 def _long_options(help_text: str) -> set[str]:

@@ -45,6 +45,8 @@ def test_preset_table_has_both_papers_with_units_and_sources():
     assert table["marble"]["sigma_a"] == pytest.approx([0.0021, 0.0041, 0.0071])
     assert table["chicken1"]["sigma_a"] == pytest.approx([0.015, 0.077, 0.19])
     assert table["ketchup"]["sigma_a"] == pytest.approx([0.061, 0.97, 1.45])
+    # as published, not as the float32 the renderer holds (2.2899999618530273)
+    assert (table["marble"]["sigma_s_prime"], table["marble"]["ior"]) == ([2.19, 2.62, 3.0], 1.5)
     # ... and Narasimhan et al. 2006's sigma_s and g, reduced: sigma_s (1 - g).
     for name, sigma_s, g in [("lowfat_milk", 13.1157, 0.932), ("regular_milk", 18.2052, 0.75),
                              ("espresso", 7.78262, 0.907)]:

@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cctype>
+#include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -65,8 +66,11 @@ static std::string aov_file(const std::string& out_path, const std::string& name
            ".exr";
 }
 
-static void write_with_aovs(const std::string& out_path, const sss::Scene& scene,
-                            const sss::RenderOptions& opt, const sss::RenderResult& r) {
+// Returns the AOV files written beside a .png (none for an .exr).
+static std::vector<std::string> write_with_aovs(const std::string& out_path,
+                                                const sss::Scene& scene,
+                                                const sss::RenderOptions& opt,
+                                                const sss::RenderResult& r) {
     const sss::FirstHitAovs a = sss::first_hit_aovs(
         scene, opt.seed, std::clamp(r.spp, 1, sss::kDefaultAovSamples), opt.threads);
     const std::vector<std::string> rgb{"R", "G", "B"}, xyz{"X", "Y", "Z"};
@@ -82,12 +86,16 @@ static void write_with_aovs(const std::string& out_path, const sss::Scene& scene
     if (ext == ".exr") {
         layers.insert(layers.begin(), {"", rgb, r.image});
         sss::write_exr_layers(out_path, r.width, r.height, layers);
-        return;
+        return {};
     }
     sss::write_image(out_path, r.image, r.width, r.height);
-    for (sss::ImageLayer& l : layers)  // channels named as in the .exr's layers
-        sss::write_exr_layers(aov_file(out_path, l.name), r.width, r.height,
+    std::vector<std::string> written;
+    for (sss::ImageLayer& l : layers) {  // channels named as in the .exr's layers
+        written.push_back(aov_file(out_path, l.name));
+        sss::write_exr_layers(written.back(), r.width, r.height,
                               {{"", l.channels, std::move(l.data)}});
+    }
+    return written;
 }
 
 int main(int argc, char** argv) {
@@ -152,6 +160,7 @@ int main(int argc, char** argv) {
 
     try {
         sss::check_output_image(out_path);
+        const auto t_load = std::chrono::steady_clock::now();
         sss::SceneDesc desc =
             sss::load_scene_file(scene_path, assignments, width, height);
         std::vector<std::string> inputs = desc.inputs, outputs{out_path};
@@ -171,6 +180,9 @@ int main(int argc, char** argv) {
         const sss::RenderOptions opt = sss::resolve_render_options(
             desc.render, desc.source, overrides, shipped_models());
         sss::Scene scene(std::move(desc), opt.threads);
+        const double load_seconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t_load)
+                .count();
 
         // A signal the process was started ignoring (a background job's SIGINT) stays so.
         for (int sig : {SIGINT, SIGTERM})
@@ -192,31 +204,41 @@ int main(int argc, char** argv) {
                 out_path.c_str());
             return interrupted();
         }
+        std::vector<std::string> aov_files;
         if (aovs)
-            write_with_aovs(out_path, scene, opt, r);
+            aov_files = write_with_aovs(out_path, scene, opt, r);
         else
             sss::write_image(out_path, r.image, r.width, r.height);
-        double paths = double(r.total_paths);
+        // The summary line, word for word that of `sssphere render` (cli.py).
+        const double paths = double(r.total_paths);
+        char buf[256];
         std::string steps;
         if (r.total_sphere_steps > 0) {
-            char buf[96];
-            if (r.step_seconds > 0)
-                std::snprintf(buf, sizeof buf, " + %.1f sphere steps (%.0f ns each)",
-                              r.total_sphere_steps / paths,
-                              1e9 * r.step_seconds / double(r.total_sphere_steps));
-            else
-                std::snprintf(buf, sizeof buf, " + %.1f sphere steps",
-                              r.total_sphere_steps / paths);
+            std::snprintf(buf, sizeof buf, " + %.1f sphere steps",
+                          r.total_sphere_steps / paths);
             steps = buf;
+            if (r.step_seconds > 0) {
+                std::snprintf(buf, sizeof buf, " (%.0f ns each)",
+                              1e9 * r.step_seconds / double(r.total_sphere_steps));
+                steps += buf;
+            }
         }
-        std::fprintf(
-            stderr, "%s %s: %.2f s, %d spp, %.1f scattering events%s per path%s%s\n",
-            r.cancelled            ? "interrupted; wrote the partial image"
-            : g_signal             ? "interrupted once the render had finished; wrote"
-            : r.time_limit_reached ? "time limit reached; wrote"
-                                   : "wrote",
-            out_path.c_str(), r.seconds, r.spp, paths > 0 ? r.total_events / paths : 0.0,
-            steps.c_str(), r.device.empty() ? "" : " on ", r.device.c_str());
+        std::string beside;
+        if (!aov_files.empty())
+            beside = " and " + std::to_string(aov_files.size()) +
+                     " AOV files beside it (" +
+                     std::filesystem::path(aov_files[0]).filename().string() + ", ...)";
+        const std::string device = r.device.empty() ? "" : " on " + r.device + ";";
+        std::snprintf(buf, sizeof buf,
+                      " (%dx%d, %d spp;%s scene built in %.2fs, rendered in %.2fs; %.1f "
+                      "scattering events",
+                      r.width, r.height, r.spp, device.c_str(), load_seconds, r.seconds,
+                      paths > 0 ? r.total_events / paths : 0.0);
+        std::cerr << (r.cancelled ? "interrupted: wrote the partial image"
+                      : g_signal  ? "interrupted once the render had finished: wrote"
+                      : r.time_limit_reached ? "time limit reached: wrote"
+                                             : "wrote")
+                  << " " << out_path << beside << buf << steps << " per path)\n";
         return r.cancelled || g_signal ? interrupted() : 0;
     } catch (const std::exception& e) {
         std::cerr << "sssphere-render: error: " << e.what() << "\n";

@@ -520,10 +520,14 @@ namespace {
 void pin_target(const std::string& name) {
     hwy::SetSupportedTargetsForTest(0);  // the real CPU again
     int64_t mask = 0;
-    for (int64_t t : hwy::SupportedAndGeneratedTargets())
+    std::string allowed;
+    for (int64_t t : hwy::SupportedAndGeneratedTargets()) {
         if (name == hwy::TargetName(t)) mask = t;
+        allowed +=
+            (allowed.empty() ? "'" : ", '") + std::string(hwy::TargetName(t)) + "'";
+    }
     if (!name.empty() && mask == 0)
-        fail("SIMD target '", name, "' is not available here");
+        fail("SIMD target '", name, "' is not available here (allowed: ", allowed, ")");
     hwy::SetSupportedTargetsForTest(mask);
     hwy::GetChosenTarget().Update(hwy::SupportedTargets());
 }

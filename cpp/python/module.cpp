@@ -55,7 +55,10 @@ const Shape& shape_at(const Scene& s, int i) {
 
 PYBIND11_MODULE(_core, m) {
     m.doc() = "sssphere native core (private; use the sssphere package)";
-    py::register_exception<Error>(m, "SceneError", PyExc_ValueError);
+    py::register_exception<Error>(m, "SceneError", PyExc_ValueError).attr("__doc__") =
+        "Bad input, in one line naming the file, the field, the value and what is "
+        "allowed: "
+        "a scene (file or dict), a mesh, a model file, a render option. A ValueError.";
     py::register_exception_translator(translate_scene_errors);  // tried before the above
     // Environment maps are read by sssphere._image (OpenImageIO, which _core does not
     // link), imported when a scene first needs one. Scenes are parsed holding the GIL.

@@ -41,6 +41,8 @@ def _checked(convert, ok, requirement: str):
 _positive_int = _checked(int, lambda v: v >= 1, ">= 1")
 _non_negative_int = _checked(int, lambda v: v >= 0, ">= 0")
 _positive_float = _checked(float, lambda v: 0 < v < float("inf"), "a positive number")
+# camera.width and height's range (docs/scene-format.md), checked as sssphere-render does
+_image_size = _checked(int, lambda v: 1 <= v <= 16384, "1 to 16384")
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
@@ -62,7 +64,9 @@ def _cmd_render(args: argparse.Namespace) -> int:
     # for both command lines and the API: render/options.h)
     text = {spec["name"]: getattr(args, spec["name"]) for spec in RENDER_OPTIONS
             if spec["command_line"] and getattr(args, spec["name"]) is not None}
-    threads = int(text["threads"]) if text.get("threads", "").isdigit() else 0
+    # for the build; a value out of range is refused with the others once the scene is read
+    threads = int(text.get("threads", "0")) if text.get("threads", "").isdigit() else 0
+    threads = threads if threads <= 4096 else 0
     t0 = time.monotonic()
     try:
         if not args.quiet and sys.stderr.isatty():  # the build can take seconds before the bar
@@ -155,10 +159,9 @@ def _render_turntable(args: argparse.Namespace, scene, text: dict, load_s: float
     t0 = time.monotonic()
     with _Signals() as signals:
         try:
-            results = rendering.render_frames(
-                scene, rendering.orbit_cameras(scene, args.turntable),
-                progress=signals.progress(bar), on_frame=save, aovs=args.aovs,
-                denoise=args.denoise, _text=text, ray_address=args.ray)
+            results = rendering._render_frames(
+                scene, rendering.orbit_cameras(scene, args.turntable), signals.progress(bar),
+                save, args.aovs, args.denoise, text, args.ray, {})
         finally:
             bar.close()
     interrupted = bool(results) and results[-1].interrupted or signals.count > 0
@@ -373,17 +376,18 @@ def build_parser() -> argparse.ArgumentParser:
                    help="change a scene field before loading, e.g. --set "
                         "shapes[0].medium.sigma_t=1000 or --set 'camera.origin=[0, 1, 3]' "
                         "(VALUE is JSON, else a string; repeatable)")
-    r.add_argument("--width", type=_positive_int,
+    r.add_argument("--width", type=_image_size,
                    help="image width (alone: the height follows the scene's aspect ratio)")
-    r.add_argument("--height", type=_positive_int,
+    r.add_argument("--height", type=_image_size,
                    help="image height (alone: the width follows the scene's aspect ratio)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     r.set_defaults(func=_cmd_render)
 
     d = sub.add_parser("datagen", help="simulate sphere walks as training data (.npz)")
-    d.add_argument("--samples", type=_positive_int, default=4_000_000, help="number of walks")
+    d.add_argument("--samples", type=_positive_int, default=4_000_000,
+                   help="number of walks (default 4,000,000)")
     d.add_argument("-o", "--output", required=True, help="output file (.npz)")
-    d.add_argument("--seed", type=_non_negative_int, default=0, help="random seed")
+    d.add_argument("--seed", type=_non_negative_int, default=0, help="random seed (default 0)")
     d.add_argument("--threads", type=_non_negative_int, default=0, help="worker threads (0 = all cores)")
     d.add_argument("--ray", metavar="ADDRESS",
                    help="simulate on the Ray cluster at ADDRESS, in tasks of 20,000 walks: the "
@@ -417,8 +421,8 @@ def build_parser() -> argparse.ArgumentParser:
     i.add_argument("scene", help="scene file (JSON, docs/scene-format.md)")
     i.add_argument("--set", action="append", metavar="PATH=VALUE",
                    help="change a scene field first, as for render (repeatable)")
-    i.add_argument("--width", type=_positive_int, help="image width, as for render")
-    i.add_argument("--height", type=_positive_int, help="image height, as for render")
+    i.add_argument("--width", type=_image_size, help="image width, as for render")
+    i.add_argument("--height", type=_image_size, help="image height, as for render")
     i.add_argument("--json", action="store_true", help="print the figures as JSON")
     i.set_defaults(func=_cmd_info)
 
@@ -435,9 +439,12 @@ def build_parser() -> argparse.ArgumentParser:
     m.set_defaults(func=_cmd_export_mitsuba)
 
     e = sub.add_parser("eval", help="compare the learned models with ground-truth walks")
-    e.add_argument("--models", default="models", help="directory of the model files")
-    e.add_argument("--samples", type=_positive_int, default=10_000, help="walks per cell")
-    e.add_argument("--seed", type=_non_negative_int, default=0)
+    e.add_argument("--models", default="models",
+                   help="directory of the model files (default: models)")
+    e.add_argument("--samples", type=_positive_int, default=10_000,
+                   help="walks per cell (default 10,000)")
+    e.add_argument("--seed", type=_non_negative_int, default=0,
+                   help="seed of the walks and model samples (default 0)")
     e.add_argument("--out", help="where eval.json and the figures go (default: --models)")
     e.add_argument("--decoder", choices=("cpp", "numpy"), default="cpp",
                    help="the C++ decoders the renderer uses, or the NumPy reference")

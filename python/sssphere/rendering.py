@@ -33,6 +33,7 @@ class Image(np.ndarray):
     else is numpy's."""
 
     def save(self, path: Union[str, os.PathLike]) -> None:
+        """Write the image to ``path``: .exr linear float, .png sRGB (8 bits, clamped)."""
         write_image(path, self)
 
     def _repr_png_(self) -> bytes:
@@ -325,8 +326,8 @@ def orbit_cameras(scene: Scene, frames: int) -> list[dict]:
 def render_frames(scene: Union[Scene, str, os.PathLike, dict], cameras: list[dict],
                   progress: Optional[Callable[[float], Optional[bool]]] = None,
                   on_frame: Optional[Callable[[int, RenderResult], None]] = None,
-                  aovs: bool = False, denoise: bool = False, _text: Optional[dict] = None,
-                  ray_address: Optional[str] = None, **options) -> list[RenderResult]:
+                  aovs: bool = False, denoise: bool = False, ray_address: Optional[str] = None,
+                  **options) -> list[RenderResult]:
     """Render the scene from each camera in turn: an animation without rebuilding
     anything (a camera change keeps the BVH and distance grids; see Scene). A camera is a
     dict of camera fields (docs/scene-format.md) that replace the scene camera's, e.g.
@@ -335,6 +336,14 @@ def render_frames(scene: Union[Scene, str, os.PathLike, dict], cameras: list[dic
     stops it); ``on_frame(k, result)`` is called as each frame finishes (to save it, say).
     Ctrl-C stops the animation: the results so far are returned, the last one
     ``interrupted``. The scene's camera is restored afterwards."""
+    return _render_frames(scene, cameras, progress, on_frame, aovs, denoise, None, ray_address,
+                          options)
+
+
+def _render_frames(scene, cameras, progress, on_frame, aovs: bool, denoise: bool,
+                   text: Optional[dict], ray_address: Optional[str],
+                   options: dict) -> list[RenderResult]:
+    """render_frames, with the command line's option text (render/options.h) besides."""
     unknown = set(options) - set(_SPECS)
     if unknown:
         raise TypeError(f"render_frames: unknown options {sorted(unknown)} (allowed: "
@@ -356,7 +365,7 @@ def render_frames(scene: Union[Scene, str, os.PathLike, dict], cameras: list[dic
             def frame_progress(fraction: float, k: int = k):
                 return None if progress is None else progress((k + fraction) / len(cameras))
 
-            result = _result(_render(scene, frame_progress, options, _text, ray_address))
+            result = _result(_render(scene, frame_progress, options, text, ray_address))
             if not (result.interrupted and result.spp == 0):  # nothing to add AOVs to
                 result = with_aovs(scene, result, aovs, denoise)
             results.append(result)

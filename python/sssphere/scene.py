@@ -192,6 +192,7 @@ class SceneNode:
             value, (dict, list)) else value
 
     def to_python(self) -> Any:
+        """This part of the scene as plain Python (dicts, lists, numbers, strings): a copy."""
         return copy.deepcopy(self._scene._value(self._path))
 
     def __getattr__(self, name: str):
@@ -232,6 +233,7 @@ class SceneNode:
         return key in self._scene._value(self._path)
 
     def keys(self):
+        """The fields of this block, as in the scene file (an object's keys)."""
         return list(self._scene._value(self._path))
 
     def __eq__(self, other: Any) -> bool:
@@ -341,8 +343,19 @@ def presets() -> list[dict]:
     medium"): one dict per medium with ``name``, ``sigma_s_prime`` (reduced scattering) and
     ``sigma_a`` (absorption), RGB in mm^-1, ``ior`` (the source's index of refraction, or
     None) and ``source``. A preset medium gets sigma_s = sigma_s_prime / (1 - g) for its own
-    ``g``, times its ``scale`` (scene units per mm)."""
-    return [dict(p) for p in _core.medium_presets()]
+    ``g``, times its ``scale`` (scene units per mm). Numbers are given as published (2.29,
+    not the 2.2899999618530273 of the float32 the renderer holds)."""
+    def published(v):  # the shortest decimal that rounds to the same float32
+        return None if v is None else float(str(np.float32(v)))
+
+    out = []
+    for p in _core.medium_presets():
+        p = dict(p)
+        p["sigma_s_prime"] = [published(v) for v in p["sigma_s_prime"]]
+        p["sigma_a"] = [published(v) for v in p["sigma_a"]]
+        p["ior"] = published(p["ior"])
+        out.append(p)
+    return out
 
 
 def load_scene_with(path: Union[str, os.PathLike], assignments: list[str] | None = None,

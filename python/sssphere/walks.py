@@ -34,7 +34,7 @@ def _param(name: str, value: ArrayLike, n: int, lo: float, hi: float, closed_hi:
         allowed = f"{lo} <= {name} {'<=' if closed_hi else '<'} {hi}"
         if name == "g":
             allowed = "-1 < g < 1"
-        raise ValueError(f"{name}[{i}] = {a[i]!r} is out of range (allowed: {allowed})")
+        raise ValueError(f"{name}[{i}] = {a[i].item()!r} is out of range (allowed: {allowed})")
     return a.astype(np.float32)
 
 
@@ -139,7 +139,7 @@ def cut_sphere_walks(
     hh = _param("h", h, n, 0.0, np.inf, False)
     if (hh <= 0).any():
         i = int(np.argmax(hh <= 0))
-        raise ValueError(f"h[{i}] = {hh[i]!r} is out of range (allowed: h > 0)")
+        raise ValueError(f"h[{i}] = {hh[i].item()!r} is out of range (allowed: h > 0)")
     m0 = _param("mu0", mu0, n, -1.0, 1.0, True)
     a = _param("albedo", albedo, n, 0.0, 1.0, True)
     return _core.cut_sphere_walks(s, gg, hh, m0, a, n, seed, first_index, threads)

@@ -311,9 +311,12 @@ def train(data_path, out_dir, epochs: int | None = None, seed: int = 0,
     unknown = [m for m in models if m not in TIME_SHARES]
     if unknown:
         raise ValueError(f"unknown model(s) {unknown} (allowed: {list(TIME_SHARES)})")
-    data = load_training_data(data_path)
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    try:  # first: a bad output directory is told before minutes of training, not after
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise OSError(f"{out}: cannot create the output directory ({e.strerror})") from None
+    data = load_training_data(data_path)
 
     threads_before = torch.get_num_threads()
     det_before = torch.are_deterministic_algorithms_enabled()
