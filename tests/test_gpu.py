@@ -578,11 +578,12 @@ def test_gpu_cut_steps_render_agrees_with_cpu(case, model_dir):
 @pytest.mark.parametrize("max_bounces", [0, 2])
 def test_gpu_max_bounces_agrees_with_cpu(max_bounces):
     """max_bounces counts scattering events the same way on both backends: the images agree,
-    and the longest path has the same count (the collision that ends it included)."""
+    and the longest path has the same count: max_bounces (the collision past it ends the
+    path without scattering, and is not counted)."""
     scene = sssphere.load_scene(sphere_scene(sigma_t=30.0, g=0.7, boundary=INDEX_MATCHED))
     cpu, gpu = _render_pair(scene, integrator="pt", nee=False, max_bounces=max_bounces)
     assert_renders_agree(cpu, gpu, f"max_bounces {max_bounces}")
-    assert gpu.path_events.max() == cpu.path_events.max() == max_bounces + 1
+    assert gpu.path_events.max() == cpu.path_events.max() == max_bounces
 
 
 def test_camera_samples_use_the_cpus_streams():

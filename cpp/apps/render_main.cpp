@@ -230,15 +230,16 @@ int main(int argc, char** argv) {
                      std::filesystem::path(aov_files[0]).filename().string() + ", ...)";
         const std::string device = r.device.empty() ? "" : " on " + r.device + ";";
         std::snprintf(buf, sizeof buf,
-                      " (%dx%d, %d spp;%s scene built in %.2fs, rendered in %.2fs; %.1f "
-                      "scattering events",
-                      r.width, r.height, r.spp, device.c_str(), load_seconds, r.seconds,
-                      paths > 0 ? r.total_events / paths : 0.0);
+                      " scene built in %.2fs, rendered in %.2fs; %.1f scattering events",
+                      load_seconds, r.seconds, paths > 0 ? r.total_events / paths : 0.0);
+        const std::string size = " (" + std::to_string(r.width) + "x" +
+                                 std::to_string(r.height) + ", " + std::to_string(r.spp) +
+                                 " spp;" + device;
         std::cerr << (r.cancelled ? "interrupted: wrote the partial image"
                       : g_signal  ? "interrupted once the render had finished: wrote"
                       : r.time_limit_reached ? "time limit reached: wrote"
                                              : "wrote")
-                  << " " << out_path << beside << buf << steps << " per path)\n";
+                  << " " << out_path << beside << size << buf << steps << " per path)\n";
         return r.cancelled || g_signal ? interrupted() : 0;
     } catch (const std::exception& e) {
         std::cerr << "sssphere-render: error: " << e.what() << "\n";

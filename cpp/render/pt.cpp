@@ -79,7 +79,7 @@ Vec3 PathTracer::transmittance(const Vec3& p, const Vec3& w, float dist, int sha
         // A surface at the light itself (a lamp standing on a floor) does not block it:
         // whether the ray meets it there is a matter of rounding (area lights end their
         // rays as short of the quad: render/lights/area.h).
-        if (shapes[h.mesh].is_surface() && h.t >= kShadowRayEnd * dist) break;
+        if (shapes[h.mesh].is_surface() && h.t >= kShadowRayEnd * dist) return tr;
         if (shapes[h.mesh].is_surface() || !shapes[h.mesh].boundary.passes_shadow_rays())
             return Vec3(0.f);
         shape = dot(w, h.normal) < 0.f ? int(h.mesh) : -1;
@@ -418,8 +418,9 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
     // whose pdf an emitter hit next shares MIS with); false when the path ends there.
     // It counts as a scattering event.
     auto reflect = [&](const Hit& hit, const Surface& surface) {
+        // The event past max_bounces ends the path without happening (not counted).
+        if (max_bounces_ >= 0 && int(out.scatter_events) >= max_bounces_) return false;
         ++out.scatter_events;
-        if (max_bounces_ >= 0 && int(out.scatter_events) > max_bounces_) return false;
         if (nee_ && !desc.lights.empty())
             L += weight() *
                  sample_light(hit.p, SurfaceScatter{surface, hit, d, shape}, rng);
@@ -460,7 +461,14 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
         return true;
     };
 
+    // A stop (Ctrl-C) ends even a path of 1e9 flights within a second (65536 flights are
+    // a few ms): in a medium, or between the walls of a white room. The render then drops
+    // the tile it was part of, so the cut path counts nowhere.
+    uint32_t flights = 0;
     for (;;) {
+        if ((++flights & 0xFFFFu) == 0 && ps.cancel &&
+            ps.cancel->load(std::memory_order_relaxed))
+            break;
         if (shape < 0) {
             // Vacuum: fly to the next surface.
             Hit hit;
@@ -626,14 +634,8 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             }
             r_at_o = r;  // the ordinary event below stays at o: its next flight reuses r
             // Real collision: scatter.
+            if (max_bounces_ >= 0 && int(out.scatter_events) >= max_bounces_) break;
             ++out.scatter_events;
-            if (max_bounces_ >= 0 && int(out.scatter_events) > max_bounces_) break;
-            // A stop (Ctrl-C) ends even a path of 1e9 events within a second (65536
-            // events are a few ms); the render then drops the tile it was part of, so
-            // the cut path counts nowhere.
-            if ((out.scatter_events & 0xFFFFu) == 0 && ps.cancel &&
-                ps.cancel->load(std::memory_order_relaxed))
-                break;
             beta *= s.medium.albedo;
             if (is_black(beta)) break;
             if (nee_ && !desc.lights.empty())

@@ -574,7 +574,8 @@ namespace {
 // One --set PATH=VALUE on a scene's JSON: PATH as the parser's messages name fields
 // (shapes[0].medium.sigma_t); every part but the last must exist, the last may be new.
 // VALUE is JSON, or else a string.
-void set_scene_field(json& root, const std::string& assignment) {
+// Returns the field's path as set (trimmed).
+std::string set_scene_field(json& root, const std::string& assignment) {
     const size_t eq = assignment.find('=');
     if (eq == std::string::npos)
         fail("--set ", assignment,
@@ -644,6 +645,7 @@ void set_scene_field(json& root, const std::string& assignment) {
         }
         if (last) *node = value;
     }
+    return path;
 }
 
 }  // namespace
@@ -654,14 +656,13 @@ std::string edit_scene_json(const std::string& json_text, const std::string& sou
     json root = parse_json(json_text, source);
     if (!root.is_object()) return json_text;  // parse_scene says what is wrong
     for (const std::string& a : assignments) {
-        // --width and --height would silently replace what this sets (unchecked).
-        const std::string path = a.substr(0, a.find('='));
+        const std::string path = set_scene_field(root, a);
+        // --width and --height would silently replace what this set (unchecked).
         for (const char* field : {"camera", "camera.width", "camera.height"})
             if (path == field && (width > 0 || height > 0))
                 fail("--set ", path,
                      " and --width/--height both give the image size: "
                      "give one of them");
-        set_scene_field(root, a);
     }
     if (width > 0 || height > 0) {
         json& camera = root["camera"];
@@ -798,7 +799,7 @@ void Scene::build(int threads, const Scene* previous) {
             const Vec3d o = to_scene(desc_.camera.origin);
             fail(desc_.source, ": camera.origin: [", o.x, ", ", o.y, ", ", o.z,
                  "] lies inside shape '", desc_.shapes[i].name,
-                 "' (allowed: a camera outside every shape)");
+                 "' (allowed: a camera outside every medium)");
         }
     }
 }

@@ -257,11 +257,11 @@ bool path_survives_roulette(inout Path p) {
 // An opaque surface at `hit` (PathTracer::run's reflect): light sampling, then a
 // reflected direction; it counts as a scattering event.
 void reflect_off(inout Path p, Hit hit) {
-    ++p.events;
-    if (max_bounces >= 0 && int(p.events) > max_bounces) {
+    if (max_bounces >= 0 && int(p.events) >= max_bounces) {  // ends without happening
         p.done = true;
         return;
     }
+    ++p.events;
     SurfaceData sf = surface_data(shapes[hit.mesh]);
     if (NEE) {
         PhaseData none;
@@ -497,11 +497,11 @@ void path_iterate(inout Path p) {
 #endif
         p.r_at_o = r;
         // Real collision: scatter.
-        ++p.events;
-        if (max_bounces >= 0 && int(p.events) > max_bounces) {
+        if (max_bounces >= 0 && int(p.events) >= max_bounces) {
             p.done = true;
             return;
         }
+        ++p.events;
         p.beta *= s.albedo.xyz;
         if (is_black(p.beta)) {
             p.done = true;

@@ -44,16 +44,15 @@ void TileSamples::record(int item, const PathSample& sample, Film& film) const {
 
 bool trace_paths(const TileSamples& samples, const PathTracer& tracer, Film& film,
                  const std::atomic<bool>& cancel) {
-    const int m = samples.samples_per_pixel();
     for (int i = 0; i < samples.items(); ++i) {
-        if (i % m == 0 && cancel) return false;
+        if (cancel) return false;
         PathState ps;
         ps.cancel = &cancel;
         samples.start(i, tracer, ps);
         tracer.advance(ps);
         samples.record(i, ps.out, film);
     }
-    return true;
+    return !cancel;  // a stop may have cut the last path short
 }
 
 }  // namespace sss

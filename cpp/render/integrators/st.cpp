@@ -40,7 +40,7 @@ bool trace_in_flight(const PathTracer& tracer, const SphereTracing& st, int coun
         while (tracer.advance(slot[j], step)) {
             record(item[j], slot[j].out);
             step = nullptr;
-            if (next >= count) {
+            if (next >= count || cancel) {  // after a stop, no new paths
                 busy[j] = false;
                 return;
             }
@@ -66,8 +66,7 @@ bool trace_in_flight(const PathTracer& tracer, const SphereTracing& st, int coun
                 req[n] = &slot[j].step;
                 rng[n++] = &slot[j].rng;
             }
-        if (n == 0) return true;
-        if (cancel) return false;
+        if (n == 0 || cancel) return !cancel;  // a stop may have cut paths short
         const auto t0 = std::chrono::steady_clock::now();
         st.sample_group(n, req, rng, step);
         step_seconds +=

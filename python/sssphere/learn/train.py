@@ -312,7 +312,9 @@ def train(data_path, out_dir, epochs: int | None = None, seed: int = 0,
     if unknown:
         raise ValueError(f"unknown model(s) {unknown} (allowed: {list(TIME_SHARES)})")
     out = Path(out_dir)
-    try:  # first: a bad output directory is told before minutes of training, not after
+    if not Path(data_path).is_file():
+        load_training_data(data_path)  # says what is wrong with it, before any directory
+    try:  # a bad output directory is told before minutes of training, not after
         out.mkdir(parents=True, exist_ok=True)
     except OSError as e:
         raise OSError(f"{out}: cannot create the output directory ({e.strerror})") from None
