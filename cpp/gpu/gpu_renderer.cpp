@@ -168,8 +168,9 @@ RenderResult GpuRenderer::render(const RenderOptions& opt, const ProgressFn& pro
                  " paths did not end on the Vulkan device '", vk_.device_name(), "'",
                  vk_.is_software()
                      ? ". Mesa's lavapipe stops all loops of a shader invocation after "
-                       "65535 iterations, which paths in this medium need: render on the "
-                       "CPU (backend 'cpu') or on a GPU"
+                       "65535 iterations, which long paths need (thousands of scattering "
+                       "events, or of reflections inside glass or between surfaces): "
+                       "render on the CPU (backend 'cpu') or on a GPU"
                      : "");
         for (int k = 0; k < w.s1 - w.s0; ++k)
             for (size_t p = 0; p < pixels; ++p) {

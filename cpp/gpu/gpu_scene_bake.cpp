@@ -146,7 +146,9 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
         fail("integrator '", integrator, "' is not allowed (allowed: 'pt', 'st')");
     if (scene.num_shapes() > kGpuMaxShapes)
         fail(desc.source, ": ", scene.num_shapes(),
-             " shapes; the GPU path renders at most ", kGpuMaxShapes);
+             " shapes; the GPU path renders at most ", kGpuMaxShapes,
+             " (allowed with backend 'vulkan': 1 to ", kGpuMaxShapes,
+             " shapes; backend 'cpu' takes any number)");
     GpuSceneData out;
     out.source = desc.source;
     GpuSceneHeader& h = out.header;
@@ -166,7 +168,9 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
     // ones.
     if (desc.lights.size() > size_t(kGpuMaxLights))
         fail(desc.source, ": ", desc.lights.size(),
-             " lights; the GPU path renders at most ", kGpuMaxLights);
+             " lights; the GPU path renders at most ", kGpuMaxLights,
+             " (allowed with backend 'vulkan': up to ", kGpuMaxLights,
+             " lights, an environment counting as one; backend 'cpu' takes any number)");
     // The point and directional lights first: a regularized smooth dielectric's vertices
     // sample only those, and a step's clearance looks only at those.
     std::vector<size_t> order;

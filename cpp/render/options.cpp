@@ -182,7 +182,7 @@ const std::vector<OptionSpec>& render_option_specs() {
          "spp stays the most it takes and defaults to unlimited (default: the scene's, "
          "else none)",
          true,
-         "a number >= 0 (seconds; 0: no limit)"},
+         "a number from 0 to 1e9 (seconds; 0: no limit)"},
         {"record_paths",
          Kind::Flag,
          {},
