@@ -376,7 +376,8 @@ def test_a_collision_on_the_surface_does_not_walk_on_outside_for_ever(tmp_path):
     assert np.all(np.isfinite(r.image))
 
 
-@pytest.mark.parametrize("backend", ["cpu", "vulkan"])
+@pytest.mark.parametrize("backend", [
+    "cpu", pytest.param("vulkan", marks=pytest.mark.skipif(not HAS_GPU, reason="no Vulkan device"))])
 @pytest.mark.parametrize("integrator", ["pt", "st"])
 def test_a_point_light_standing_on_a_floor_lights_the_scene(integrator, backend):
     """A lamp exactly on a (tilted) floor: every shadow ray towards it meets the floor at

@@ -59,9 +59,9 @@ struct TileWork {
 };
 
 // Renders `work` into `film` (the work's pixels in row order). Returns false if it saw
-// `cancel` and stopped before the end (the scheduler then drops the tile). Called from
-// the worker threads, several at once: it must be thread-safe. An exception stops the
-// render and is rethrown by schedule().
+// `cancel`, which may have cut a path short (the scheduler then drops the tile). Called
+// from the worker threads, several at once: it must be thread-safe. An exception stops
+// the render and is rethrown by schedule().
 using TileFn = std::function<bool(const TileWork& work, Film& film,
                                   const std::atomic<bool>& cancel)>;
 

@@ -32,7 +32,8 @@ class Integrator {
 public:
     virtual ~Integrator() = default;
     // Renders `work` into `film` (the work's pixels in row order); false if it saw
-    // `cancel` and stopped before the end. Called from several worker threads at once.
+    // `cancel` (a path may then have been cut short). Called from several worker threads
+    // at once.
     virtual bool render_tile(const TileWork& work, Film& film,
                              const std::atomic<bool>& cancel) = 0;
     // Seconds spent sampling sphere steps, summed over the tiles (RenderResult).
@@ -73,7 +74,7 @@ private:
 };
 
 // Traces every item of `samples` with `tracer` one path at a time (no sphere steps);
-// false if cancelled (checked between pixels).
+// false if cancelled (checked before each path, and by the paths themselves).
 bool trace_paths(const TileSamples& samples, const PathTracer& tracer, Film& film,
                  const std::atomic<bool>& cancel);
 

@@ -23,8 +23,8 @@ constexpr int kPathsInFlight = 4 * SphereTracing::kMaxGroup;
 // for a sphere step; the waiting steps are sampled together, and a path that ends makes
 // room for the next item. Every path draws from its own stream, so the results do not
 // depend on the grouping (cut steps: up to rounding, CutStepModel::sample_group). Adds
-// the time spent sampling steps to step_seconds. Returns false if cancelled before the
-// end.
+// the time spent sampling steps to step_seconds. Returns false if it saw a cancel (which
+// may have cut a path short).
 template <class Start, class Record>
 bool trace_in_flight(const PathTracer& tracer, const SphereTracing& st, int count,
                      Start&& camera_ray, Record&& record, const std::atomic<bool>& cancel,
