@@ -299,18 +299,21 @@ def _read_pty(fd: int, until: bytes | None, timeout: float) -> bytes:
     return out
 
 
+@pytest.mark.parametrize("cli", ["python", "cpp"])
 @pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
-def test_ctrl_c_while_the_scene_loads_writes_nothing_and_says_so(tmp_path, small_scene, sig, code):
-    """Ctrl-C or SIGTERM while the scene is still being built stops `sssphere render` once
+def test_ctrl_c_while_the_scene_loads_writes_nothing_and_says_so(tmp_path, small_scene, sig, code, cli):
+    """Ctrl-C or SIGTERM while the scene is still being built stops either command line once
     the build returns, with one line and the exit status of an interrupted render (not a
-    KeyboardInterrupt traceback and death by the signal). On a terminal it says when it
+    KeyboardInterrupt traceback, nor death by the signal). On a terminal it says when it
     starts loading: the signal is sent half a second later, during a build of seconds (a
     256-cell grid; a signal before the build gets the same answer)."""
     small_scene["render"]["grid_resolution"] = 256
     scene, out = tmp_path / "s.json", tmp_path / "x.exr"
     scene.write_text(json.dumps(small_scene))
     terminal, child_end = pty.openpty()
-    proc = subprocess.Popen([sys.executable, "-m", "sssphere.cli", "render", str(scene), "-o", str(out)],
+    command = ([sys.executable, "-m", "sssphere.cli", "render"] if cli == "python"
+               else [_cpp_cli()])
+    proc = subprocess.Popen([*command, str(scene), "-o", str(out)],
                             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=child_end,
                             preexec_fn=_default_signals)
     os.close(child_end)
@@ -448,6 +451,27 @@ def test_both_command_lines_reject_a_bad_option_value_alike(tmp_path, small_scen
                              capture_output=True, text=True)
         for r in (py, cpp):
             assert r.returncode == 1 and message in r.stderr, (args, r.stderr)
+
+
+def test_a_bad_option_value_is_refused_before_the_scene_is_read(tmp_path, small_scene):
+    """Each option's value is checked before the scene is read (building it can take
+    seconds): with a scene that cannot be read, the option is what the error names."""
+    del small_scene["shapes"][0]["sphere"]
+    small_scene["shapes"][0]["mesh"] = str(tmp_path / "missing.obj")
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    for args, message in ((["--spp", "0"], "spp must be an integer >= 1"),
+                          (["--threads", "5000"], "threads must be an integer from 0 to 4096"),
+                          (["--time-limit", "-1"], "time_limit must be a number from 0 to 1e9"),
+                          (["--sphere-threshold", "-2"], "sphere_threshold must be a number >= 0"),
+                          (["--backend", "metal"], "backend 'metal' is not allowed")):
+        py = run_cli("render", tmp_path / "s.json", "-o", tmp_path / "x.exr", *args)
+        cpp = subprocess.run([_cpp_cli(), str(tmp_path / "s.json"), "-o", str(tmp_path / "x.exr"), *args],
+                             capture_output=True, text=True)
+        for r in (py, cpp):
+            assert r.returncode == 1 and message in r.stderr, (args, r.stderr)
+            assert "missing.obj" not in r.stderr, (args, r.stderr)
+    with pytest.raises(sssphere.SceneError, match="spp must be an integer >= 1"):
+        sssphere.render_full(tmp_path / "s.json", spp=0)
 
 
 def test_the_options_page_lists_every_option():

@@ -2,6 +2,8 @@
 // scene loader, the same options (one table, render/options.h, which both command lines
 // are built from) and the same renderers. Ctrl-C stops early and writes the image
 // rendered so far.
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cctype>
@@ -160,6 +162,17 @@ int main(int argc, char** argv) {
 
     try {
         sss::check_output_image(out_path);
+        // Each option's value before the scene is read (their combinations after it)
+        sss::RenderOverrides overrides;
+        for (const auto& [name, text] : given)
+            sss::set_override_from_text(overrides, name, text);
+        sss::check_override_values(overrides);
+        // A signal the process was started ignoring (a background job's SIGINT) stays so.
+        for (int sig : {SIGINT, SIGTERM})
+            if (std::signal(sig, on_signal) == SIG_IGN) std::signal(sig, SIG_IGN);
+        auto interrupted = [] { return 128 + (g_signal ? int(g_signal) : SIGINT); };
+        if (!quiet && isatty(2))  // the build can take seconds before the bar
+            std::fprintf(stderr, "loading %s ...\n", scene_path.c_str());
         const auto t_load = std::chrono::steady_clock::now();
         sss::SceneDesc desc =
             sss::load_scene_file(scene_path, assignments, width, height);
@@ -174,19 +187,19 @@ int main(int argc, char** argv) {
         for (const std::string& o : outputs) sss::check_output_is_not_an_input(o, inputs);
         for (const std::string& w : desc.warnings)
             std::cerr << "sssphere-render: warning: " << w << "\n";
-        sss::RenderOverrides overrides;
-        for (const auto& [name, text] : given)
-            sss::set_override_from_text(overrides, name, text);
         const sss::RenderOptions opt = sss::resolve_render_options(
             desc.render, desc.source, overrides, shipped_models());
         sss::Scene scene(std::move(desc), opt.threads);
         const double load_seconds =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t_load)
                 .count();
-
-        // A signal the process was started ignoring (a background job's SIGINT) stays so.
-        for (int sig : {SIGINT, SIGTERM})
-            if (std::signal(sig, on_signal) == SIG_IGN) std::signal(sig, SIG_IGN);
+        if (g_signal) {  // seen once the build (which a signal does not stop) has
+                         // returned
+            std::fprintf(stderr,
+                         "interrupted while loading the scene: wrote nothing to %s\n",
+                         out_path.c_str());
+            return interrupted();
+        }
         sss::RenderResult r = sss::render_with_backend(scene, opt, [&](double f) {
             if (!quiet) {
                 int filled = int(f * 40);
@@ -196,7 +209,6 @@ int main(int argc, char** argv) {
             return g_signal == 0;
         });
         if (!quiet) std::fprintf(stderr, "\n");
-        auto interrupted = [] { return 128 + (g_signal ? int(g_signal) : SIGINT); };
         if (r.cancelled && r.spp == 0) {  // an all-black image would look like a render
             std::fprintf(
                 stderr,

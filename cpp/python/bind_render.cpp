@@ -154,6 +154,14 @@ void bind_render(py::module_& m) {
         "The options a render would use: defaults < the scene's render block < `text` "
         "(command-line strings) < keyword arguments.");
     m.def(
+        "check_option_values",
+        [](const py::dict& text, const py::kwargs& options) {
+            check_override_values(overrides_from(text, options));
+        },
+        py::arg("text") = py::dict(),
+        "Checks each option given (`text`: command-line strings; keyword arguments) on "
+        "its own, before a scene is read: the messages of resolve_render_options.");
+    m.def(
         "render",
         [](const Scene& scene, const std::string& default_models, py::object progress,
            const py::dict& text, int gpu_batch, int gpu_lanes, int first_sample,

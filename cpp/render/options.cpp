@@ -260,6 +260,20 @@ void set_override_from_text(RenderOverrides& o, const std::string& name,
     }
 }
 
+void check_override_values(const RenderOverrides& o) {
+    for (const auto& [name, v] :
+         {std::pair{"spp", o.spp}, std::pair{"seed", o.seed},
+          std::pair{"threads", o.threads}, std::pair{"max_bounces", o.max_bounces}})
+        if (v) checked_integer(name, *v);
+    for (const auto& [name, v] :
+         {std::pair{"integrator", o.integrator},
+          std::pair{"sphere_sampler", o.sphere_sampler},
+          std::pair{"step_nee", o.step_nee}, std::pair{"backend", o.backend}})
+        if (v) checked_choice(name, *v);
+    if (o.time_limit) check_time_limit(*o.time_limit);
+    if (o.sphere_threshold) check_sphere_threshold(*o.sphere_threshold);
+}
+
 RenderOptions resolve_render_options(const RenderSettings& scene,
                                      const std::string& source, const RenderOverrides& o,
                                      const std::string& default_models) {

@@ -119,6 +119,12 @@ void set_override(RenderOverrides& o, const std::string& name, const OptionValue
 void set_override_from_text(RenderOverrides& o, const std::string& name,
                             const std::string& text);
 
+// Checks each value `o` sets on its own (a range, a choice; not their combinations, which
+// depend on the scene): the command lines call it before reading a scene, so a bad option
+// is refused at once, not after seconds of building. Throws sss::Error, with the messages
+// of resolve_render_options.
+void check_override_values(const RenderOverrides& o);
+
 // The scene file's "render" block (docs/scene-format.md), as read: what it sets of a
 // render's options.
 struct RenderSettings {

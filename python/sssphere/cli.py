@@ -16,7 +16,7 @@ import numpy as np
 
 from sssphere._progress import Progress
 from sssphere._version import __version__
-from sssphere import rendering
+from sssphere import _core, rendering
 from sssphere.rendering import RENDER_OPTIONS
 from sssphere.scene import SceneError, SceneWarning, load_scene_with
 
@@ -64,9 +64,9 @@ def _cmd_render(args: argparse.Namespace) -> int:
     # for both command lines and the API: render/options.h)
     text = {spec["name"]: getattr(args, spec["name"]) for spec in RENDER_OPTIONS
             if spec["command_line"] and getattr(args, spec["name"]) is not None}
-    # for the build; a value out of range is refused with the others once the scene is read
-    threads = int(text.get("threads", "0")) if text.get("threads", "").isdigit() else 0
-    threads = threads if threads <= 4096 else 0
+    # Each value before the scene is read (their combinations after it, with the scene's)
+    _core.check_option_values(text)
+    threads = int(text.get("threads", "0"))  # for the build
     t0 = time.monotonic()
     try:
         if not args.quiet and sys.stderr.isatty():  # the build can take seconds before the bar

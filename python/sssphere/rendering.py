@@ -273,13 +273,14 @@ def render_full(
     ``nee=True``, ``step_nee="hits"`` for ``"st"``, and ``cut_models``).
     ``step_nee="event"``, ``sphere_sampler="walk"`` and ``threads`` are CPU-only.
     """
-    if not isinstance(scene, Scene):
-        scene = load_scene(scene)
     options = dict(integrator=integrator, spp=spp, seed=seed, threads=threads,
                    max_bounces=max_bounces, nee=nee, sphere_threshold=sphere_threshold,
                    models=models, sphere_sampler=sphere_sampler, step_nee=step_nee,
                    record_paths=record_paths, backend=backend, time_limit=time_limit,
                    cut_models=None if cut_models is None else os.fspath(cut_models))
+    if not isinstance(scene, Scene):
+        _core.check_option_values(**options)  # a bad value costs no scene build
+        scene = load_scene(scene)
     if denoise:
         _denoiser()  # before the render: a missing extra should not cost one
     return with_aovs(scene, _result(_render(scene, progress, options, ray_address=ray_address)),

@@ -48,7 +48,7 @@ bool trace_in_flight(const PathTracer& tracer, const SphereTracing& st, int coun
             camera_ray(item[j], slot[j]);
         }
     };
-    for (int j = 0; j < kPathsInFlight && next < count; ++j) {
+    for (int j = 0; j < kPathsInFlight && next < count && !cancel; ++j) {
         busy[j] = true;
         item[j] = next++;
         camera_ray(item[j], slot[j]);
