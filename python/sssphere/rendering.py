@@ -350,6 +350,7 @@ def _render_frames(scene, cameras, progress, on_frame, aovs: bool, denoise: bool
         raise TypeError(f"render_frames: unknown options {sorted(unknown)} (allowed: "
                         f"{', '.join(_SPECS)})")
     if not isinstance(scene, Scene):
+        _core.check_option_values(text or {}, **options)  # a bad value costs no scene build
         scene = load_scene(scene)
     cameras = list(cameras)
     for k, camera in enumerate(cameras):
