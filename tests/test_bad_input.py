@@ -6,6 +6,8 @@ import json
 import math
 import os
 import re
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -541,3 +543,61 @@ def test_outputs_are_replaced_whole(tmp_path):
         raise RuntimeError("interrupted")
     assert target.read_bytes() == b"previous"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["image.exr", "walks.npz"]
+
+
+_WRITE_UNDER_A_SIZE_LIMIT = """
+import resource, signal, sys
+import numpy as np
+import sssphere
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails with EFBIG
+resource.setrlimit(resource.RLIMIT_FSIZE, (200, 200))
+try:
+    sssphere.write_image(sys.argv[1], np.random.default_rng(1).random((64, 64, 3)))
+except sssphere.SceneError as e:
+    print(e)
+"""
+
+
+@pytest.mark.parametrize("name", ["image.png", "image.exr"])
+def test_a_write_that_fails_for_want_of_room_is_an_error_and_keeps_the_old_image(tmp_path, name):
+    """A disk that fills up while an image is written: the writer is told (here by a file
+    size limit, EFBIG, which a full disk's ENOSPC reaches the same way), says so, and the
+    previous image is left whole. OpenImageIO's own file writes used to lose that error: a
+    PNG came out empty and the command said it wrote it."""
+    out = tmp_path / name
+    sssphere.write_image(out, np.full((2, 2, 3), 0.25))  # 200 bytes hold this one
+    before = out.read_bytes()
+    r = subprocess.run([sys.executable, "-c", _WRITE_UNDER_A_SIZE_LIMIT, str(out)],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert f"{out}: cannot write image: File too large" in r.stdout, (r.stdout, r.stderr)
+    assert out.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == [name]  # no temporary left
+
+
+def test_an_output_that_is_a_pipe_or_device_is_refused(tmp_path):
+    """The image is written to a new file renamed into place: over a FIFO, or through a
+    link to a device (/dev/null), that would replace the pipe or the device by a file."""
+    img = np.zeros((2, 2, 3))
+    os.mkfifo(tmp_path / "pipe.exr")
+    os.symlink(os.devnull, tmp_path / "null.png")
+    for name in ("pipe.exr", "null.png"):
+        with pytest.raises(SceneError, match=f"{name}: is a device, pipe or socket, not a file"):
+            sssphere.write_image(tmp_path / name, img)
+    assert (tmp_path / "pipe.exr").is_fifo() and os.path.exists(os.devnull)
+
+
+def test_an_image_written_over_another_keeps_its_permissions_and_any_name_fits(tmp_path):
+    out = tmp_path / "private.exr"
+    sssphere.write_image(out, np.zeros((2, 2, 3)))
+    out.chmod(0o600)
+    sssphere.write_image(out, np.ones((2, 2, 3)))
+    assert out.stat().st_mode & 0o777 == 0o600 and sssphere.read_image(out).min() == 1.0
+    # the temporary file's name is not built from the output's, so a name of 255 bytes
+    # (NAME_MAX) is no more refused than it would be by `touch`
+    long = tmp_path / ("a" * 251 + ".png")
+    sssphere.write_image(long, np.zeros((2, 2, 3)))
+    assert long.exists()
+    (tmp_path / "adir").mkdir()
+    with pytest.raises(SceneError, match="adir: is a directory"):
+        sssphere.write_image(tmp_path / "adir", np.zeros((2, 2, 3)))

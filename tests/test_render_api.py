@@ -98,6 +98,42 @@ def test_progress_callback_can_stop_early(small_scene):
     assert all(0 <= f <= 1 for f in seen)
 
 
+def test_a_progress_callback_returns_a_truth_value(small_scene):
+    """True, False, None, or NumPy's bool; anything else is a mistake said in one line
+    (it was pybind11's "Unable to cast Python instance of type <class 'str'>")."""
+    assert not sssphere.render_full(small_scene, spp=2, progress=lambda f: np.True_).interrupted
+    with pytest.raises(TypeError, match="progress callback must return True, False or None .*got 'no'"):
+        sssphere.render_full(small_scene, spp=2, progress=lambda f: "no")
+
+
+_RENDER_IN_A_DAEMON_THREAD_AT_EXIT = """
+import sys, threading, time
+import sssphere
+scene = sssphere.load_scene(sys.argv[1])
+started = threading.Event()
+def work():
+    started.set()
+    sssphere.render_full(scene, spp=1 << 24, threads=1)
+threading.Thread(target=work, daemon=True).start()
+started.wait()
+time.sleep(1)
+print("exiting", flush=True)
+"""
+
+
+@pytest.mark.parametrize("threads_of_the_render", [1, 2])
+def test_python_exiting_under_a_render_in_a_daemon_thread_is_a_clean_exit(tmp_path, small_scene,
+                                                                          threads_of_the_render):
+    """Python ends a daemon thread that takes the GIL after it began to exit (pthread_exit).
+    The render's progress callback took it, the unwinding met a catch-all in the scheduler
+    and a destructor that took the GIL again: the process aborted (SIGABRT or SIGSEGV)."""
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    code = _RENDER_IN_A_DAEMON_THREAD_AT_EXIT.replace("threads=1", f"threads={threads_of_the_render}")
+    r = subprocess.run([sys.executable, "-c", code, str(tmp_path / "s.json")],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0 and r.stdout == "exiting\n", (r.returncode, r.stdout, r.stderr)
+
+
 @pytest.mark.parametrize("integrator", ["pt", "st"])
 def test_a_stop_ends_paths_that_would_not_end_for_hours(tmp_path, integrator):
     """sigma_t = 1e7 per unit in a unit ball of albedo 1 behind glass: a path takes about

@@ -1,21 +1,22 @@
 #include "io/image_io.h"
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cerrno>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <functional>
 #include <set>
 #include <string>
-#include <thread>
 
 #include "core/check.h"
 #include "core/files.h"
@@ -40,11 +41,13 @@ float linear_to_srgb(float v) {
 
 namespace {
 
-// The temporary file an image is written to before it is renamed to `target`.
-std::filesystem::path temporary_beside(const std::filesystem::path& target) {
-    return target.parent_path() /
-           ("." + target.stem().string() + ".tmp-" + std::to_string(::getpid()) +
-            target.extension().string());
+// A new name beside `target` for a file of this process's own, ending in `suffix`: short
+// (not built from the target's name), so that any name the directory takes has room.
+std::filesystem::path temporary_beside(const std::filesystem::path& target,
+                                       const std::string& suffix) {
+    static std::atomic<unsigned> count{0};
+    return target.parent_path() / (".sss-" + std::to_string(::getpid()) + "-" +
+                                   std::to_string(count++) + suffix);
 }
 
 }  // namespace
@@ -63,24 +66,30 @@ std::string output_target(const std::string& path) {
 
 void check_output_image(const std::string& path) {
     namespace fs = std::filesystem;
-    const std::string ext = lower_extension(path);
-    if (ext != ".exr" && ext != ".png")
-        fail(path, ": unsupported image format '", ext, "' (allowed: .exr, .png)");
     const fs::path target(output_target(path));
-    fs::path parent = target.parent_path();
-    if (!parent.empty() && !fs::is_directory(parent))
-        fail(path, ": output directory '", parent.string(), "' does not exist");
     std::error_code ec;
     if (fs::is_directory(target, ec))
         fail(path, ": is a directory (an output image needs a file name)");
-    // Whether a file can be made there: a name of this thread's own, so that the probe
-    // never meets another thread's temporary file.
-    const std::string probe =
-        (target.parent_path() /
-         ("." + target.stem().string() + ".probe-" + std::to_string(::getpid()) + "-" +
-          std::to_string(std::hash<std::thread::id>{}(std::this_thread::get_id()))))
-            .string();
-    const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0644);
+    const std::string ext = lower_extension(path);
+    if (ext != ".exr" && ext != ".png")
+        fail(path, ": unsupported image format '", ext, "' (allowed: .exr, .png)");
+    fs::path parent = target.parent_path();
+    if (!parent.empty() && !fs::is_directory(parent))
+        fail(path, ": output directory '", parent.string(), "' does not exist");
+    // The image replaces the file there: never a device, pipe or socket (through a link,
+    // /dev/null would become a file), nor a file its owner has made read-only.
+    struct stat st;
+    if (::stat(target.c_str(), &st) == 0) {
+        if (!S_ISREG(st.st_mode))
+            fail(path,
+                 ": is a device, pipe or socket, not a file (an output image is a "
+                 "new file or replaces a regular one)");
+        if (::access(target.c_str(), W_OK) != 0 && errno == EACCES)
+            fail(path, ": is read-only (make it writable or choose another output)");
+    }
+    // Whether a file can be made there
+    const std::string probe = temporary_beside(target, ".probe").string();
+    const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
     if (fd < 0 && errno != EEXIST)
         fail(path, ": cannot write in '", parent.empty() ? "." : parent.string(),
              "': ", std::strerror(errno));
@@ -104,36 +113,59 @@ void check_output_is_not_an_input(const std::string& path,
 
 namespace {
 
-// Writes through `out` to a temporary file beside `path` (same extension: it picks the
-// format), then renames it into place: an interrupted or failed write never leaves a
-// truncated image where the previous one was.
+// Writes `bytes` to a new file beside `target`, flushed to the disk, then renames it into
+// place: an interrupted or failed write (a full disk) never leaves a truncated image
+// where the previous one was, and every error is seen. A file replaced keeps its
+// permissions.
+void replace_file(const std::string& path, const std::filesystem::path& target,
+                  const std::vector<unsigned char>& bytes) {
+    const std::string tmp =
+        temporary_beside(target, target.extension().string()).string();
+    struct stat old;
+    const bool replaces = ::stat(target.c_str(), &old) == 0;
+    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC,
+                          replaces ? 0600 : 0666);
+    if (fd < 0) fail(path, ": cannot write image: ", std::strerror(errno));
+    auto fail_with = [&](const char* what, int error) {
+        ::close(fd);
+        ::unlink(tmp.c_str());
+        fail(path, ": ", what, ": ", std::strerror(error));
+    };
+    if (replaces && ::fchmod(fd, old.st_mode & 07777) != 0)
+        fail_with("cannot write image", errno);
+    for (size_t done = 0; done < bytes.size();) {
+        const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) fail_with("cannot write image", n < 0 ? errno : EIO);
+        done += size_t(n);
+    }
+    if (::fsync(fd) != 0) fail_with("cannot write image", errno);
+    if (::close(fd) != 0) {
+        const int error = errno;
+        ::unlink(tmp.c_str());
+        fail(path, ": cannot write image: ", std::strerror(error));
+    }
+    if (::rename(tmp.c_str(), target.c_str()) != 0) {
+        const int error = errno;
+        ::unlink(tmp.c_str());
+        fail(path, ": cannot move the written image into place: ", std::strerror(error));
+    }
+}
+
+// Encodes the image in memory (OpenImageIO's writer for the extension of `path`), then
+// replace_file: the encoder's own file writes do not report every error (a PNG or a small
+// EXR on a full disk came out empty, with success).
 void write_atomically(const std::string& path, const OIIO::ImageSpec& spec,
                       OIIO::TypeDesc type, const void* data) {
-    namespace fs = std::filesystem;
-    const fs::path target(output_target(path));
-    const std::string tmp = temporary_beside(target).string();
-    auto cleanup = [&] {
-        std::error_code ec;
-        fs::remove(tmp, ec);
-    };
     auto out = OIIO::ImageOutput::create(path);
     if (!out) fail(path, ": cannot create an image writer: ", OIIO::geterror());
-    if (!(out->open(tmp, spec) && out->write_image(type, data))) {
-        const std::string why = out->geterror();
-        cleanup();
-        fail(path, ": cannot write image: ", why);
-    }
-    if (!out->close()) {
-        const std::string why = out->geterror();
-        cleanup();
-        fail(path, ": cannot finish writing image: ", why);
-    }
-    std::error_code ec;
-    fs::rename(tmp, target, ec);
-    if (ec) {
-        cleanup();
-        fail(path, ": cannot move the written image into place: ", ec.message());
-    }
+    std::vector<unsigned char> bytes;
+    OIIO::Filesystem::IOVecOutput memory(bytes);
+    SSS_CHECK(out->supports("ioproxy"));
+    out->set_ioproxy(&memory);
+    if (!(out->open(path, spec) && out->write_image(type, data) && out->close()))
+        fail(path, ": cannot encode image: ", out->geterror());
+    replace_file(path, std::filesystem::path(output_target(path)), bytes);
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #include <optional>
 
 #include "core/check.h"
+#include "python/released_gil.h"
 #include "python/render_progress.h"
 #include "render/scene.h"
 
@@ -78,7 +79,7 @@ void bind_gpu(py::module_& m) {
             std::vector<float> packed = pack_gpu_model(ScatteringModel::load(models));
             std::vector<float> out;
             {
-                py::gil_scoped_release release;
+                ReleasedGil release;
                 VulkanCompute vk;
                 out = gpu_sample_steps(vk, packed, sigma.data(), g.data(),
                                        phi ? phi->data() : nullptr, size_t(sigma.size()),
@@ -104,7 +105,7 @@ void bind_gpu(py::module_& m) {
             std::vector<float> packed = pack_gpu_cut_model(model);
             std::vector<float> out;
             {
-                py::gil_scoped_release release;
+                ReleasedGil release;
                 VulkanCompute vk;
                 out = gpu_sample_cut_steps(vk, packed, sigma.data(), g.data(), h.data(),
                                            mu0.data(), size_t(sigma.size()), seed);
@@ -136,7 +137,7 @@ void bind_gpu(py::module_& m) {
             GpuSceneData baked = bake_gpu_scene(scene, "pt", false, INFINITY, "");
             std::vector<float> out;
             {
-                py::gil_scoped_release release;
+                ReleasedGil release;
                 VulkanCompute vk;
                 out = gpu_trace_rays(vk, baked, rays.data(), n);
             }

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "media/sphere_walk.h"
+#include "python/released_gil.h"
 
 namespace py = pybind11;
 
@@ -35,7 +36,7 @@ void bind_media(py::module_& m) {
                                a = to_vector(albedo);
             sss::SphereWalkBatch b;
             {
-                py::gil_scoped_release release;
+                sss::ReleasedGil release;
                 b = sss::sphere_walks(s, gg, a, n, seed, first_index, threads);
             }
             py::dict d;
@@ -61,7 +62,7 @@ void bind_media(py::module_& m) {
                                m0 = to_vector(mu0), a = to_vector(albedo);
             sss::CutSphereWalkBatch b;
             {
-                py::gil_scoped_release release;
+                sss::ReleasedGil release;
                 b = sss::cut_sphere_walks(s, gg, hh, m0, a, n, seed, first_index,
                                           threads);
             }

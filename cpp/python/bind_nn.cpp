@@ -12,6 +12,7 @@
 #include "core/check.h"
 #include "nn/cut_step_model.h"
 #include "nn/scattering_model.h"
+#include "python/released_gil.h"
 
 namespace py = pybind11;
 using namespace sss;
@@ -43,7 +44,7 @@ py::dict sample_py(const ScatteringModel& m, const FloatArray& sigma, const Floa
     DecoderImpl which = parse_impl(impl);
     std::vector<SphereStep> out(n);
     {
-        py::gil_scoped_release release;
+        ReleasedGil release;
         m.sample_batch(s.data(), gg.data(), phi.data(), size_t(n), seed, threads, event,
                        which, out.data());
     }
@@ -88,7 +89,7 @@ py::tuple evaluate_py(const ScatteringModel& m, const std::string& name,
     float *pm = mean.mutable_data(), *pl = logvar.mutable_data();
     const SimdDecoder& s = m.simd_decoder(name);
     {
-        py::gil_scoped_release release;
+        ReleasedGil release;
         if (which == DecoderImpl::Simd) {
             for (py::ssize_t k = 0; k < batch; k += 16) {  // 16 inputs per call
                 int count = int(std::min<py::ssize_t>(16, batch - k));
@@ -115,7 +116,7 @@ void bind_nn(py::module_& m) {
             std::vector<uint8_t> plane(size_t(n), 0);
             std::vector<float> pos(size_t(n) * 3), dir(size_t(n) * 3);
             {
-                py::gil_scoped_release release;
+                ReleasedGil release;
                 constexpr int L = sss::SimdDecoder::kLanes;
                 float s[L], gg[L], hh[L], m0[L];
                 std::fill(s, s + L, sigma), std::fill(gg, gg + L, g);

@@ -12,6 +12,7 @@
 
 #include "core/check.h"
 #include "gpu/backends.h"
+#include "python/released_gil.h"
 #include "python/render_progress.h"
 #include "render/aovs.h"
 #include "render/medium_presets.h"
@@ -25,11 +26,6 @@ using namespace sss;
 namespace {
 
 using Kind = OptionSpec::Kind;
-
-bool is_bool(const py::handle& v) {
-    return PyBool_Check(v.ptr()) ||
-           std::string(py::str(py::type::of(v).attr("__name__"))) == "bool_";
-}
 
 // Overrides from keyword arguments (None: not set). A value of the wrong type gets the
 // message a value out of range would get, naming what is allowed.
@@ -178,7 +174,7 @@ void bind_render(py::module_& m) {
             RenderProgress cb(progress);
             RenderResult r;
             {
-                py::gil_scoped_release release;
+                ReleasedGil release;
                 r = render_with_backend(scene, opt, std::ref(cb));
             }
             cb.rethrow();
@@ -260,7 +256,7 @@ void bind_render(py::module_& m) {
                      std::string(py::repr(samples)));
             FirstHitAovs a;
             {
-                py::gil_scoped_release release;
+                ReleasedGil release;
                 a = first_hit_aovs(scene, r.seed, n, r.threads);
             }
             const py::ssize_t H = a.height, W = a.width;

@@ -12,6 +12,7 @@
 
 #include "core/check.h"
 #include "io/image_io.h"
+#include "python/released_gil.h"
 #include "python/scene_error.h"
 
 namespace py = pybind11;
@@ -30,7 +31,7 @@ PYBIND11_MODULE(_image, m) {
                     path,
                     ": image must have shape (height, width, 3) or (height, width, 1)");
             std::vector<float> px(img.data(), img.data() + img.size());
-            py::gil_scoped_release release;
+            sss::ReleasedGil release;
             sss::write_image(path, px, int(img.shape(1)), int(img.shape(0)),
                              int(img.shape(2)));
         },
@@ -46,7 +47,7 @@ PYBIND11_MODULE(_image, m) {
             int w, h, c;
             std::vector<float> px;
             {
-                py::gil_scoped_release release;
+                sss::ReleasedGil release;
                 px = sss::read_image(path, &w, &h, &c);
             }
             py::array_t<float> a({py::ssize_t(h), py::ssize_t(w), py::ssize_t(c)});
@@ -80,7 +81,7 @@ PYBIND11_MODULE(_image, m) {
                      std::vector<float>(data.data(), data.data() + data.size())});
             }
             if (out.empty()) sss::fail(path, ": no layers to write");
-            py::gil_scoped_release release;
+            sss::ReleasedGil release;
             sss::write_exr_layers(path, width, height, out);
         },
         py::arg("path"), py::arg("layers"));
@@ -92,7 +93,7 @@ PYBIND11_MODULE(_image, m) {
             std::vector<std::string> names;
             std::vector<float> px;
             {
-                py::gil_scoped_release release;
+                sss::ReleasedGil release;
                 px = sss::read_exr_layers(path, &w, &h, &names);
             }
             const size_t n = names.size();

@@ -12,6 +12,7 @@
 #include "core/check.h"
 #include "geometry/distance_grid.h"
 #include "io/image_input.h"
+#include "python/released_gil.h"
 #include "python/render_progress.h"
 #include "python/scene_error.h"
 #include "render/medium_presets.h"
@@ -93,7 +94,7 @@ PYBIND11_MODULE(_core, m) {
                          const std::string& source, int threads,
                          std::shared_ptr<MeshCache> meshes) {
                  SceneDesc desc = parse_scene(text, base_dir, source, meshes.get());
-                 py::gil_scoped_release release;
+                 ReleasedGil release;
                  return std::make_shared<Scene>(std::move(desc), threads);
              }),
              py::arg("json_text"), py::arg("base_dir"), py::arg("source"),
@@ -106,7 +107,7 @@ PYBIND11_MODULE(_core, m) {
                 SceneDesc desc = parse_scene(text, base_dir, source, meshes.get());
                 std::optional<Scene> next;
                 {
-                    py::gil_scoped_release release;
+                    ReleasedGil release;
                     next.emplace(std::move(desc), threads, s);
                 }
                 // Replaced with the GIL held: Python never reads half of it (renders,

@@ -8,8 +8,10 @@
 #include <pybind11/pybind11.h>
 
 #include <optional>
+#include <string>
 #include <vector>
 
+#include "python/released_gil.h"
 #include "render/film.h"
 
 namespace sss {
@@ -50,6 +52,15 @@ inline pybind11::dict film_dict(const RenderResult& r, int spp, bool record_path
     return d;
 }
 
+// Python's bool or NumPy's (numpy.bool_, named "bool" since NumPy 2).
+inline bool is_bool(const pybind11::handle& v) {
+    if (PyBool_Check(v.ptr())) return true;
+    const pybind11::handle type = pybind11::type::of(v);
+    const std::string name = pybind11::str(type.attr("__name__"));
+    return (name == "bool_" || name == "bool") &&
+           std::string(pybind11::str(type.attr("__module__"))) == "numpy";
+}
+
 struct __attribute__((visibility("hidden"))) RenderProgress {
     explicit RenderProgress(pybind11::object callback) : progress(std::move(callback)) {}
 
@@ -59,6 +70,8 @@ struct __attribute__((visibility("hidden"))) RenderProgress {
 
     // Called by the renderer (GIL released): false stops the render.
     bool operator()(double fraction) {
+        if (python_exiting())
+            return false;  // the GIL would end this thread (released_gil.h)
         pybind11::gil_scoped_acquire gil;
         if (PyErr_CheckSignals() != 0) {
             PyErr_Clear();  // a pending KeyboardInterrupt: stop and report it
@@ -68,7 +81,16 @@ struct __attribute__((visibility("hidden"))) RenderProgress {
         if (progress.is_none()) return true;
         try {
             pybind11::object r = progress(fraction);
-            return r.is_none() || r.cast<bool>();
+            if (r.is_none()) return true;
+            if (is_bool(r)) return r.cast<bool>();
+            // not a truth value but a mistake ("no", 0)
+            PyErr_SetString(
+                PyExc_TypeError,
+                ("the progress callback must return True, False or None (False "
+                 "stops the render), got " +
+                 std::string(pybind11::repr(r)))
+                    .c_str());
+            throw pybind11::error_already_set();
         } catch (pybind11::error_already_set& e) {
             if (e.matches(PyExc_KeyboardInterrupt))
                 interrupted = true;

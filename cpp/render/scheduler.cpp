@@ -1,5 +1,7 @@
 #include "render/scheduler.h"
 
+#include <cxxabi.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -232,6 +234,13 @@ private:
                 try {
                     if (!s.time_limit_reached && progress && !progress(fraction()))
                         s.cancelled = true;
+                } catch (abi::__forced_unwind&) {
+                    // This thread is being ended (pthread_exit: the progress callback
+                    // waited for Python's lock while Python exited): the workers, which
+                    // use this stack, end first, then the unwinding goes on.
+                    stop();
+                    for (std::thread& t : pool) t.join();
+                    throw;
                 } catch (...) {
                     keep_error();
                     s.cancelled = true;

@@ -4,8 +4,11 @@ interrupted or failed write never leaves a truncated file where the previous one
 from __future__ import annotations
 
 import contextlib
+import itertools
 import os
 from pathlib import Path
+
+_count = itertools.count()
 
 
 @contextlib.contextmanager
@@ -13,9 +16,12 @@ def atomic_output(path):
     """Yield a temporary path (same directory, same suffix) to write; on success it replaces
     `path`, on an exception it is removed."""
     path = Path(path)
-    tmp = path.with_name(f".{path.stem}.tmp-{os.getpid()}{path.suffix}")
+    # not built from the name, so that any name the directory takes has room for it
+    tmp = path.with_name(f".sss-{os.getpid()}-{next(_count)}{path.suffix}")
     try:
         yield tmp
+        with open(tmp, "rb+") as f:  # on the disk before it replaces the previous file
+            os.fsync(f.fileno())
         os.replace(tmp, path)
     finally:
         with contextlib.suppress(FileNotFoundError):
