@@ -601,3 +601,35 @@ def test_an_image_written_over_another_keeps_its_permissions_and_any_name_fits(t
     (tmp_path / "adir").mkdir()
     with pytest.raises(SceneError, match="adir: is a directory"):
         sssphere.write_image(tmp_path / "adir", np.zeros((2, 2, 3)))
+
+
+_LOAD_UNDER_A_MEMORY_LIMIT = """
+import resource, sys
+import sssphere
+resource.setrlimit(resource.RLIMIT_AS, (4 << 30, 4 << 30))
+try:
+    sssphere.load_scene(sys.argv[1])
+except sssphere.SceneError as e:
+    print(e)
+"""
+
+
+@pytest.mark.parametrize("big", ["mesh", "scene"])
+def test_an_input_file_too_large_for_memory_is_named(tmp_path, big):
+    """A mesh or scene file larger than the memory there is (here an 8 GiB sparse file under
+    a 4 GiB address-space limit) is refused naming the file and its size: it was
+    std::bad_alloc, or a MemoryError traceback, naming nothing."""
+    scene = {"camera": {"origin": [0, 0, 4], "target": [0, 0, 0], "fov": 30, "width": 8,
+                        "height": 8},
+             "shapes": [{"mesh": "big.obj", "medium": {"sigma_t": 5, "albedo": 0.9, "g": 0},
+                         "boundary": {"type": "index_matched"}}],
+             "lights": [{"type": "environment", "radiance": [1, 1, 1]}]}
+    (tmp_path / "s.json").write_text(json.dumps(scene))
+    name = "big.obj" if big == "mesh" else "s.json"
+    with open(tmp_path / name, "ab") as f:
+        f.truncate(8 << 30)
+    r = subprocess.run([sys.executable, "-c", _LOAD_UNDER_A_MEMORY_LIMIT, str(tmp_path / "s.json")],
+                       capture_output=True, text=True, timeout=300)
+    what = "mesh file" if big == "mesh" else "scene file"
+    assert r.returncode == 0 and f"{name}: {what} of {8 << 30} bytes does not fit in memory" in r.stdout, (
+        r.stdout, r.stderr)

@@ -176,6 +176,20 @@ def test_ctrl_c_writes_partial_image_python_cli(tmp_path, slow_scene):
 
 
 
+def test_an_interrupted_turntable_says_which_frame_is_partial(tmp_path, slow_scene):
+    """The frame a stop cuts short is kept (it has whole passes) and said to be partial,
+    with its samples: it used to be listed as if it were like the others."""
+    code, err = _interrupt_after_start(
+        [sys.executable, "-m", "sssphere.cli", "render", str(slow_scene), "-o",
+         str(tmp_path / "f%03d.exr"), "--turntable", "3"], tmp_path)
+    assert code == 130, err
+    m = re.search(r"interrupted: wrote 1 of 3 frames .*f000\.exr .*the last, (.*), is partial: "
+                  r"(\d+) spp\)", err)
+    assert m and m.group(1) == str(tmp_path / "f000.exr"), err
+    assert 0 < int(m.group(2)) < 1 << 16
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f000.exr", "slow.json"]
+
+
 @pytest.mark.parametrize("cli, sig, code", [("python", signal.SIGINT, 130), ("cpp", signal.SIGTERM, 143)])
 def test_interrupted_before_the_first_pass_writes_nothing_and_says_so(tmp_path, slow_scene, cli, sig, code):
     """A render stopped before its first pass (1 spp of every pixel) has finished has no
@@ -612,6 +626,12 @@ def test_ctrl_c_while_the_command_loads_is_one_line():
     r = subprocess.run([sys.executable, "-c", stop, "presets"], capture_output=True, text=True,
                        timeout=120)
     assert (r.returncode, r.stderr) == (130, "sssphere: interrupted\n")
+    # SIGTERM in the same place: it was death by the signal, without a word
+    term = stop.replace("raise KeyboardInterrupt",
+                        "import os, signal; os.kill(os.getpid(), signal.SIGTERM)")
+    r = subprocess.run([sys.executable, "-c", term, "presets"], capture_output=True, text=True,
+                       timeout=120, preexec_fn=_default_signals)
+    assert (r.returncode, r.stderr) == (143, "sssphere: interrupted\n")
     script = Path(sys.executable).parent / "sssphere"  # the installed command uses it
     assert "sssphere._entry" in script.read_text()
 

@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "core/check.h"
+#include "core/files.h"
 
 namespace sss {
 
@@ -22,11 +23,7 @@ namespace {
 constexpr uint64_t kMaxFaceVertices = uint64_t(1) << 16;
 
 std::string read_all(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) fail(path, ": mesh file cannot be read");
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
+    return read_input_file(path, "mesh file");
 }
 
 std::vector<std::string> words_of(const std::string& line) {

@@ -687,13 +687,8 @@ SceneDesc load_scene_file(const std::string& path,
                           const std::vector<std::string>& assignments, int width,
                           int height) {
     namespace fs = std::filesystem;
-    check_input_file(path, "scene file");
-    std::ifstream in(path);
-    if (!in) fail(path, ": scene file cannot be read");
-    std::stringstream ss;
-    ss << in.rdbuf();
+    std::string text = read_input_file(path, "scene file");
     std::string base = fs::path(path).parent_path().string();
-    std::string text = ss.str();
     if (!assignments.empty() || width > 0 || height > 0)
         text = edit_scene_json(text, path, assignments, width, height);
     return parse_scene(text, base.empty() ? "." : base, path);

@@ -166,9 +166,13 @@ def _render_turntable(args: argparse.Namespace, scene, text: dict, load_s: float
             bar.close()
     interrupted = bool(results) and results[-1].interrupted or signals.count > 0
     shown = written[0] + (f" ... {written[-1]}" if len(written) > 1 else "") if written else ""
+    # the frame a stop cut short, if it was kept, with the passes it has
+    last = results[-1] if results else None
+    partial = (f"; the last, {written[-1]}, is partial: {last.spp} spp"
+               if written and last.interrupted and last.spp > 0 else "")
     print(f"{'interrupted: wrote' if interrupted else 'wrote'} {len(written)} of "
           f"{args.turntable} frames {shown} ({scene.width}x{scene.height}; scene built in "
-          f"{load_s:.2f}s, rendered in {time.monotonic() - t0:.2f}s)", file=sys.stderr)
+          f"{load_s:.2f}s, rendered in {time.monotonic() - t0:.2f}s{partial})", file=sys.stderr)
     return _interrupted_status() if interrupted else 0
 
 
@@ -542,6 +546,9 @@ def main(argv: list[str] | None = None) -> int:
         return 128 + signal.SIGPIPE
     except (SceneError, OSError) as e:  # OSError: a path that cannot be written, a lost cluster
         print(f"sssphere: error: {e}", file=sys.stderr)
+        return 1
+    except MemoryError as e:  # inputs name themselves (read_input_file); this is the rest
+        print(f"sssphere: error: out of memory{f' ({e})' if str(e) else ''}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:  # outside the work that stops by itself and says what it kept
         print("sssphere: interrupted", file=sys.stderr)

@@ -329,6 +329,9 @@ def load_scene(
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as e:
         raise SceneError(f"{path}: scene file cannot be read: {e}") from None
+    except MemoryError:
+        raise SceneError(f"{path}: scene file of {path.stat().st_size} bytes does not fit in "
+                         "memory") from None
     return _warned(Scene(text, str(path.parent), str(path), threads))
 
 
@@ -373,8 +376,8 @@ def load_scene_with(path: Union[str, os.PathLike], assignments: list[str] | None
         return load_scene(path, threads=threads)  # says what is wrong with the path
     try:
         text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError):
-        return load_scene(path, threads=threads)
+    except (OSError, UnicodeDecodeError, MemoryError):
+        return load_scene(path, threads=threads)  # says what is wrong with the file
     text = _core.edit_scene_json(text, str(path), list(assignments or []), width or 0,
                                  height or 0)
     threads = 0 if threads is None else int(threads)
