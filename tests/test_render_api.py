@@ -192,6 +192,12 @@ def test_record_paths_refuses_more_paths_than_it_can_hold(small_scene):
     with pytest.raises(sssphere.SceneError, match=r"record_paths keeps 8 bytes per path: 24x16 "
                        r"pixels at 349526 spp are 134217984 paths \(allowed: at most 134217728\)"):
         sssphere.render_full(small_scene, spp=349526, record_paths=True)
+    # a time limit alone leaves spp unlimited: the message says so, and what to do
+    del small_scene["render"]["spp"]
+    with pytest.raises(sssphere.SceneError, match=r"under a time limit spp is the most the render "
+                       r"takes, unlimited unless given: give spp"):
+        sssphere.render_full(small_scene, time_limit=1, record_paths=True)
+    assert sssphere.render_full(small_scene, time_limit=1, spp=2, record_paths=True).spp == 2
     with pytest.raises(sssphere.SceneError, match="record_paths must be True or False"):
         sssphere.render_full(small_scene, spp=1, record_paths="yes")
 

@@ -43,7 +43,11 @@ void check_options(const Scene& scene, const RenderOptions& opt) {
     if (opt.record_paths && num_paths > kMaxRecordedPaths)
         fail("record_paths keeps 8 bytes per path: ", cam.width, "x", cam.height,
              " pixels at ", opt.spp, " spp are ", num_paths, " paths (allowed: at most ",
-             kMaxRecordedPaths, "); render fewer pixels or samples");
+             kMaxRecordedPaths, "); render fewer pixels or samples",
+             opt.time_limit > 0
+                 ? " (under a time limit spp is the most the render takes, "
+                   "unlimited unless given: give spp)"
+                 : "");
 }
 
 }  // namespace
