@@ -633,3 +633,13 @@ def test_an_input_file_too_large_for_memory_is_named(tmp_path, big):
     what = "mesh file" if big == "mesh" else "scene file"
     assert r.returncode == 0 and f"{name}: {what} of {8 << 30} bytes does not fit in memory" in r.stdout, (
         r.stdout, r.stderr)
+
+
+def test_a_null_where_an_object_belongs_is_said_once(small_scene):
+    """'got null null' named the type and then the value of a null."""
+    small_scene["render"] = None
+    with pytest.raises(SceneError, match=r"^<dict>: render: expected an object, got null$"):
+        sssphere.load_scene(small_scene)
+    small_scene["render"] = "fast"
+    with pytest.raises(SceneError, match=r'render: expected an object, got a string "fast"$'):
+        sssphere.load_scene(small_scene)

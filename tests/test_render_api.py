@@ -336,3 +336,15 @@ def test_images_show_and_save_themselves(tmp_path, small_scene):
     np.testing.assert_array_equal(sssphere.read_image(tmp_path / "r_variance.exr"), r.variance)
     np.testing.assert_array_equal(sssphere.read_image(tmp_path / "r_events.exr")[..., 0],
                                   r.events)
+
+
+def test_scene_and_progress_arguments_of_the_wrong_kind_are_named(small_scene):
+    with pytest.raises(TypeError, match="scene must be a path to a scene file, a dict or a Scene, got None"):
+        sssphere.render(None)
+    with pytest.raises(sssphere.SceneError, match="got JSON text, not a path"):
+        sssphere.load_scene(json.dumps(small_scene))  # was OSError: File name too long
+    with pytest.raises(TypeError, match="progress must be a function of the fraction done"):
+        sssphere.render_full(small_scene, progress=1)
+    for threads in (-1, 5000, "a"):  # -1 was taken, 'a' was int()'s message
+        with pytest.raises(sssphere.SceneError, match="threads must be an integer from 0 to 4096"):
+            sssphere.load_scene(small_scene, threads=threads)

@@ -169,3 +169,22 @@ def test_cut_walks_bad_input_is_named(kwargs, match):
     args.update(kwargs)
     with pytest.raises(ValueError, match=match):
         cut_sphere_walks(**args)
+
+
+@pytest.mark.parametrize(
+    "kwargs,match",
+    [
+        (dict(seed=2**64), r"seed must be an integer from 0 to 2\^64 - 1, got 18446744073709551616"),
+        (dict(first_index=2**64), r"first_index must be an integer from 0 to 2\^64 - 1"),
+        (dict(n=2**62), "n must be an integer from 1 to 2,147,483,647"),
+        (dict(threads=5000), r"threads must be an integer from 0 to 4,096 \(0 = all cores\)"),
+    ],
+)
+def test_walk_counts_and_seeds_past_their_range_are_named(kwargs, match):
+    """Past 64 bits a seed was pybind11's list of overloads; a count of 2^62 walks was
+    std::vector's own message. Each is now refused naming the argument and its range."""
+    args = dict(sigma_t=5.0, g=0.3, albedo=0.9, n=3)
+    args.update(kwargs)
+    with pytest.raises(ValueError, match=match):
+        sssphere.sphere_walks(**args)
+    assert sssphere.sphere_walks(5.0, 0.3, 0.9, 3, seed=2**64 - 1)["N"].min() >= 1

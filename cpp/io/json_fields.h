@@ -58,6 +58,12 @@ inline const char* type_name(const json& j) {
     }
 }
 
+// A value as messages show it: its type and text ("a string \"x\"", "an array [1,2]"; null
+// is "null" alone).
+inline std::string described(const json& j) {
+    return j.is_null() ? std::string("null") : std::string(type_name(j)) + " " + show(j);
+}
+
 // Parsed files nest at most this deep (scenes need 4 levels, model files 5); deeper input
 // is refused while it is parsed, before it can exhaust the stack of a recursive consumer.
 constexpr int kMaxJsonDepth = 64;
@@ -133,7 +139,7 @@ inline json parse_json(const std::string& text, const std::string& source,
 inline void check_keys(const json& obj, const Field& f,
                        const std::vector<const char*>& allowed) {
     if (!obj.is_object())
-        f.error("expected an object, got ", type_name(obj), " ", show(obj));
+        f.error("expected an object, got ", described(obj));
     std::set<std::string> ok(allowed.begin(), allowed.end());
     for (auto it = obj.begin(); it != obj.end(); ++it) {
         if (!ok.count(it.key())) {
@@ -159,7 +165,7 @@ inline const json& require(const json& obj, const char* key, const Field& f) {
 // A finite number. A negative zero reads as zero: it passes every `>= 0` check, yet its
 // reciprocal is -inf (a "free flight" of -inf in a medium of sigma_t -0.0).
 inline double number(const json& j, const Field& f) {
-    if (!j.is_number()) f.error("expected a number, got ", type_name(j), " ", show(j));
+    if (!j.is_number()) f.error("expected a number, got ", described(j));
     double v = j.get<double>();
     if (!std::isfinite(v)) f.error("value ", show(j), " is not a finite number");
     return v + 0.0;
@@ -169,7 +175,7 @@ inline double number(const json& j, const Field& f) {
 inline int64_t integer_in(const json& j, const Field& f, int64_t lo, int64_t hi,
                           const char* allowed) {
     if (!j.is_number_integer())
-        f.error("expected an integer, got ", type_name(j), " ", show(j));
+        f.error("expected an integer, got ", described(j));
     if (j.is_number_unsigned() && j.get<uint64_t>() > uint64_t(INT64_MAX))
         f.error("value ", show(j), " is not allowed (allowed: ", allowed, ")");
     int64_t v = j.get<int64_t>();

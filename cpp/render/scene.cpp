@@ -60,7 +60,7 @@ const Kind& kind_named(const std::vector<Kind>& kinds, const json& j, const Fiel
     if (!j.is_object()) f.error("expected an object, got ", show(j));
     const json& type = require(j, "type", f);
     if (!type.is_string())
-        f.at("type").error("expected a string, got ", type_name(type), " ", show(type));
+        f.at("type").error("expected a string, got ", described(type));
     std::string names;
     for (const Kind& k : kinds) {
         if (type.get<std::string>() == k.name) return k;

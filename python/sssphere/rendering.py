@@ -190,6 +190,9 @@ def _render(scene: Scene, progress, options: dict, text: Optional[dict] = None,
     (render/options.h: defaults < the scene's render block < command-line text < these);
     with ``ray_address``, the same render split into tasks on that Ray cluster
     (sssphere.cluster)."""
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress must be a function of the fraction done (or None), got "
+                        f"{progress!r}")
     with scene._rendered():
         if ray_address is not None:
             from sssphere import cluster

@@ -278,6 +278,17 @@ def _find_bad_value(value: Any, path: str) -> str | None:
             f"lists and objects are: docs/scene-format.md)")
 
 
+def _threads(threads) -> int:
+    """load_scene's threads as a render takes them: None or 0 (all cores) to 4096."""
+    if threads is None:
+        return 0
+    if (isinstance(threads, bool) or not isinstance(threads, (int, np.integer))
+            or not 0 <= threads <= 4096):
+        raise SceneError(f"threads must be an integer from 0 to 4096 (0 = all cores), got "
+                         f"{threads!r}")
+    return int(threads)
+
+
 def load_scene(
     scene: Union[str, os.PathLike, dict], base_dir: Union[str, os.PathLike, None] = None,
     threads: int | None = None,
@@ -304,7 +315,7 @@ def load_scene(
 
     The Scene returned can be edited in place and rendered again (see Scene).
     """
-    threads = 0 if threads is None else int(threads)
+    threads = _threads(threads)
     if isinstance(scene, dict):
         try:
             scene = _jsonable(scene)  # numpy arrays (e.g. a shape's vertices and faces)
@@ -317,6 +328,11 @@ def load_scene(
                              "levels)") from None
         base = str(base_dir) if base_dir is not None else os.getcwd()
         return _warned(Scene(text, base, "<dict>", threads))
+    if not isinstance(scene, (str, os.PathLike)):
+        raise TypeError(f"scene must be a path to a scene file, a dict or a Scene, got {scene!r}")
+    if isinstance(scene, str) and scene.lstrip().startswith("{"):
+        raise SceneError("scene: got JSON text, not a path to a scene file (pass "
+                         "json.loads(text), a dict)")
     path = Path(scene)
     if not path.exists():
         raise SceneError(f"{path}: scene file does not exist")
@@ -380,5 +396,5 @@ def load_scene_with(path: Union[str, os.PathLike], assignments: list[str] | None
         return load_scene(path, threads=threads)  # says what is wrong with the file
     text = _core.edit_scene_json(text, str(path), list(assignments or []), width or 0,
                                  height or 0)
-    threads = 0 if threads is None else int(threads)
+    threads = _threads(threads)
     return _warned(Scene(text, str(path.parent), str(path), threads))

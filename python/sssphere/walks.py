@@ -38,11 +38,19 @@ def _param(name: str, value: ArrayLike, n: int, lo: float, hi: float, closed_hi:
     return a.astype(np.float32)
 
 
+# The largest value of each integer argument: seeds and indices are 64-bit in C++ (the
+# streams are numbered by them); a walk's results take 64 bytes, so 2^31 walks are 128 GiB.
+_MOST = {"seed": 2**64 - 1, "first_index": 2**64 - 1, "n": 2**31 - 1, "threads": 4096}
+
+
 def _count(name: str, v, lo: int) -> int:
-    """An integer argument >= lo (threads: 0 = all cores)."""
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+    """An integer argument from lo to _MOST[name] (threads: 0 = all cores)."""
+    hi = _MOST[name]
+    if (isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo
+            or v > hi):
         note = " (0 = all cores)" if name == "threads" else ""
-        raise ValueError(f"{name} must be an integer >= {lo}{note}, got {v!r}")
+        shown = "2^64 - 1" if hi == 2**64 - 1 else f"{hi:,}"
+        raise ValueError(f"{name} must be an integer from {lo} to {shown}{note}, got {v!r}")
     return int(v)
 
 
