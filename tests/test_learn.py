@@ -502,3 +502,245 @@ def test_sample_conditions_cover_the_ranges():
     frac = np.mean((c["sigma"] >= 1) & (c["sigma"] <= 10))
     expected = math.log(10.5 / 1.5) / math.log(200.5 / 0.5)
     assert abs(frac - expected) < 0.01
+
+
+# ----------------------------------------------------------------------------------------
+# Sweep findings: all-or-nothing outputs, bad data and settings told up front
+# ----------------------------------------------------------------------------------------
+def _old_models(out):
+    """out with stand-in model files, as a previous run left them; returns their contents."""
+    out.mkdir(exist_ok=True)
+    for name in ("lengthgen.json", "pathgen.json", "cvae_checkpoint.pt"):
+        (out / name).write_text(f"old {name}\n")
+    return {p.name: p.read_bytes() for p in out.iterdir()}
+
+
+def test_interrupted_train_leaves_the_output_directory_unchanged(tiny_data, tmp_path, capsys,
+                                                                 monkeypatch):
+    # LengthGen finishes, then Ctrl-C during PathGen: LengthGen's files must not be moved
+    # into place beside the old PathGen (a mixed set).
+    from sssphere.learn import train as train_mod
+
+    real = train_mod.train_cvae
+
+    def stop_at_pathgen(spec, *args, **kwargs):
+        if spec.name == "PathGen":
+            raise KeyboardInterrupt
+        return real(spec, *args, **kwargs)
+
+    monkeypatch.setattr(train_mod, "train_cvae", stop_at_pathgen)
+    before = _old_models(tmp_path / "m")
+    code = cli_main(["train", str(tiny_data), "-o", str(tmp_path / "m"), "--epochs", "1",
+                     "--quiet"])
+    assert code == 130
+    assert f"interrupted: wrote nothing to {tmp_path / 'm'}" in capsys.readouterr().err
+    assert {p.name: p.read_bytes() for p in (tmp_path / "m").iterdir()} == before
+    # A directory the run created is gone again.
+    assert cli_main(["train", str(tiny_data), "-o", str(tmp_path / "new"), "--epochs", "1",
+                     "--quiet"]) == 130
+    assert not (tmp_path / "new").exists()
+
+
+def test_export_of_non_finite_weights_names_the_layer_and_writes_nothing(trained, tmp_path,
+                                                                         capsys):
+    from sssphere.learn.export import save_checkpoint
+
+    models = load_checkpoint(trained[0] / "cvae_checkpoint.pt")
+    with torch.no_grad():
+        models["EventGen"][0].decoder.hidden[1].bias[3] = float("nan")
+    save_checkpoint(tmp_path / "nan.pt", models)
+    before = _old_models(tmp_path / "out")
+    code = cli_main(["export", str(tmp_path / "nan.pt"), "-o", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert code == 1 and len(err.strip().splitlines()) == 1, err
+    assert "nan.pt: model EventGen: layers[1].bias holds 1 non-finite value(s) (first nan)" in err
+    assert {p.name: p.read_bytes() for p in (tmp_path / "out").iterdir()} == before
+
+
+def test_training_refuses_data_from_one_medium(tiny_data, tmp_path):
+    d = load_training_data(tiny_data)
+    d.sigma[:] = np.float32(10.0)
+    path = tmp_path / "one_sigma.npz"
+    learn_data.save_training_data(path, d)
+    with pytest.raises(DataError) as e:
+        train(path, tmp_path / "m", epochs=1, progress=False, config=SMOKE_CONFIG)
+    msg = str(e.value)
+    assert str(path) in msg and "sigma is constant" in msg and "span a range of media" in msg
+    assert not (tmp_path / "m").exists()  # refused before any output
+
+
+def _arrays_with_meta(meta, n=50):
+    rng = np.random.default_rng(0)
+    w = rng.normal(size=(n, 3))
+    return {"sigma": rng.uniform(0, 5, n), "g": rng.uniform(-0.5, 0.5, n),
+            "phi": rng.uniform(0, 1, n), "N": np.full(n, 3), "cos_theta": np.zeros(n),
+            "alpha": np.zeros(n), "beta": np.zeros(n), "X": np.zeros((n, 3)),
+            "W": w / np.linalg.norm(w, axis=1, keepdims=True),
+            "meta": np.array(json.dumps(meta))}
+
+
+@pytest.mark.parametrize(
+    "meta, message",
+    [
+        ({"g_range": [-2, 2]}, "meta g_range = [-2, 2] is not allowed (allowed: [lo, hi], "
+                               "finite numbers with lo < hi, within (-1.0, 1.0))"),
+        ({"g_range": [float("nan"), 0.9]}, "meta g_range = [nan, 0.9] is not allowed"),
+        ({"sigma_range": [10, 0]}, "meta sigma_range = [10, 0] is not allowed"),
+        ({"phi_range": "0 to 1"}, "meta phi_range = '0 to 1' is not allowed"),
+        ({"phi_range": [0, 1.5]}, "meta phi_range = [0, 1.5] is not allowed"),
+        ({"sigma_max": -1}, "meta sigma_max = -1 is not allowed (allowed: a finite number > 0)"),
+        ({"g_max": 1.5}, "meta g_max = 1.5 is not allowed (allowed: a number in (0, 1))"),
+        ({"g_range": [-0.1, 0.1]}, "meta g_range = [-0.1, 0.1] does not hold the data's g"),
+        ({"sigma_max": 2}, "meta sigma_max = 2 does not hold the data's sigma"),
+    ],
+)
+def test_meta_ranges_are_checked(meta, message):
+    with pytest.raises(DataError) as e:
+        learn_data.validate_arrays(_arrays_with_meta(meta), "w.npz")
+    assert str(e.value).startswith("w.npz: ") and message in str(e.value)
+
+
+def test_good_meta_ranges_are_accepted():
+    meta = {"sigma_range": [0, 200], "g_range": [-0.95, 0.95], "phi_range": [0, 1],
+            "sigma_max": 200, "g_max": 0.95, "other": "free-form"}
+    assert learn_data.validate_arrays(_arrays_with_meta(meta)).meta == meta
+
+
+@pytest.mark.parametrize(
+    "field, value, allowed",
+    [
+        ("batch_size", -5, "an integer >= 1"),
+        ("batch_size", 0, "an integer >= 1"),
+        ("val_fraction", 2, "0 <= val_fraction < 1"),
+        ("kl_warmup", -1, "a fraction of training, 0 to 1"),
+        ("free_bits", -1, "a number >= 0 (nats)"),
+        ("threads", 0, "an integer >= 1"),
+        ("lr", float("nan"), "a number > 0"),
+        ("epochs", 1.5, "an integer >= 1"),
+        ("encodings", "fancy", "logit, plain"),
+    ],
+)
+def test_train_config_is_checked(field, value, allowed):
+    with pytest.raises(ValueError) as e:
+        TrainConfig(**{field: value})
+    assert str(e.value) == f"TrainConfig.{field} = {value!r} is not allowed (allowed: {allowed})"
+
+
+def test_datagen_meta_records_the_requested_count_when_interrupted(tmp_path, monkeypatch):
+    from sssphere.learn import datagen as datagen_mod
+
+    real, calls = datagen_mod.sphere_walks, []
+
+    def stop_second_chunk(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(datagen_mod, "sphere_walks", stop_second_chunk)
+    data, interrupted, _ = datagen_mod.datagen(12_000, tmp_path / "w.npz", seed=3, threads=1)
+    assert interrupted and len(data["N"]) == 10_000
+    meta = load_training_data(tmp_path / "w.npz").meta
+    assert (meta["samples"], meta["requested_samples"], meta["interrupted"]) == (10_000, 12_000,
+                                                                                 True)
+    monkeypatch.setattr(datagen_mod, "sphere_walks", real)
+    datagen_mod.datagen(20, tmp_path / "v.npz", seed=3, threads=1)
+    meta = load_training_data(tmp_path / "v.npz").meta
+    assert (meta["samples"], meta["requested_samples"], meta["interrupted"]) == (20, 20, False)
+
+
+def test_model_card_with_unbalanced_markers_is_refused(tmp_path):
+    from sssphere.learn import evaluate
+
+    card = tmp_path / "README.md"
+    text = "# My models\n\n<!-- eval:begin -->\nold table\n\n## Notes kept here\n"
+    card.write_text(text)
+    with pytest.raises(ValueError, match=f"{card}: the eval markers are unbalanced"):
+        evaluate.update_model_card(card, "| new |")
+    assert card.read_text() == text
+    card.write_text("# Mine\n\n<!-- eval:begin -->\nold\n<!-- eval:end -->\n\nkept\n")
+    evaluate.update_model_card(card, "| new |")
+    assert card.read_text() == "# Mine\n\n<!-- eval:begin -->\n| new |\n<!-- eval:end -->\n\nkept\n"
+    fresh = tmp_path / "user" / "README.md"
+    fresh.parent.mkdir()
+    evaluate.update_model_card(fresh, "| t |")
+    assert fresh.read_text().startswith("# Models in user\n")
+
+
+@pytest.mark.parametrize(
+    "g, albedo, message",
+    [
+        (0.0, np.nan, "phi[0] = nan is not allowed (allowed: 0 <= phi <= 1)"),
+        (0.0, -0.5, "phi[0] = -0.5 is not allowed (allowed: 0 <= phi <= 1)"),
+        (0.0, [0.5, 0.5, 1.5], "phi[2] = 1.5 is not allowed (allowed: 0 <= phi <= 1)"),
+        (1.0, 0.5, "g[0] = 1 is not allowed (allowed: -1 < g < 1)"),
+        (np.nan, 0.5, "g[0] = nan is not allowed (allowed: -1 < g < 1)"),
+    ],
+)
+def test_sphere_sampler_checks_g_and_albedo(trained, g, albedo, message):
+    sampler = SphereSampler.from_dir(trained[0])
+    with pytest.raises(ValueError) as e:
+        sampler.sample(5.0, g, albedo, 3, np.random.default_rng(0))
+    assert str(e.value) == message
+
+
+def test_eval_finds_the_shipped_models_from_anywhere(tmp_path, capsys, monkeypatch):
+    from sssphere.model import DEFAULT_MODELS
+
+    code = cli_main(["eval", "--models", str(tmp_path / "none"), "--quiet", "--no-plots"])
+    err = capsys.readouterr().err
+    assert code == 1 and len(err.strip().splitlines()) == 1
+    assert f"{tmp_path / 'none'}: models directory does not exist" in err
+    monkeypatch.chdir(tmp_path)  # no models/ here: the default is the shipped models
+    code = cli_main(["eval", "--samples", "30", "--quiet", "--no-plots", "--out", str(tmp_path)])
+    assert code == 0, capsys.readouterr().err
+    assert json.loads((tmp_path / "eval.json").read_text())["models"] == str(DEFAULT_MODELS)
+
+
+def test_bad_outputs_are_told_before_any_work(tiny_data, trained, tmp_path, capsys,
+                                              monkeypatch):
+    from sssphere.learn import train as train_mod
+
+    def no_training(*args, **kwargs):
+        raise AssertionError("trained before checking the output directory")
+
+    monkeypatch.setattr(train_mod, "train_cvae", no_training)
+    (tmp_path / "m" / "lengthgen.json").mkdir(parents=True)
+    assert cli_main(["train", str(tiny_data), "-o", str(tmp_path / "m"), "--quiet"]) == 1
+    assert (f"{tmp_path / 'm' / 'lengthgen.json'}: is a directory or other non-file where the "
+            "output file lengthgen.json is to be written") in capsys.readouterr().err
+    (tmp_path / "f").write_text("a file")
+    assert cli_main(["export", str(trained[0] / "cvae_checkpoint.pt"), "-o",
+                     str(tmp_path / "f")]) == 1
+    assert f"{tmp_path / 'f'}: is a file, not a directory" in capsys.readouterr().err
+    assert cli_main(["datagen", "--samples", "5", "-o", str(tmp_path / "f" / "x.npz")]) == 1
+    assert f"output directory '{tmp_path / 'f'}' is not a directory" in capsys.readouterr().err
+
+
+def test_a_signal_while_the_files_move_into_place_is_held_until_all_are_there(
+        trained, tmp_path, capsys, monkeypatch):
+    import signal
+
+    from sssphere.learn import export as export_mod
+
+    real_replace, moved = os.replace, []
+
+    def replace_then_interrupt(src, dst):
+        if Path(dst).parent == tmp_path / "out":  # a move into place
+            if not moved:
+                os.kill(os.getpid(), signal.SIGINT)  # held: SIGINT is blocked during the moves
+            moved.append(Path(dst).name)
+        real_replace(src, dst)
+
+    monkeypatch.setattr(export_mod.os, "replace", replace_then_interrupt)
+    _old_models(tmp_path / "out")
+    code = cli_main(["export", str(trained[0] / "cvae_checkpoint.pt"), "-o",
+                     str(tmp_path / "out")])
+    monkeypatch.undo()
+    assert code == 130
+    assert f"interrupted after all files were written to {tmp_path / 'out'}" in (
+        capsys.readouterr().err)
+    assert moved == [f"{s}.{e}" for s in STEMS for e in ("json", "onnx")]
+    for stem in STEMS:
+        assert ((tmp_path / "out" / f"{stem}.json").read_text()
+                == (trained[0] / f"{stem}.json").read_text())

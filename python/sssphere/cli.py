@@ -226,16 +226,27 @@ def _learn_modules():
 def _cmd_train(args: argparse.Namespace) -> int:
     from sssphere.learn.data import DataError
 
-    train, _ = _learn_modules()
+    train, export = _learn_modules()
     try:
         train.train(args.data, args.output, epochs=args.epochs, seed=args.seed,
                     max_minutes=args.max_minutes, progress=not args.quiet)
     except (DataError, ValueError, FloatingPointError) as e:  # DataError: a bad data file
         print(f"sssphere: error: {e}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt as e:  # train() moves the files into place only when all are done
+        print(_interrupted_write(e, export, args.output, "the models there are unchanged"),
+              file=sys.stderr)
+        return _interrupted_status()
     if args.quiet:
         print(f"wrote the models to {args.output}", file=sys.stderr)
     return 0
+
+
+def _interrupted_write(e: KeyboardInterrupt, export, output: str, unchanged: str) -> str:
+    """What an interrupted train or export wrote: all of its files or none."""
+    if isinstance(e, export.InterruptedAfterWrite):
+        return f"\nsssphere: interrupted after all files were written to {output}"
+    return f"\nsssphere: interrupted: wrote nothing to {output} ({unchanged})"
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
@@ -243,8 +254,12 @@ def _cmd_export(args: argparse.Namespace) -> int:
     try:
         files = export.export_checkpoint(args.checkpoint, args.output)
     except export.CheckpointError as e:
-        print(f"sssphere: error: {e}", file=sys.stderr)
+        print(f"sssphere: error: {e}; wrote nothing to {args.output}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt as e:  # export_checkpoint writes all files or none
+        print(_interrupted_write(e, export, args.output, "the files there are unchanged"),
+              file=sys.stderr)
+        return _interrupted_status()
     print(f"wrote {', '.join(str(f) for f in files)}", file=sys.stderr)
     return 0
 
@@ -306,26 +321,38 @@ def _cmd_presets(args: argparse.Namespace) -> int:
 
 def _cmd_eval(args: argparse.Namespace) -> int:
     from sssphere.learn import evaluate
+    from sssphere.model import DEFAULT_MODELS
 
-    models = Path(args.models)
-    if args.decoder == "numpy":
-        from sssphere.learn.numpy_decoder import SphereSampler
-
-        sampler = SphereSampler.from_dir(models)
-
-        def sample_fn(sigma_t, g, albedo, n, seed):
-            return sampler.sample(sigma_t, g, albedo, n, np.random.default_rng(seed))
-    else:
-        from sssphere.model import ScatteringModel
-
-        model = ScatteringModel.load(models)
-
-        def sample_fn(sigma_t, g, albedo, n, seed):
-            return model.sample(sigma_t, g, albedo, n, seed=seed)
-
+    # The shipped models by default, wherever the command runs (as render finds them).
+    models = Path(args.models) if args.models is not None else DEFAULT_MODELS
+    if not models.is_dir():
+        raise SceneError(f"{models}: models directory does not exist (--models: a directory "
+                         "with lengthgen.json, pathgen.json and eventgen.json)")
     out = Path(args.out) if args.out else models
     if not out.is_dir():
         raise SceneError(f"{out}: output directory does not exist")
+    if args.update_card:  # told now, not after minutes of evaluation
+        try:
+            evaluate.check_model_card(out / "README.md")
+        except ValueError as e:
+            raise SceneError(str(e)) from None
+    try:
+        if args.decoder == "numpy":
+            from sssphere.learn.numpy_decoder import SphereSampler
+
+            sampler = SphereSampler.from_dir(models)
+
+            def sample_fn(sigma_t, g, albedo, n, seed):
+                return sampler.sample(sigma_t, g, albedo, n, np.random.default_rng(seed))
+        else:
+            from sssphere.model import ScatteringModel
+
+            model = ScatteringModel.load(models)
+
+            def sample_fn(sigma_t, g, albedo, n, seed):
+                return model.sample(sigma_t, g, albedo, n, seed=seed)
+    except ValueError as e:  # ModelFileError and the C++ loader's errors name the file
+        raise SceneError(str(e)) from None
     bar = Progress("evaluating 16 cells", enabled=not args.quiet)
     try:
         cells = evaluate.evaluate(sample_fn, samples=args.samples, seed=args.seed, progress=bar)
@@ -443,8 +470,8 @@ def build_parser() -> argparse.ArgumentParser:
     m.set_defaults(func=_cmd_export_mitsuba)
 
     e = sub.add_parser("eval", help="compare the learned models with ground-truth walks")
-    e.add_argument("--models", default="models",
-                   help="directory of the model files (default: models)")
+    e.add_argument("--models", default=None,
+                   help="directory of the model files (default: the shipped models)")
     e.add_argument("--samples", type=_positive_int, default=10_000,
                    help="walks per cell (default 10,000)")
     e.add_argument("--seed", type=_non_negative_int, default=0,

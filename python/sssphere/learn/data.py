@@ -17,9 +17,11 @@ W          (n, 3)    representative event: arriving direction (unit)
 meta       ()        optional: a JSON string describing how the file was made
 ========== ========= ===================================================================
 
-``meta`` may hold ``sigma_range``, ``g_range``, ``phi_range`` ([lo, hi]): the ranges the
-conditions were drawn from, which the model files then record as their training ranges
-(otherwise the data's min and max are recorded).
+``meta`` may hold ``sigma_range``, ``g_range``, ``phi_range`` ([lo, hi]) or ``sigma_max``
+(σ ∈ [0, sigma_max]) and ``g_max`` (|g| ≤ g_max): the ranges the conditions were drawn from,
+which the model files then record as their training ranges (otherwise the data's min and max
+are recorded). They must be finite, lo < hi, inside the variable's domain (σ ≥ 0,
+−1 < g < 1, 0 ≤ φ ≤ 1) and hold the data's own values.
 
 Any other key is an error. `load_training_data` checks all of this and names the file and the
 problem. `sample_conditions` and `generate_training_data` make such a file from any walker with
@@ -140,7 +142,55 @@ def validate_arrays(arrays: dict, path="<memory>") -> TrainingData:
             _fail(path, f"meta is not a JSON string ({e})")
         if not isinstance(meta, dict):
             _fail(path, "meta must be a JSON object")
+    validate_meta(meta, out, path)
     return TrainingData(**out, path=str(path), meta=meta)
+
+
+# The ranges a meta may give, as (key, variable, smallest lo, largest hi, whether the ends
+# are allowed): the model files record them as their training ranges, and the renderer
+# trusts those, so they must be values the medium can take.
+_META_RANGES = (("sigma_range", "sigma", 0.0, math.inf, True),
+                ("g_range", "g", -1.0, 1.0, False),
+                ("phi_range", "phi", 0.0, 1.0, True))
+_META_MAXIMA = (("sigma_max", "sigma", "a finite number > 0"),
+                ("g_max", "g", "a number in (0, 1)"))
+
+
+def validate_meta(meta: dict, arrays: dict, path="<memory>") -> None:
+    """Check the ranges a meta gives (module docstring): finite numbers, lo < hi, inside the
+    variable's domain, and holding the data's own values (arrays: key → float64 array)."""
+    def number(v) -> bool:
+        return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+    def covers(key, var, lo, hi):
+        v = arrays[var]
+        tol = _TOL * max(1.0, abs(lo), abs(hi))  # float32 rounding of the stored values
+        if v.min() < lo - tol or v.max() > hi + tol:
+            _fail(path, f"meta {key} = {meta[key]!r} does not hold the data's {var}, which "
+                        f"ranges from {float(v.min()):.9g} to {float(v.max()):.9g}")
+
+    for key, var, lo_min, hi_max, closed in _META_RANGES:
+        if key not in meta:
+            continue
+        r = meta[key]
+        inside = "[{}, {}]" if closed else "({}, {})"
+        allowed = (f"[lo, hi], finite numbers with lo < hi, within "
+                   f"{inside.format(lo_min, 'inf' if hi_max == math.inf else hi_max)}")
+        if not (isinstance(r, list) and len(r) == 2 and all(number(x) for x in r)
+                and r[0] < r[1]):
+            _fail(path, f"meta {key} = {r!r} is not allowed (allowed: {allowed})")
+        ok = (r[0] >= lo_min and r[1] <= hi_max) if closed else (r[0] > lo_min and r[1] < hi_max)
+        if not ok:
+            _fail(path, f"meta {key} = {r!r} is not allowed (allowed: {allowed})")
+        covers(key, var, r[0], r[1])
+    for key, var, allowed in _META_MAXIMA:
+        if key not in meta:
+            continue
+        m = meta[key]
+        ok = number(m) and m > 0 and (var != "g" or m < 1)
+        if not ok:
+            _fail(path, f"meta {key} = {m!r} is not allowed (allowed: {allowed})")
+        covers(key, var, 0.0 if var == "sigma" else -m, m)
 
 
 def load_training_data(path) -> TrainingData:
@@ -170,8 +220,9 @@ def save_training_data(path, data: dict | TrainingData, meta: dict | None = None
         meta = data.meta if meta is None else meta
     else:
         arrays = dict(data)
-    validate_arrays(arrays, path)
+    checked = validate_arrays(arrays, path)
     if meta:
+        validate_meta(meta, {k: getattr(checked, k) for k in VECTOR_KEYS}, path)
         arrays["meta"] = np.array(json.dumps(meta))
     path = Path(path)
     if path.suffix != ".npz":  # as np.savez names it

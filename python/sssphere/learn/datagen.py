@@ -12,7 +12,10 @@ one NumPy generator seeded by ``seed``:
   (the albedos of real translucent materials, 0.9 to 0.99999), 10 % exactly 1.
 
 Sample i is the walk ``sphere_walks(σ_i, g_i, φ_i, seed=seed, first_index=i)``, so a data set
-is reproducible from (samples, seed) whatever the thread count or chunking.
+is reproducible from (requested_samples, seed) whatever the thread count or chunking. The
+draws depend on the requested count (each mixture draws all n values at once), so a file cut
+short by Ctrl-C (meta ``"interrupted": true``) holds the first ``samples`` walks of the
+requested_samples run, not the file a run of ``samples`` would make.
 """
 
 from __future__ import annotations
@@ -96,10 +99,16 @@ def generate(
     return data, interrupted
 
 
-def save(path: str | Path, data: dict, seed: int, seconds: float) -> None:
-    """Write an .npz training file (sssphere.learn.data) with how it was made in ``meta``."""
+def save(path: str | Path, data: dict, seed: int, seconds: float,
+         requested: Optional[int] = None, interrupted: bool = False) -> None:
+    """Write an .npz training file (sssphere.learn.data) with how it was made in ``meta``:
+    ``requested_samples`` (what the parameters were drawn for; with the seed it reproduces
+    the file) and ``interrupted``, beside the ``samples`` it holds."""
+    samples = int(len(data["N"]))
     meta = {"generator": "sssphere.learn.datagen", "version": FORMAT_VERSION, "seed": seed,
-            "samples": int(len(data["N"])), "seconds": round(seconds, 3),
+            "samples": samples,
+            "requested_samples": int(samples if requested is None else requested),
+            "interrupted": bool(interrupted), "seconds": round(seconds, 3),
             "sigma_max": SIGMA_MAX, "g_max": G_MAX, "sigma_range": [0.0, SIGMA_MAX],
             "g_range": [-G_MAX, G_MAX], "phi_range": [0.0, 1.0]}
     save_training_data(path, data, meta=meta)
@@ -115,11 +124,12 @@ def datagen(samples: int, output: str | Path, seed: int = 0, threads: Optional[i
     if out.suffix != ".npz":
         raise ValueError(f"{out}: the training data file must end in .npz")
     if out.parent != Path("") and not out.parent.is_dir():
-        raise ValueError(f"{out}: output directory {str(out.parent)!r} does not exist")
+        what = "is not a directory" if out.parent.exists() else "does not exist"
+        raise ValueError(f"{out}: output directory {str(out.parent)!r} {what}")
     t0 = time.monotonic()
     data, interrupted = generate(samples, seed, threads, progress=progress,
                                  ray_address=ray_address)
     seconds = time.monotonic() - t0
     if len(data["N"]) or not interrupted:
-        save(out, data, seed, seconds)
+        save(out, data, seed, seconds, requested=samples, interrupted=interrupted)
     return data, interrupted, seconds

@@ -177,12 +177,31 @@ def write_report(cells: list[Cell], out_dir: Path, samples: int, model_dir: str)
     return path
 
 
+CARD_BEGIN, CARD_END = "<!-- eval:begin -->", "<!-- eval:end -->"
+
+
+def check_model_card(card: Path) -> None:
+    """Refuse a card whose eval markers are unbalanced: replacing "from the begin marker to
+    the end marker" would otherwise drop the text after a lone begin marker."""
+    if not card.exists():
+        return
+    text = card.read_text()
+    nb, ne = text.count(CARD_BEGIN), text.count(CARD_END)
+    if (nb, ne) == (0, 0):
+        return
+    if nb != 1 or ne != 1 or text.index(CARD_BEGIN) > text.index(CARD_END):
+        raise ValueError(f"{card}: the eval markers are unbalanced ({nb} {CARD_BEGIN!r}, {ne} "
+                         f"{CARD_END!r}; allowed: none, or one of each with begin first)")
+
+
 def update_model_card(card: Path, table: str) -> None:
-    """Replace the text between the eval markers of models/README.md by the table."""
-    begin, end = "<!-- eval:begin -->", "<!-- eval:end -->"
-    text = card.read_text() if card.exists() else f"# Shipped models\n\n{begin}\n{end}\n"
-    if begin not in text or end not in text:
-        text += f"\n{begin}\n{end}\n"
-    head, rest = text.split(begin, 1)
-    _, tail = rest.split(end, 1)
-    card.write_text(f"{head}{begin}\n{table}\n{end}{tail}")
+    """Replace the text between the eval markers of a model card (models/README.md) by the
+    table; a card without markers gets them at its end, a missing card is made."""
+    check_model_card(card)
+    text = (card.read_text() if card.exists() else
+            f"# Models in {card.parent.resolve().name}\n\n{CARD_BEGIN}\n{CARD_END}\n")
+    if CARD_BEGIN not in text:
+        text += f"\n{CARD_BEGIN}\n{CARD_END}\n"
+    head, rest = text.split(CARD_BEGIN, 1)
+    _, tail = rest.split(CARD_END, 1)
+    card.write_text(f"{head}{CARD_BEGIN}\n{table}\n{CARD_END}{tail}")

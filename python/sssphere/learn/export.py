@@ -4,10 +4,16 @@ checkpoint that lets `sssphere export` write them again without retraining.
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import logging
 import math
+import os
+import shutil
+import signal
+import tempfile
+import threading
 import warnings
 from pathlib import Path
 
@@ -28,28 +34,35 @@ class CheckpointError(ValueError):
     """A checkpoint is missing, unreadable or of another format."""
 
 
+class InterruptedAfterWrite(KeyboardInterrupt):
+    """Ctrl-C or SIGTERM that came while `staged_output` moved the finished files into place:
+    it was held until all were there, so the output is complete."""
+
+
 # --------------------------------------------------------------------------------------
 # JSON
 # --------------------------------------------------------------------------------------
-def _clean(obj):
-    """JSON-ready copy: numpy scalars and arrays to Python, floats to 9 significant digits."""
+def _clean(obj, where: str = ""):
+    """JSON-ready copy: numpy scalars and arrays to Python, floats to 9 significant digits.
+    `where`: the field's path in the file, for the error message."""
     if isinstance(obj, dict):
-        return {str(k): _clean(v) for k, v in obj.items()}
+        return {str(k): _clean(v, f"{where}.{k}" if where else str(k)) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
+        return [_clean(v, f"{where}[{i}]") for i, v in enumerate(obj)]
     if isinstance(obj, np.ndarray):
-        return _clean(obj.tolist())
+        return _clean(obj.tolist(), where)
     if isinstance(obj, (bool, np.bool_)):
         return bool(obj)
     if isinstance(obj, (int, np.integer)):
         return int(obj)
     if isinstance(obj, (float, np.floating)):
         if not math.isfinite(obj):
-            raise ValueError(f"cannot write the non-finite number {obj} to a model file")
+            raise ValueError(f"{where or 'a value'} is {obj}: a model file holds finite "
+                             "numbers only")
         return round9(obj)
     if obj is None or isinstance(obj, str):
         return obj
-    raise TypeError(f"cannot write {type(obj).__name__} to a model file")
+    raise TypeError(f"cannot write {type(obj).__name__} ({where}) to a model file")
 
 
 def _dumps(obj, indent: int = 0) -> str:
@@ -75,6 +88,12 @@ def decoder_json(spec: ModelSpec, decoder: GaussianMLP, encodings: dict, trainin
     for i, layer in enumerate(linear):
         w = layer.weight.detach().to(torch.float32).numpy()
         b = layer.bias.detach().to(torch.float32).numpy()
+        for field, values in (("weight", w), ("bias", b)):
+            bad = ~np.isfinite(values)
+            if bad.any():
+                raise ValueError(f"layers[{i}].{field} holds {int(bad.sum())} non-finite "
+                                 f"value(s) (first {values[bad].flat[0]}); a model file "
+                                 "holds finite numbers only")
         layers.append({
             "in": int(w.shape[1]),
             "out": int(w.shape[0]),
@@ -140,6 +159,69 @@ def _export(decoder: GaussianMLP, example: torch.Tensor, path) -> None:
 # --------------------------------------------------------------------------------------
 # Files
 # --------------------------------------------------------------------------------------
+def prepare_output_dir(out_dir, names) -> bool:
+    """Create out_dir if missing and check that the files `names` can be written there, so
+    that a bad output is told before minutes of training, not after. Returns whether the
+    directory was created."""
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise OSError(f"{out}: is a file, not a directory (the models are written into a "
+                      "directory)")
+    created = not out.exists()
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise OSError(f"{out}: cannot create the output directory ({e.strerror})") from None
+    for name in names:
+        p = out / name
+        if (p.exists() or p.is_symlink()) and not p.is_file():
+            raise OSError(f"{p}: is a directory or other non-file where the output file "
+                          f"{name} is to be written (move it away first)")
+    return created
+
+
+@contextlib.contextmanager
+def staged_output(out_dir, names):
+    """Yield a hidden directory inside out_dir for all the files `names` of one run; when the
+    block succeeds they are moved into out_dir together, on an exception (Ctrl-C included)
+    none is, so out_dir never holds a mix of old and new models. A directory that this call
+    created is removed again if the run fails."""
+    out = Path(out_dir)
+    created = prepare_output_dir(out, names)
+    stage = Path(tempfile.mkdtemp(prefix=".sss-staging-", dir=out))
+    ok = False
+    try:
+        yield stage
+        missing = [n for n in names if not (stage / n).is_file()]
+        if missing:
+            raise RuntimeError(f"internal error: {', '.join(missing)} not written")
+        # The renames are quick, but a signal between two would still mix the sets: hold
+        # SIGINT and SIGTERM until all are done, then deliver them. (Python-level handlers:
+        # a signal mask is per thread, and torch's threads would take the signal.)
+        held, previous = [], {}
+        if threading.current_thread() is threading.main_thread():
+            for s in (signal.SIGINT, signal.SIGTERM):
+                if signal.getsignal(s) not in (signal.SIG_IGN, None):
+                    previous[s] = signal.signal(s, lambda signum, frame: held.append(signum))
+        try:
+            for name in names:
+                os.replace(stage / name, out / name)
+            ok = True
+        finally:
+            for s, handler in previous.items():
+                signal.signal(s, handler)
+        if held:
+            try:
+                signal.raise_signal(held[0])
+            except KeyboardInterrupt:
+                raise InterruptedAfterWrite from None
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+        if created and not ok:
+            with contextlib.suppress(OSError):
+                out.rmdir()  # only if empty
+
+
 def write_model(out_dir, spec: ModelSpec, model: CVAE, encodings: dict, training: dict,
                 metrics: dict | None) -> list[Path]:
     """Write ``<stem>.json`` and ``<stem>.onnx`` of a trained model into out_dir."""
@@ -162,8 +244,8 @@ def save_checkpoint(path, trained: dict) -> Path:
         blob["models"][name] = {
             "state_dict": {k: v.detach().clone() for k, v in model.state_dict().items()},
             "encodings": {k: e.to_json() for k, e in enc.items()},
-            "training": json.loads(json.dumps(_clean(training))),
-            "metrics": json.loads(json.dumps(_clean(metrics))),
+            "training": json.loads(json.dumps(_clean(training, "training"))),
+            "metrics": json.loads(json.dumps(_clean(metrics, "metrics"))),
         }
     buf = io.BytesIO()
     torch.save(blob, buf)
@@ -200,13 +282,21 @@ def load_checkpoint(path) -> dict:
 
 
 def export_checkpoint(checkpoint, out_dir) -> list[Path]:
-    """Write the model files (JSON + ONNX) of every model in a checkpoint."""
+    """Write the model files (JSON + ONNX) of every model in a checkpoint: all of them or,
+    on any error, none (out_dir is then as it was)."""
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    files = []
     trained = load_checkpoint(checkpoint)
-    for spec in SPECS:
-        if spec.name in trained:
+    specs = [spec for spec in SPECS if spec.name in trained]
+    # Every model file's JSON first: a bad number is told before anything is written.
+    for spec in specs:
+        model, enc, training, metrics = trained[spec.name]
+        try:
+            decoder_json(spec, model.decoder, enc, training, metrics)
+        except ValueError as e:
+            raise CheckpointError(f"{checkpoint}: model {spec.name}: {e}") from None
+    names = [f"{spec.file_stem}.{ext}" for spec in specs for ext in ("json", "onnx")]
+    with staged_output(out, names) as stage:
+        for spec in specs:
             model, enc, training, metrics = trained[spec.name]
-            files += write_model(out, spec, model, enc, training, metrics)
-    return files
+            write_model(stage, spec, model, enc, training, metrics)
+    return [out / n for n in names]

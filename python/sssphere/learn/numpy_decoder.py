@@ -331,8 +331,15 @@ class SphereSampler:
         `sssphere.sphere_walks` (X, W are X = 0, W = +z if there is no EventGen)."""
         sigma, g, albedo = (np.broadcast_to(np.asarray(v, dtype=np.float64), (n,)).copy()
                             for v in (sigma, g, albedo))
-        if np.any(~np.isfinite(sigma)) or np.any(sigma < 0):
-            raise ValueError("sigma must be finite and >= 0")
+        # As the C++ ScatteringModel.sample checks them (a NaN albedo gave X = 0 everywhere).
+        for name, bad, allowed in (
+                ("sigma", ~(np.isfinite(sigma) & (sigma >= 0)), "sigma >= 0"),
+                ("g", ~(np.abs(g) < 1), "-1 < g < 1"),
+                ("phi", ~((albedo >= 0) & (albedo <= 1)), "0 <= phi <= 1")):
+            if bad.any():
+                i = int(np.flatnonzero(bad)[0])
+                v = {"sigma": sigma, "g": g, "phi": albedo}[name][i]
+                raise ValueError(f"{name}[{i}] = {v:g} is not allowed (allowed: {allowed})")
         one = rng.random(n) < np.exp(-sigma)  # P(N = 1) = e^{-σ}
         N = np.ones(n, dtype=np.int64)
         cos_theta = _hg_sample_cos(g, rng.random(n))

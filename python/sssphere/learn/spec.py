@@ -95,7 +95,8 @@ class Encoding:
         and unit variance (parameters rounded to 9 digits, as stored)."""
         e = self.encode(x)
         mean, std = float(np.mean(e)), float(np.std(e))
-        if not (math.isfinite(mean) and std > 0):
+        # Relative: the std of one value repeated is rounding noise (~1e-16), not a spread.
+        if not (math.isfinite(mean) and std > 1e-12 * max(1.0, abs(mean))):
             raise ValueError("cannot standardize an encoding on constant or non-finite data")
         a = round9(self.a / std)
         b = round9((self.b - mean) / std)

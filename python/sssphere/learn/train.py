@@ -26,9 +26,10 @@ import numpy as np
 import torch
 
 from sssphere._progress import Progress
-from sssphere.learn.data import TrainingData, load_training_data
+from sssphere.learn.data import DataError, TrainingData, load_training_data
 from sssphere.learn.models import CVAE, gaussian_nll, kl_per_dim
-from sssphere.learn.spec import CUT_SPECS, ENCODING_SETS, SPECS, Encoding, ModelSpec
+from sssphere.learn.spec import (BASE_ENCODINGS, CUT_SPECS, ENCODING_SETS, SPECS, Encoding,
+                                 ModelSpec)
 
 # Share of a `max_minutes` budget per model, roughly their cost per sample.
 TIME_SHARES = {"LengthGen": 0.2, "PathGen": 0.35, "EventGen": 0.45}
@@ -54,6 +55,34 @@ class TrainConfig:
     encodings: str = "logit"  # "logit" (shipped) or "plain" (affine/log only), spec.ENCODING_SETS
     threads: int = 1
 
+    def __post_init__(self):
+        """Refuse values that would train nothing, divide by zero or silently mean something
+        else (a negative batch size trained 0 steps and reported success)."""
+        def need(name: str, ok, allowed: str, integer: bool = False):
+            v = getattr(self, name)
+            number = isinstance(v, (int, float)) and not isinstance(v, bool)
+            if not number or (integer and not float(v).is_integer()) or not ok(v):
+                raise ValueError(f"TrainConfig.{name} = {v!r} is not allowed "
+                                 f"(allowed: {allowed})")
+
+        finite = math.isfinite
+        need("epochs", lambda v: v >= 1, "an integer >= 1", integer=True)
+        need("batch_size", lambda v: v >= 1, "an integer >= 1", integer=True)
+        need("lr", lambda v: finite(v) and v > 0, "a number > 0")
+        need("lr_final", lambda v: finite(v) and v >= 0, "a number >= 0")
+        need("lr_warmup_steps", lambda v: v >= 1, "an integer >= 1", integer=True)
+        need("weight_decay", lambda v: finite(v) and v >= 0, "a number >= 0")
+        need("free_bits", lambda v: finite(v) and v >= 0, "a number >= 0 (nats)")
+        need("kl_warmup", lambda v: 0 <= v <= 1, "a fraction of training, 0 to 1")
+        need("grad_clip", lambda v: finite(v) and v >= 0, "a number >= 0 (0: no clipping)")
+        need("val_fraction", lambda v: 0 <= v < 1, "0 <= val_fraction < 1")
+        need("max_val", lambda v: v >= 0, "an integer >= 0", integer=True)
+        need("event_jitter", lambda v: finite(v) and v >= 0, "a number >= 0")
+        need("threads", lambda v: v >= 1, "an integer >= 1", integer=True)
+        if self.encodings not in ENCODING_SETS:
+            raise ValueError(f"TrainConfig.encodings = {self.encodings!r} is not allowed "
+                             f"(allowed: {', '.join(ENCODING_SETS)})")
+
 
 # --------------------------------------------------------------------------------------
 # Data → encoded tensors
@@ -75,6 +104,7 @@ def fit_encodings(spec: ModelSpec, data: TrainingData, rng: np.random.Generator,
     if which not in ENCODING_SETS:
         raise ValueError(f"unknown encoding set {which!r} (allowed: {', '.join(ENCODING_SETS)})")
     base = ENCODING_SETS[which]
+    check_conditions_vary(data, spec.conditions, spec.name)
     enc = {}
     for name in spec.conditions:
         enc[name] = base[name].standardized(_columns(data, [name])[:, 0])
@@ -84,6 +114,27 @@ def fit_encodings(spec: ModelSpec, data: TrainingData, rng: np.random.Generator,
             x = x + rng.random(x.shape[0])
         enc[name] = base[name].standardized(x)
     return enc
+
+
+# Below this spread (std of the encoded variable, relative to its magnitude) a condition is
+# taken as constant: float32 rounding of one value leaves a std of ~1e-16, and standardizing
+# on it blew LengthGen's loss up to 1e11 and PathGen's to nan.
+MIN_RELATIVE_SPREAD = 1e-6
+
+
+def check_conditions_vary(data: TrainingData, names, model: str | None = None) -> None:
+    """Refuse a condition that is (nearly) constant over the walks: a model cannot learn how
+    the walks depend on a variable it never sees change."""
+    for name in names:
+        e = BASE_ENCODINGS[name].encode(_columns(data, [name])[:, 0])
+        spread = float(np.std(e))
+        if not spread > MIN_RELATIVE_SPREAD * max(1.0, abs(float(np.mean(e)))):
+            v = _columns(data, [name])[:, 0]
+            raise DataError(
+                f"{data.path}: {name} is constant over the {len(data)} walks"
+                f"{f' that {model} trains on' if model else ''} ({name} from "
+                f"{float(v.min()):.9g} to {float(v.max()):.9g}); the data must span a range "
+                "of media, as `sssphere datagen` makes")
 
 
 def _dequantized(spec: ModelSpec) -> bool:
@@ -261,13 +312,14 @@ def train_cvae(spec: ModelSpec, data: TrainingData, cfg: TrainConfig, seed: int,
 # --------------------------------------------------------------------------------------
 def _ranges(data: TrainingData) -> dict:
     """Training ranges of σ, g, φ: the data file's meta ranges (those its conditions were drawn
-    from) when they cover the data, else the data's min and max."""
+    from; checked by data.validate_meta) when they cover the data, else the data's min and
+    max."""
     out = {}
     for k in ("sigma", "g", "phi"):
         v = getattr(data, k)
         lo, hi = float(v.min()), float(v.max())
         r = data.meta.get(f"{k}_range")
-        if r is None and f"{k}_max" in data.meta:  # sssphere datagen: sigma_max, g_max
+        if r is None and k != "phi" and f"{k}_max" in data.meta:  # datagen: sigma_max, g_max
             m = data.meta[f"{k}_max"]
             r = [0.0, m] if k == "sigma" else [-m, m]
         if (isinstance(r, list) and len(r) == 2 and all(isinstance(x, (int, float)) for x in r)
@@ -286,7 +338,8 @@ def train(data_path, out_dir, epochs: int | None = None, seed: int = 0,
     ----------
     data_path : path of a training-data `.npz` (`sssphere.learn.data`).
     out_dir : directory for ``<name>.json``, ``<name>.onnx`` and ``cvae_checkpoint.pt``
-        (created if missing).
+        (created if missing). The files are moved in together when all are written; a run
+        that fails or is interrupted leaves the directory as it was.
     epochs : passes over the data per model (default: ``TrainConfig.epochs``).
     seed : seeds every random choice (initialisation, batches, noise).
     max_minutes : wall-clock limit for all models together (split by `TIME_SHARES`); the
@@ -299,7 +352,8 @@ def train(data_path, out_dir, epochs: int | None = None, seed: int = 0,
     -------
     dict: per model name its report (losses, latent usage, time), and ``"files"``.
     """
-    from sssphere.learn.export import save_checkpoint, write_model  # torch-side, lazily
+    # torch-side, lazily
+    from sssphere.learn.export import save_checkpoint, staged_output, write_model
 
     cfg = TrainConfig(**asdict(config)) if config is not None else TrainConfig()
     if epochs is not None:
@@ -312,60 +366,64 @@ def train(data_path, out_dir, epochs: int | None = None, seed: int = 0,
     if unknown:
         raise ValueError(f"unknown model(s) {unknown} (allowed: {list(TIME_SHARES)})")
     out = Path(out_dir)
-    if not Path(data_path).is_file():
-        load_training_data(data_path)  # says what is wrong with it, before any directory
-    try:  # a bad output directory is told before minutes of training, not after
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise OSError(f"{out}: cannot create the output directory ({e.strerror})") from None
-    data = load_training_data(data_path)
+    data = load_training_data(data_path)  # says what is wrong with it, before any directory
+    # A single medium cannot be learned from: told now, not as a nan loss minutes later.
+    check_conditions_vary(data, sorted({c for s in SPECS if s.name in models
+                                        for c in s.conditions} - {"N"}))
+    names = [f"{s.file_stem}.{ext}" for s in SPECS if s.name in models
+             for ext in ("json", "onnx")] + ["cvae_checkpoint.pt"]
 
     threads_before = torch.get_num_threads()
     det_before = torch.are_deterministic_algorithms_enabled()
-    torch.set_num_threads(max(1, cfg.threads))
+    torch.set_num_threads(cfg.threads)
     torch.use_deterministic_algorithms(True)
     t_start = time.monotonic()
-    results, trained, files = {}, {}, []
+    results, trained = {}, {}
+    # All files go to a staging directory and into `out` together at the end: an
+    # interrupted or failed run leaves the models there as they were (not a mixed set).
+    # staged_output checks the output directory first, before minutes of training.
     try:
-        share_sum = sum(TIME_SHARES[m] for m in models)
-        for spec in SPECS:
-            if spec.name not in models:
-                continue
-            budget = None
-            if max_minutes is not None:
-                budget = 60.0 * max_minutes * TIME_SHARES[spec.name] / share_sum
-            model, enc, report = train_cvae(spec, data, cfg, seed, budget, progress)
-            training = {
-                **_ranges(data),
-                "data_file": Path(data.path).name,
-                "data_meta": data.meta,
-                "n_walks": len(data),
-                "n_samples": report["n_train"],
-                "n_validation": report["n_val"],
-                "epochs": cfg.epochs,
-                "epochs_completed": report["epochs_completed"],
-                "seed": seed,
-                **{k: v for k, v in asdict(cfg).items() if k not in ("epochs",)},
-                "loss": "negative ELBO: Gaussian NLL of the encoded outputs + "
-                        "beta * sum_j max(free_bits, batch-mean KL_j)",
-                "rows": ("N >= 2 and X != 0 (events k >= 2)" if spec.name == "EventGen"
-                         else "N >= 2"),
-                "noise": ("targets N + U[0,1)" if spec.name == "LengthGen" else
-                          f"targets + N(0, {cfg.event_jitter}^2)"
-                          if spec.name == "EventGen" and cfg.event_jitter > 0 else "none"),
-                "torch_version": torch.__version__,
-            }
-            metrics = {k: report[k] for k in ("val_nll", "val_kl", "val_loss", "kl_per_latent_dim",
-                                              "latent_dims_active", "active_threshold_nats")}
-            files += write_model(out, spec, model, enc, training, metrics)
-            trained[spec.name] = (model, enc, training, metrics)
-            results[spec.name] = report
-        files.append(save_checkpoint(out / "cvae_checkpoint.pt", trained))
+        with staged_output(out, names) as stage:
+            share_sum = sum(TIME_SHARES[m] for m in models)
+            for spec in SPECS:
+                if spec.name not in models:
+                    continue
+                budget = None
+                if max_minutes is not None:
+                    budget = 60.0 * max_minutes * TIME_SHARES[spec.name] / share_sum
+                model, enc, report = train_cvae(spec, data, cfg, seed, budget, progress)
+                training = {
+                    **_ranges(data),
+                    "data_file": Path(data.path).name,
+                    "data_meta": data.meta,
+                    "n_walks": len(data),
+                    "n_samples": report["n_train"],
+                    "n_validation": report["n_val"],
+                    "epochs": cfg.epochs,
+                    "epochs_completed": report["epochs_completed"],
+                    "seed": seed,
+                    **{k: v for k, v in asdict(cfg).items() if k not in ("epochs",)},
+                    "loss": "negative ELBO: Gaussian NLL of the encoded outputs + "
+                            "beta * sum_j max(free_bits, batch-mean KL_j)",
+                    "rows": ("N >= 2 and X != 0 (events k >= 2)" if spec.name == "EventGen"
+                             else "N >= 2"),
+                    "noise": ("targets N + U[0,1)" if spec.name == "LengthGen" else
+                              f"targets + N(0, {cfg.event_jitter}^2)"
+                              if spec.name == "EventGen" and cfg.event_jitter > 0 else "none"),
+                    "torch_version": torch.__version__,
+                }
+                metrics = {k: report[k] for k in (
+                    "val_nll", "val_kl", "val_loss", "kl_per_latent_dim", "latent_dims_active",
+                    "active_threshold_nats")}
+                write_model(stage, spec, model, enc, training, metrics)
+                trained[spec.name] = (model, enc, training, metrics)
+                results[spec.name] = report
+            save_checkpoint(stage / "cvae_checkpoint.pt", trained)
     finally:
         torch.set_num_threads(threads_before)
         torch.use_deterministic_algorithms(det_before)
     total = time.monotonic() - t_start
-    results["files"] = [str(f) for f in files]
+    results["files"] = [str(out / n) for n in names]
     results["seconds"] = total
     if progress:
         print(format_summary(results), file=sys.stderr)
