@@ -643,3 +643,17 @@ def test_a_null_where_an_object_belongs_is_said_once(small_scene):
     small_scene["render"] = "fast"
     with pytest.raises(SceneError, match=r'render: expected an object, got a string "fast"$'):
         sssphere.load_scene(small_scene)
+
+
+def test_a_loop_of_symbolic_links_is_named(tmp_path, small_scene):
+    """A mesh or scene file that is a loop of links was said not to exist."""
+    os.symlink(tmp_path / "b.obj", tmp_path / "a.obj")
+    os.symlink(tmp_path / "a.obj", tmp_path / "b.obj")
+    del small_scene["shapes"][0]["sphere"]
+    small_scene["shapes"][0]["mesh"] = str(tmp_path / "a.obj")
+    with pytest.raises(SceneError, match="a.obj: is a loop of symbolic links, not a mesh file"):
+        sssphere.load_scene(small_scene)
+    os.symlink(tmp_path / "d.json", tmp_path / "c.json")
+    os.symlink(tmp_path / "c.json", tmp_path / "d.json")
+    with pytest.raises(SceneError, match="c.json: is a loop of symbolic links, not a scene file"):
+        sssphere.load_scene(tmp_path / "c.json")

@@ -348,3 +348,17 @@ def test_scene_and_progress_arguments_of_the_wrong_kind_are_named(small_scene):
     for threads in (-1, 5000, "a"):  # -1 was taken, 'a' was int()'s message
         with pytest.raises(sssphere.SceneError, match="threads must be an integer from 0 to 4096"):
             sssphere.load_scene(small_scene, threads=threads)
+
+
+def test_a_scene_pickles_and_copies_as_its_text(small_scene):
+    """multiprocessing and copy.deepcopy need a Scene to pickle: it travels as its scene text
+    (with the edits made to it) and is built again where it lands."""
+    import copy
+    import pickle
+
+    scene = sssphere.load_scene(small_scene)
+    scene.shapes[0].medium.sigma_t = 7
+    for twin in (pickle.loads(pickle.dumps(scene)), copy.copy(scene), copy.deepcopy(scene)):
+        assert isinstance(twin, sssphere.Scene) and twin is not scene
+        assert twin.shapes[0].medium.sigma_t == 7
+        np.testing.assert_array_equal(sssphere.render(twin, spp=2), sssphere.render(scene, spp=2))

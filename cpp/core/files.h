@@ -2,6 +2,7 @@
 // scene, mesh, model or image is expected would block a read forever, or never end.
 #pragma once
 
+#include <cerrno>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -17,6 +18,7 @@ inline void check_input_file(const std::string& path, const char* what) {
     namespace fs = std::filesystem;
     std::error_code ec;
     const fs::file_status st = fs::status(path, ec);
+    if (ec.value() == ELOOP) fail(path, ": is a loop of symbolic links, not a ", what);
     if (ec || !fs::exists(st)) fail(path, ": ", what, " does not exist");
     if (fs::is_directory(st)) fail(path, ": is a directory, not a ", what);
     if (!fs::is_regular_file(st))

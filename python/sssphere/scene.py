@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import errno
 import json
 import math
 import os
@@ -84,6 +85,12 @@ class Scene(_core.Scene):
         except ValueError as e:  # the two parsers disagree: say it as the C++ one would
             raise SceneError(f"{source}: malformed JSON: {e}") from None
         self._base_dir, self._source, self._threads = base_dir, source, threads
+
+    def __reduce__(self):
+        """Pickled (and copied) as its scene text, base directory, source and threads: the
+        copy is built again where it is loaded (multiprocessing, copy.deepcopy), reading the
+        mesh files, which must be there too."""
+        return (Scene, (json.dumps(self._doc), self._base_dir, self._source, self._threads))
 
     def __repr__(self) -> str:
         # A traceback shows the frame of an __init__ whose C++ half raised: not built.
@@ -335,6 +342,11 @@ def load_scene(
                          "json.loads(text), a dict)")
     path = Path(scene)
     if not path.exists():
+        try:
+            path.stat()
+        except OSError as e:
+            if e.errno == errno.ELOOP:
+                raise SceneError(f"{path}: is a loop of symbolic links, not a scene file") from None
         raise SceneError(f"{path}: scene file does not exist")
     if path.is_dir():
         raise SceneError(f"{path}: is a directory, not a scene file")
