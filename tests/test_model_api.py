@@ -290,7 +290,8 @@ def test_every_simd_target_can_be_pinned_and_samples_alike(models):
         (dict(g=np.zeros((4, 1))), "g must be a number or an array of shape (4,)"),
         (dict(albedo="dark"), "albedo must be a number or a 1-D array"),
         (dict(seed=-1), "seed must be an integer"),
-        (dict(threads=0), "threads must be an integer >= 1 or None"),
+        (dict(threads=5000), "threads must be an integer from 0 to 4096 (0 or None = all cores)"),
+        (dict(threads=-1), "threads must be an integer from 0 to 4096"),
     ],
 )
 def test_bad_sample_arguments(models, kwargs, expected):
@@ -300,6 +301,14 @@ def test_bad_sample_arguments(models, kwargs, expected):
     with pytest.raises(ValueError) as info:
         model.sample(**args)
     assert expected in str(info.value), str(info.value)
+
+
+def test_sample_takes_threads_0_as_all_cores_as_renders_do(models):
+    model, _ = models
+    a = model.sample(sigma_t=5.0, g=0.3, albedo=0.9, n=64, seed=3, threads=0)
+    b = model.sample(sigma_t=5.0, g=0.3, albedo=0.9, n=64, seed=3)
+    np.testing.assert_array_equal(a["N"], b["N"])
+    np.testing.assert_array_equal(a["X"], b["X"])
 
 
 def test_bad_value_in_an_array_is_named_by_index(models):

@@ -105,7 +105,7 @@ class ScatteringModel:
         n : number of steps, >= 1.
         seed : step i uses the random stream (seed, i): the result does not depend on
             ``threads``.
-        threads : worker threads (default: all cores).
+        threads : worker threads, 0 to 4096 (0 or None, the default: all cores).
 
         Returns
         -------
@@ -119,8 +119,10 @@ class ScatteringModel:
             raise ValueError(f"seed must be an integer in [0, 2**64), got {seed!r}")
         if threads is None:
             threads = 0
-        elif isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or threads < 1:
-            raise ValueError(f"threads must be an integer >= 1 or None (all cores), got {threads!r}")
+        elif (isinstance(threads, bool) or not isinstance(threads, numbers.Integral)
+              or not 0 <= threads <= 4096):  # as a render takes them
+            raise ValueError(f"threads must be an integer from 0 to 4096 (0 or None = all "
+                             f"cores), got {threads!r}")
         s = _per_sample(sigma_t, "sigma_t", n)
         gg = _per_sample(g, "g", n)
         phi = _per_sample(albedo, "albedo", n)
