@@ -4,6 +4,7 @@ animations, shapes from numpy arrays."""
 import copy
 import dataclasses
 import math
+import re
 import sys
 import threading
 
@@ -163,8 +164,11 @@ def test_denoise_checks_its_inputs():
     img = np.zeros((4, 5, 3), np.float32)
     with pytest.raises(ValueError, match="albedo and normal together"):
         sssphere.denoise(img, albedo=img)
-    with pytest.raises(ValueError, match="normal must have shape"):
+    with pytest.raises(ValueError, match=r"normal must have the image's shape \(4, 5, 3\), got \(4, 4, 3\)"):
         sssphere.denoise(img, albedo=img, normal=np.zeros((4, 4, 3), np.float32))
+    for bad in ((4, 5, 2), (0, 5, 3)):  # the image itself, said once (and before pyoidn)
+        with pytest.raises(ValueError, match=r"image must have shape \(height, width, 3\).*got " + re.escape(str(bad))):
+            sssphere.denoise(np.zeros(bad, np.float32))
     with pytest.raises(ValueError, match="non-finite"):
         sssphere.denoise(np.full((4, 5, 3), np.nan, np.float32))
 

@@ -163,12 +163,14 @@ PYBIND11_MODULE(_core, m) {
             "sphere_threshold",
             [](const Scene& s) { return s.desc().render.sphere_threshold; },
             "render.sphere_threshold: st takes a sphere step where sigma_t * r >= it.")
-        .def_property_readonly("models",
-                               [](const Scene& s) -> std::optional<std::string> {
-                                   if (s.desc().render.models.empty())
-                                       return std::nullopt;
-                                   return s.desc().render.models;
-                               })
+        .def_property_readonly(
+            "models",
+            [](const Scene& s) -> std::optional<std::string> {
+                if (s.desc().render.models.empty()) return std::nullopt;
+                return s.desc().render.models;
+            },
+            "render.models: the model directory st uses (None: not set, "
+            "the shipped models).")
         .def_property_readonly("num_shapes", &Scene::num_shapes,
                                "The number of shapes (media and surfaces).")
         .def(

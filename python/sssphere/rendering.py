@@ -427,11 +427,13 @@ def denoise(image: np.ndarray, albedo: Optional[np.ndarray] = None,
     free). Needs the optional extra ``pip install 'sssphere[denoise]'``."""
     if (albedo is None) != (normal is None):
         raise ValueError("denoise takes albedo and normal together (or neither)")
-    for name, a in (("image", image), ("albedo", albedo), ("normal", normal)):
-        if a is not None and (np.ndim(a) != 3 or np.shape(a)[2] != 3
-                              or np.shape(a) != np.shape(image)):
-            raise ValueError(f"denoise: {name} must have shape (height, width, 3) like the "
-                             f"image {np.shape(image)}, got {np.shape(a)}")
+    if np.ndim(image) != 3 or np.shape(image)[2] != 3 or 0 in np.shape(image):
+        raise ValueError(f"denoise: image must have shape (height, width, 3), height and width "
+                         f">= 1, got {np.shape(image)}")
+    for name, a in (("albedo", albedo), ("normal", normal)):
+        if a is not None and np.shape(a) != np.shape(image):
+            raise ValueError(f"denoise: {name} must have the image's shape {np.shape(image)}, "
+                             f"got {np.shape(a)}")
     if not np.all(np.isfinite(image)):
         raise ValueError("denoise: the image has non-finite pixels")
     return _denoise(image, albedo, normal)
