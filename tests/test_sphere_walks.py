@@ -188,3 +188,21 @@ def test_walk_counts_and_seeds_past_their_range_are_named(kwargs, match):
     with pytest.raises(ValueError, match=match):
         sssphere.sphere_walks(**args)
     assert sssphere.sphere_walks(5.0, 0.3, 0.9, 3, seed=2**64 - 1)["N"].min() >= 1
+
+
+def test_a_large_call_is_made_in_parts_with_the_same_walks(monkeypatch):
+    """sphere_walks calls C++ in parts (so that Ctrl-C is seen between them); walk i keeps
+    its stream (seed, first_index + i), so the parts give the walks of one call."""
+    from sssphere import walks
+
+    rng = np.random.default_rng(5)
+    n = 1000
+    sigma = rng.uniform(0.5, 20, n)
+    whole = {"array": walks.sphere_walks(sigma, 0.3, 0.9, n, seed=11, first_index=7),
+             "number": walks.sphere_walks(5.0, 0.3, 0.9, n, seed=11, first_index=7)}
+    monkeypatch.setattr(walks, "_CHUNK", 128)
+    # per-walk arrays are split; a number serves every part
+    for kind, sigma_t in (("array", sigma), ("number", 5.0)):
+        parted = walks.sphere_walks(sigma_t, 0.3, 0.9, n, seed=11, first_index=7)
+        for key in whole[kind]:
+            np.testing.assert_array_equal(parted[key], whole[kind][key], err_msg=f"{kind} {key}")

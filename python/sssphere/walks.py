@@ -101,7 +101,20 @@ def sphere_walks(
         if interrupted:
             raise KeyboardInterrupt
         return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
-    return _core.sphere_walks(s, gg, a, n, seed, first_index, threads)
+    if n <= _CHUNK:
+        return _core.sphere_walks(s, gg, a, n, seed, first_index, threads)
+    # In parts, between which Python sees Ctrl-C (a call of millions of dense walks ran for
+    # minutes deaf to it); walk i's stream is (seed, first_index + i) either way.
+    def part(x: np.ndarray, i: int) -> np.ndarray:  # a number (length 1) serves every part
+        return x if x.shape[0] == 1 else x[i:i + _CHUNK]
+
+    parts = [_core.sphere_walks(part(s, i), part(gg, i), part(a, i), min(_CHUNK, n - i), seed,
+                                first_index + i, threads)
+             for i in range(0, n, _CHUNK)]
+    return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
+
+
+_CHUNK = 1 << 16  # walks per C++ call of sphere_walks
 
 
 def cut_sphere_walks(
