@@ -692,9 +692,12 @@ def test_eval_finds_the_shipped_models_from_anywhere(tmp_path, capsys, monkeypat
     assert code == 1 and len(err.strip().splitlines()) == 1
     assert f"{tmp_path / 'none'}: models directory does not exist" in err
     monkeypatch.chdir(tmp_path)  # no models/ here: the default is the shipped models
-    code = cli_main(["eval", "--samples", "30", "--quiet", "--no-plots", "--out", str(tmp_path)])
+    before = sorted(p.name for p in DEFAULT_MODELS.iterdir())
+    code = cli_main(["eval", "--samples", "30", "--quiet", "--no-plots"])
     assert code == 0, capsys.readouterr().err
+    # the results go here, not into the shipped (in a wheel: the installed) models
     assert json.loads((tmp_path / "eval.json").read_text())["models"] == str(DEFAULT_MODELS)
+    assert sorted(p.name for p in DEFAULT_MODELS.iterdir()) == before
 
 
 def test_bad_outputs_are_told_before_any_work(tiny_data, trained, tmp_path, capsys,
@@ -728,7 +731,7 @@ def test_a_signal_while_the_files_move_into_place_is_held_until_all_are_there(
     def replace_then_interrupt(src, dst):
         if Path(dst).parent == tmp_path / "out":  # a move into place
             if not moved:
-                os.kill(os.getpid(), signal.SIGINT)  # held: SIGINT is blocked during the moves
+                os.kill(os.getpid(), signal.SIGINT)  # held: the handlers are swapped during the moves
             moved.append(Path(dst).name)
         real_replace(src, dst)
 

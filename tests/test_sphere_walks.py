@@ -178,6 +178,7 @@ def test_cut_walks_bad_input_is_named(kwargs, match):
         (dict(first_index=2**64), r"first_index must be an integer from 0 to 2\^64 - 1"),
         (dict(n=2**62), "n must be an integer from 1 to 2,147,483,647"),
         (dict(threads=5000), r"threads must be an integer from 0 to 4,096 \(0 = all cores\)"),
+        (dict(first_index=2**64 - 2), r"first_index \+ n - 1 = 18446744073709551616 is past 2\^64 - 1"),
     ],
 )
 def test_walk_counts_and_seeds_past_their_range_are_named(kwargs, match):

@@ -26,8 +26,16 @@ namespace {
 
 // Ctrl-C and SIGTERM (kill, batch schedulers) stop the render; the image so far is
 // written and the exit status says which: 130 or 143.
-volatile std::sig_atomic_t g_signal = 0;
-void on_signal(int sig) { g_signal = sig; }
+// While the scene loads (a build a signal cannot stop), the first signal is kept and the
+// next one ends the process at once.
+volatile std::sig_atomic_t g_signal = 0, g_loading = 0;
+void on_signal(int sig) {
+    g_signal = sig;
+    if (g_loading) {
+        std::signal(SIGINT, SIG_DFL);
+        std::signal(SIGTERM, SIG_DFL);
+    }
+}
 
 // The shipped decoders when neither --models nor the scene names any: those installed
 // with the Python package beside this program (a wheel puts the program in <env>/bin and
@@ -168,8 +176,16 @@ int main(int argc, char** argv) {
             sss::set_override_from_text(overrides, name, text);
         sss::check_override_values(overrides);
         // A signal the process was started ignoring (a background job's SIGINT) stays so.
-        for (int sig : {SIGINT, SIGTERM})
-            if (std::signal(sig, on_signal) == SIG_IGN) std::signal(sig, SIG_IGN);
+        bool ignored[2] = {};
+        auto install = [&ignored] {
+            int k = 0;
+            for (int sig : {SIGINT, SIGTERM}) {
+                if (std::signal(sig, on_signal) == SIG_IGN) ignored[k] = true;
+                if (ignored[k++]) std::signal(sig, SIG_IGN);
+            }
+        };
+        g_loading = 1;
+        install();
         auto interrupted = [] { return 128 + (g_signal ? int(g_signal) : SIGINT); };
         if (!quiet && isatty(2))  // the build can take seconds before the bar
             std::fprintf(stderr, "loading %s ...\n", scene_path.c_str());
@@ -193,8 +209,10 @@ int main(int argc, char** argv) {
         const double load_seconds =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t_load)
                 .count();
-        if (g_signal) {  // seen once the build (which a signal does not stop) has
-                         // returned
+        g_loading = 0;
+        install();  // again: a second signal during the load put back the defaults
+        // A signal seen once the build (which a signal does not stop) has returned
+        if (g_signal) {
             std::fprintf(stderr,
                          "interrupted while loading the scene: wrote nothing to %s\n",
                          out_path.c_str());

@@ -17,6 +17,7 @@
 #include <fstream>
 #include <set>
 #include <string>
+#include <utility>
 
 #include "core/check.h"
 #include "core/files.h"
@@ -41,13 +42,23 @@ float linear_to_srgb(float v) {
 
 namespace {
 
-// A new name beside `target` for a file of this process's own, ending in `suffix`: short
-// (not built from the target's name), so that any name the directory takes has room.
-std::filesystem::path temporary_beside(const std::filesystem::path& target,
-                                       const std::string& suffix) {
+// Creates a new file beside `target`, ending in `suffix`, with `mode` (less the umask),
+// and returns its descriptor and name (fd < 0 with errno set if none can be made). Its
+// name is short (not built from the target's, so that any name the directory takes has
+// room) and of this process's own; a name taken already (a file left by a killed run of
+// the same pid, as in a container) is passed over.
+std::pair<int, std::string> create_beside(const std::filesystem::path& target,
+                                          const std::string& suffix, mode_t mode) {
     static std::atomic<unsigned> count{0};
-    return target.parent_path() / (".sss-" + std::to_string(::getpid()) + "-" +
-                                   std::to_string(count++) + suffix);
+    for (int tries = 0;; ++tries) {
+        const std::string name =
+            (target.parent_path() / (".sss-" + std::to_string(::getpid()) + "-" +
+                                     std::to_string(count++) + suffix))
+                .string();
+        const int fd =
+            ::open(name.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, mode);
+        if (fd >= 0 || errno != EEXIST || tries == 1000) return {fd, name};
+    }
 }
 
 }  // namespace
@@ -79,6 +90,8 @@ void check_output_image(const std::string& path) {
     // The image replaces the file there: never a device, pipe or socket (through a link,
     // /dev/null would become a file), nor a file its owner has made read-only.
     struct stat st;
+    if (::stat(target.c_str(), &st) != 0 && errno == ELOOP)
+        fail(path, ": is a loop of symbolic links (an output image needs a file name)");
     if (::stat(target.c_str(), &st) == 0) {
         if (!S_ISREG(st.st_mode))
             fail(path,
@@ -88,15 +101,12 @@ void check_output_image(const std::string& path) {
             fail(path, ": is read-only (make it writable or choose another output)");
     }
     // Whether a file can be made there
-    const std::string probe = temporary_beside(target, ".probe").string();
-    const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
-    if (fd < 0 && errno != EEXIST)
+    const auto [fd, probe] = create_beside(target, ".probe", 0600);
+    if (fd < 0)
         fail(path, ": cannot write in '", parent.empty() ? "." : parent.string(),
              "': ", std::strerror(errno));
-    if (fd >= 0) {
-        ::close(fd);
-        ::unlink(probe.c_str());
-    }
+    ::close(fd);
+    ::unlink(probe.c_str());
 }
 
 void check_output_is_not_an_input(const std::string& path,
@@ -116,23 +126,21 @@ namespace {
 // Writes `bytes` to a new file beside `target`, flushed to the disk, then renames it into
 // place: an interrupted or failed write (a full disk) never leaves a truncated image
 // where the previous one was, and every error is seen. A file replaced keeps its
-// permissions.
+// permission bits (where the file system allows).
 void replace_file(const std::string& path, const std::filesystem::path& target,
                   const std::vector<unsigned char>& bytes) {
-    const std::string tmp =
-        temporary_beside(target, target.extension().string()).string();
     struct stat old;
     const bool replaces = ::stat(target.c_str(), &old) == 0;
-    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC,
-                          replaces ? 0600 : 0666);
+    const auto [fd, tmp] =
+        create_beside(target, target.extension().string(), replaces ? 0600 : 0666);
     if (fd < 0) fail(path, ": cannot write image: ", std::strerror(errno));
     auto fail_with = [&](const char* what, int error) {
         ::close(fd);
         ::unlink(tmp.c_str());
         fail(path, ": ", what, ": ", std::strerror(error));
     };
-    if (replaces && ::fchmod(fd, old.st_mode & 07777) != 0)
-        fail_with("cannot write image", errno);
+    if (replaces)
+        (void)::fchmod(fd, old.st_mode & 0777);  // where the file system lets us
     for (size_t done = 0; done < bytes.size();) {
         const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
         if (n < 0 && errno == EINTR) continue;
@@ -149,6 +157,15 @@ void replace_file(const std::string& path, const std::filesystem::path& target,
         const int error = errno;
         ::unlink(tmp.c_str());
         fail(path, ": cannot move the written image into place: ", std::strerror(error));
+    }
+    // The rename itself on the disk (best effort: not every file system syncs
+    // directories)
+    const std::string dir =
+        target.parent_path().empty() ? "." : target.parent_path().string();
+    const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (dfd >= 0) {
+        (void)::fsync(dfd);
+        ::close(dfd);
     }
 }
 

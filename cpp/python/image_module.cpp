@@ -20,6 +20,7 @@ namespace py = pybind11;
 PYBIND11_MODULE(_image, m) {
     m.doc() =
         "Image files (OpenImageIO); use sssphere.read_image / sssphere.write_image.";
+    sss::init_released_gil(false);
     py::register_exception_translator(sss::translate_scene_errors);
 
     m.def(

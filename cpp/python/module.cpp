@@ -56,6 +56,7 @@ const Shape& shape_at(const Scene& s, int i) {
 
 PYBIND11_MODULE(_core, m) {
     m.doc() = "sssphere native core (private; use the sssphere package)";
+    init_released_gil(true);  // renders in daemon threads end before Python's exit
     py::register_exception<Error>(m, "SceneError", PyExc_ValueError).attr("__doc__") =
         "Bad input, in one line naming the file, the field, the value and what is "
         "allowed: "

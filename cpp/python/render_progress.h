@@ -70,7 +70,7 @@ struct __attribute__((visibility("hidden"))) RenderProgress {
 
     // Called by the renderer (GIL released): false stops the render.
     bool operator()(double fraction) {
-        if (python_exiting())
+        if (gil_would_end_this_thread())
             return false;  // the GIL would end this thread (released_gil.h)
         pybind11::gil_scoped_acquire gil;
         if (PyErr_CheckSignals() != 0) {

@@ -328,9 +328,12 @@ def _cmd_eval(args: argparse.Namespace) -> int:
     if not models.is_dir():
         raise SceneError(f"{models}: models directory does not exist (--models: a directory "
                          "with lengthgen.json, pathgen.json and eventgen.json)")
-    out = Path(args.out) if args.out else models
+    # Beside the models named, else here: never into the installed package's models
+    out = Path(args.out) if args.out else models if args.models is not None else Path(".")
     if not out.is_dir():
         raise SceneError(f"{out}: output directory does not exist")
+    if not os.access(out, os.W_OK):
+        raise SceneError(f"{out}: output directory is not writable (--out chooses another)")
     if args.update_card:  # told now, not after minutes of evaluation
         try:
             evaluate.check_model_card(out / "README.md")
@@ -476,7 +479,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="walks per cell (default 10,000)")
     e.add_argument("--seed", type=_non_negative_int, default=0,
                    help="seed of the walks and model samples (default 0)")
-    e.add_argument("--out", help="where eval.json and the figures go (default: --models)")
+    e.add_argument("--out", help="where eval.json and the figures go (default: --models if given, else the "
+                        "current directory)")
     e.add_argument("--decoder", choices=("cpp", "numpy"), default="cpp",
                    help="the C++ decoders the renderer uses, or the NumPy reference")
     e.add_argument("--update-card", action="store_true",

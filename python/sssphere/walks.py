@@ -90,6 +90,9 @@ def sphere_walks(
     """
     n = _count("n", n, 1)
     seed, first_index = _count("seed", seed, 0), _count("first_index", first_index, 0)
+    if first_index + n - 1 > _MOST["first_index"]:
+        raise ValueError(f"first_index + n - 1 = {first_index + n - 1} is past 2^64 - 1 (the "
+                         "walks' stream numbers)")
     threads = _count("threads", 0 if threads is None else threads, 0)
     s = _param("sigma_t", sigma_t, n, 0.0, MAX_SIGMA_T, True)
     gg = _param("g", g, n, -1.0, 1.0, False)

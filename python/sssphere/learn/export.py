@@ -189,7 +189,7 @@ def staged_output(out_dir, names):
     out = Path(out_dir)
     created = prepare_output_dir(out, names)
     stage = Path(tempfile.mkdtemp(prefix=".sss-staging-", dir=out))
-    ok = False
+    ok, held = False, []
     try:
         yield stage
         missing = [n for n in names if not (stage / n).is_file()]
@@ -198,7 +198,7 @@ def staged_output(out_dir, names):
         # The renames are quick, but a signal between two would still mix the sets: hold
         # SIGINT and SIGTERM until all are done, then deliver them. (Python-level handlers:
         # a signal mask is per thread, and torch's threads would take the signal.)
-        held, previous = [], {}
+        previous = {}
         if threading.current_thread() is threading.main_thread():
             for s in (signal.SIGINT, signal.SIGTERM):
                 if signal.getsignal(s) not in (signal.SIG_IGN, None):
@@ -210,16 +210,16 @@ def staged_output(out_dir, names):
         finally:
             for s, handler in previous.items():
                 signal.signal(s, handler)
-        if held:
-            try:
-                signal.raise_signal(held[0])
-            except KeyboardInterrupt:
-                raise InterruptedAfterWrite from None
     finally:
         shutil.rmtree(stage, ignore_errors=True)
         if created and not ok:
             with contextlib.suppress(OSError):
                 out.rmdir()  # only if empty
+    if held:  # delivered once the stage is gone (a signal's default action ends the process)
+        try:
+            signal.raise_signal(signal.SIGTERM if signal.SIGTERM in held else held[0])
+        except KeyboardInterrupt:
+            raise InterruptedAfterWrite from None
 
 
 def write_model(out_dir, spec: ModelSpec, model: CVAE, encodings: dict, training: dict,
