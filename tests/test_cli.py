@@ -350,6 +350,32 @@ def test_ctrl_c_while_the_scene_loads_writes_nothing_and_says_so(tmp_path, small
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.json"]
 
 
+def test_a_second_signal_ends_a_long_load_of_the_cpp_cli_at_once(tmp_path, small_scene):
+    """The first signal during the scene build is kept (to be said once the build returns);
+    the next ends the process then and there, as nothing has been written yet."""
+    small_scene["render"]["grid_resolution"] = 384  # a build of seconds
+    scene, out = tmp_path / "s.json", tmp_path / "x.exr"
+    scene.write_text(json.dumps(small_scene))
+    terminal, child_end = pty.openpty()
+    proc = subprocess.Popen([_cpp_cli(), str(scene), "-o", str(out)], stdin=subprocess.DEVNULL,
+                            stdout=subprocess.DEVNULL, stderr=child_end, preexec_fn=_default_signals)
+    os.close(child_end)
+    try:
+        assert b"loading" in _read_pty(terminal, b"loading", timeout=120)
+        time.sleep(0.3)
+        proc.send_signal(signal.SIGTERM)
+        time.sleep(0.2)
+        proc.send_signal(signal.SIGTERM)
+        proc.wait(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        os.close(terminal)
+    assert proc.returncode == -signal.SIGTERM  # the default action, not 143 after the build
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.json"]
+
+
 def _cpp_cli() -> str:
     # The one installed beside this interpreter (install.sh's environment), else the dev build
     exe = os.path.join(os.path.dirname(sys.executable), "sssphere-render")
