@@ -58,8 +58,8 @@ inline const char* type_name(const json& j) {
     }
 }
 
-// A value as messages show it: its type and text ("a string \"x\"", "an array [1,2]"; null
-// is "null" alone).
+// A value as messages show it: its type and text ("a string \"x\"", "an array [1,2]";
+// null is "null" alone).
 inline std::string described(const json& j) {
     return j.is_null() ? std::string("null") : std::string(type_name(j)) + " " + show(j);
 }
@@ -138,8 +138,7 @@ inline json parse_json(const std::string& text, const std::string& source,
 // Unknown keys are errors (parameter names are a contract: docs/architecture.md).
 inline void check_keys(const json& obj, const Field& f,
                        const std::vector<const char*>& allowed) {
-    if (!obj.is_object())
-        f.error("expected an object, got ", described(obj));
+    if (!obj.is_object()) f.error("expected an object, got ", described(obj));
     std::set<std::string> ok(allowed.begin(), allowed.end());
     for (auto it = obj.begin(); it != obj.end(); ++it) {
         if (!ok.count(it.key())) {
@@ -174,8 +173,7 @@ inline double number(const json& j, const Field& f) {
 // An integer in [lo, hi]; `allowed` describes the range for the message.
 inline int64_t integer_in(const json& j, const Field& f, int64_t lo, int64_t hi,
                           const char* allowed) {
-    if (!j.is_number_integer())
-        f.error("expected an integer, got ", described(j));
+    if (!j.is_number_integer()) f.error("expected an integer, got ", described(j));
     if (j.is_number_unsigned() && j.get<uint64_t>() > uint64_t(INT64_MAX))
         f.error("value ", show(j), " is not allowed (allowed: ", allowed, ")");
     int64_t v = j.get<int64_t>();

@@ -59,8 +59,7 @@ template <class Kind>
 const Kind& kind_named(const std::vector<Kind>& kinds, const json& j, const Field& f) {
     if (!j.is_object()) f.error("expected an object, got ", show(j));
     const json& type = require(j, "type", f);
-    if (!type.is_string())
-        f.at("type").error("expected a string, got ", described(type));
+    if (!type.is_string()) f.at("type").error("expected a string, got ", described(type));
     std::string names;
     for (const Kind& k : kinds) {
         if (type.get<std::string>() == k.name) return k;
