@@ -131,8 +131,11 @@ void replace_file(const std::string& path, const std::filesystem::path& target,
                   const std::vector<unsigned char>& bytes) {
     struct stat old;
     const bool replaces = ::stat(target.c_str(), &old) == 0;
-    const auto [fd, tmp] =
+    // (not a structured binding: clang cannot capture one in the lambda below)
+    const std::pair<int, std::string> made =
         create_beside(target, target.extension().string(), replaces ? 0600 : 0666);
+    const int fd = made.first;
+    const std::string& tmp = made.second;
     if (fd < 0) fail(path, ": cannot write image: ", std::strerror(errno));
     auto fail_with = [&](const char* what, int error) {
         ::close(fd);
