@@ -481,15 +481,19 @@ def test_both_command_lines_take_the_same_options():
             assert (f"--no-{flag}" if spec["kind"] == "flag" else f"--{flag}") in theirs, spec["name"]
 
 
+def _render_with_both(tmp_path: Path, args: list[str]) -> list:
+    """`sssphere render` and `sssphere-render` of tmp_path/s.json to x.exr with `args`."""
+    scene, out = str(tmp_path / "s.json"), str(tmp_path / "x.exr")
+    return [run_cli("render", scene, "-o", out, *args),
+            subprocess.run([_cpp_cli(), scene, "-o", out, *args], capture_output=True, text=True)]
+
+
 def test_both_command_lines_reject_a_bad_option_value_alike(tmp_path, small_scene):
     (tmp_path / "s.json").write_text(json.dumps(small_scene))
     for args, message in ((["--spp", "0"], "spp must be an integer >= 1"),
                           (["--spp", "x"], "--spp: expected an integer >= 1"),
                           (["--integrator", "mc"], "integrator 'mc' is not allowed (allowed: 'pt', 'st')")):
-        py = run_cli("render", tmp_path / "s.json", "-o", tmp_path / "x.exr", *args)
-        cpp = subprocess.run([_cpp_cli(), str(tmp_path / "s.json"), "-o", str(tmp_path / "x.exr"), *args],
-                             capture_output=True, text=True)
-        for r in (py, cpp):
+        for r in _render_with_both(tmp_path, args):
             assert r.returncode == 1 and message in r.stderr, (args, r.stderr)
 
 
@@ -504,10 +508,7 @@ def test_a_bad_option_value_is_refused_before_the_scene_is_read(tmp_path, small_
                           (["--time-limit", "-1"], "time_limit must be a number from 0 to 1e9"),
                           (["--sphere-threshold", "-2"], "sphere_threshold must be a number >= 0"),
                           (["--backend", "metal"], "backend 'metal' is not allowed")):
-        py = run_cli("render", tmp_path / "s.json", "-o", tmp_path / "x.exr", *args)
-        cpp = subprocess.run([_cpp_cli(), str(tmp_path / "s.json"), "-o", str(tmp_path / "x.exr"), *args],
-                             capture_output=True, text=True)
-        for r in (py, cpp):
+        for r in _render_with_both(tmp_path, args):
             assert r.returncode == 1 and message in r.stderr, (args, r.stderr)
             assert "missing.obj" not in r.stderr, (args, r.stderr)
     with pytest.raises(sssphere.SceneError, match="spp must be an integer >= 1"):

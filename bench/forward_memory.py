@@ -1,0 +1,115 @@
+#!/usr/bin/env python3
+"""How much of the entering direction a learned sphere step keeps (models/README.md, "Known
+weaknesses"): the mean exit cos θ of the shipped models against exact sphere walks over σ and
+g (albedo 0.9999), split by log N into quintiles at the largest σ given, and the image it
+makes: a backlit index-matched slab (0.2 thick, σt = 2000, albedo 0.9999, g = 0.9, lit
+through by an area light) rendered by `pt`, by `st` on exact walks and by `st` on the models,
+image means over independent seeds. Seeds are fixed: a rerun gives the same numbers.
+
+    python -m bench.forward_memory                 # ~5 min on 2 cores
+    python -m bench.forward_memory --no-render     # the step statistics alone, ~2 min
+
+Writes bench/results/forward_memory.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+from pathlib import Path
+
+import numpy as np
+
+import sssphere
+
+RESULTS = Path(__file__).resolve().parent / "results" / "forward_memory.json"
+
+
+def step_statistics(sigmas: list[float], gs: list[float], n: int) -> list[dict]:
+    model = sssphere.ScatteringModel.load()
+    rows = []
+    for g in gs:
+        for sigma in sigmas:
+            a = model.sample(sigma_t=sigma, g=g, albedo=0.9999, n=n, seed=1)
+            b = sssphere.sphere_walks(sigma, g, 0.9999, n, seed=2)
+            ca, cb = a["cos_theta"].astype(np.float64), b["cos_theta"].astype(np.float64)
+            se = float(np.hypot(ca.std(), cb.std()) / np.sqrt(n))
+            row = {"g": g, "sigma": sigma, "model_mean_cos": float(ca.mean()),
+                   "walks_mean_cos": float(cb.mean()), "z": float((ca.mean() - cb.mean()) / se),
+                   "model_mean_log_N": float(np.log(a["N"]).mean()),
+                   "walks_mean_log_N": float(np.log(b["N"]).mean())}
+            print(f"g {g:4} sigma {sigma:5}: mean cos {row['model_mean_cos']:+.4f} (model) "
+                  f"{row['walks_mean_cos']:+.4f} (walks), z {row['z']:+.1f}; mean log N "
+                  f"{row['model_mean_log_N']:.3f} / {row['walks_mean_log_N']:.3f}", flush=True)
+            if sigma == max(sigmas):  # where the memory goes: by the walk's length
+                la, lb = np.log(a["N"]), np.log(b["N"])
+                edges = np.quantile(lb, np.linspace(0, 1, 6))
+                row["by_log_N_quintile"] = [
+                    {"log_N": [float(lo), float(hi)],
+                     "model_mean_cos": float(ca[(la >= lo) & (la <= hi)].mean()),
+                     "model_share": float(((la >= lo) & (la <= hi)).mean()),
+                     "walks_mean_cos": float(cb[(lb >= lo) & (lb <= hi)].mean()),
+                     "walks_share": float(((lb >= lo) & (lb <= hi)).mean())}
+                    for lo, hi in zip(edges[:-1], edges[1:])]
+            rows.append(row)
+    return rows
+
+
+def slab_scene() -> dict:
+    # 0.2 thick, 1.4 wide, centred at the origin; the camera in front, the light behind
+    x, y, z = 0.7, 0.7, 0.1
+    v = [[sx * x, sy * y, sz * z] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    faces = [t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))]
+    return {"camera": {"origin": [0, 0, 3], "target": [0, 0, 0], "up": [0, 1, 0], "fov": 20,
+                       "width": 16, "height": 16},
+            "shapes": [{"vertices": v, "faces": faces,
+                        "medium": {"sigma_t": 2000, "albedo": 0.9999, "g": 0.9},
+                        "boundary": {"type": "index_matched"}}],
+            "lights": [{"type": "area", "corner": [-1, -1, -1], "edge1": [2, 0, 0],
+                        "edge2": [0, 2, 0], "radiance": 2}]}
+
+
+def slab_images(seeds: int, spp: int) -> dict:
+    scene = sssphere.load_scene(slab_scene())
+    out = {}
+    for name, options in (("pt", {"integrator": "pt"}),
+                          ("st_walks", {"integrator": "st", "sphere_sampler": "walk"}),
+                          ("st", {"integrator": "st"})):
+        means = [float(sssphere.render_full(scene, spp=spp, seed=10_000 * k + 7,
+                                            **options).image.mean())
+                 for k in range(seeds)]
+        m, se = float(np.mean(means)), float(np.std(means, ddof=1) / np.sqrt(seeds))
+        out[name] = {"mean": m, "standard_error": se}
+        print(f"slab, {name}: {m:.5f} ± {se:.5f}", flush=True)
+    for name in ("st_walks", "st"):
+        d = out[name]["mean"] - out["pt"]["mean"]
+        out[name]["relative_to_pt"] = d / out["pt"]["mean"]
+        out[name]["z"] = d / float(np.hypot(out[name]["standard_error"],
+                                            out["pt"]["standard_error"]))
+        print(f"  {name} - pt: {100 * out[name]['relative_to_pt']:+.1f} %, "
+              f"z {out[name]['z']:+.1f}", flush=True)
+    return out
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--samples", type=int, default=20_000, help="steps per (sigma, g) cell")
+    p.add_argument("--seeds", type=int, default=64, help="renders of the slab per integrator")
+    p.add_argument("--spp", type=int, default=64, help="samples per pixel of each render")
+    p.add_argument("--no-render", action="store_true", help="the step statistics only")
+    args = p.parse_args()
+    result = {"date": datetime.date.today().isoformat(), "albedo": 0.9999,
+              "samples": args.samples,
+              "steps": step_statistics([10.0, 25.0, 50.0, 100.0, 200.0], [0.9, 0.7], args.samples)}
+    if not args.no_render:
+        result["slab"] = {"seeds": args.seeds, "spp": args.spp,
+                          **slab_images(args.seeds, args.spp)}
+    RESULTS.parent.mkdir(exist_ok=True)
+    RESULTS.write_text(json.dumps(result, indent=1) + "\n")
+    print(f"wrote {RESULTS}")
+
+
+if __name__ == "__main__":
+    main()
