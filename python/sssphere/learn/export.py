@@ -153,6 +153,10 @@ def _export(decoder: GaussianMLP, example: torch.Tensor, path) -> None:
             opset_version=ONNX_OPSET, dynamo=True, verbose=False,
             dynamic_shapes=({0: torch.export.Dim("batch")},),
         )
+    # The exporter records each node's Python stack trace, absolute paths of this checkout
+    # included: dropped, so a file depends on the weights alone, not on where it was made.
+    for node in program.model.graph:
+        node.metadata_props.pop("pkg.torch.onnx.stack_trace", None)
     program.save(str(path))
 
 
