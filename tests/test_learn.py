@@ -483,6 +483,14 @@ def test_cli_train_and_export(tiny_data, tmp_path, capsys):
     assert code == 0
     assert (tmp_path / "e" / "pathgen.json").read_text() == (tmp_path / "m" / "pathgen.json").read_text()
     assert (tmp_path / "e" / "pathgen.onnx").is_file()
+    # --models: PathGen alone, again with seed 2, gives the same file; the others stay.
+    before = (tmp_path / "m" / "eventgen.json").read_bytes()
+    (tmp_path / "m" / "pathgen.json").unlink()
+    code = cli_main(["train", str(tiny_data), "-o", str(tmp_path / "m"), "--epochs", "1",
+                     "--seed", "2", "--models", "PathGen", "--quiet"])
+    assert code == 0
+    assert (tmp_path / "e" / "pathgen.json").read_text() == (tmp_path / "m" / "pathgen.json").read_text()
+    assert (tmp_path / "m" / "eventgen.json").read_bytes() == before
 
 
 def test_cli_learn_errors_are_clear(tmp_path, capsys):
@@ -493,6 +501,9 @@ def test_cli_learn_errors_are_clear(tmp_path, capsys):
     with pytest.raises(SystemExit):
         cli_main(["train", str(tmp_path / "x.npz"), "-o", str(tmp_path), "--max-minutes", "0"])
     assert "must be a positive number" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        cli_main(["train", str(tmp_path / "x.npz"), "-o", str(tmp_path), "--models", "PathGen,Foo"])
+    assert "expected model names from LengthGen,PathGen,EventGen" in capsys.readouterr().err
 
 
 def test_sample_conditions_cover_the_ranges():

@@ -41,6 +41,17 @@ def _checked(convert, ok, requirement: str):
 _positive_int = _checked(int, lambda v: v >= 1, ">= 1")
 _non_negative_int = _checked(int, lambda v: v >= 0, ">= 0")
 _positive_float = _checked(float, lambda v: 0 < v < float("inf"), "a positive number")
+_MODEL_NAMES = ("LengthGen", "PathGen", "EventGen")
+
+
+def _model_names(text: str) -> tuple:
+    """`sssphere train --models`: names from _MODEL_NAMES, comma-separated, each once."""
+    names = [n.strip() for n in text.split(",")]
+    bad = [n for n in names if n not in _MODEL_NAMES]
+    if bad or len(set(names)) != len(names):
+        raise argparse.ArgumentTypeError(
+            f"expected model names from {','.join(_MODEL_NAMES)}, each at most once, got {text!r}")
+    return tuple(names)
 # camera.width and height's range (docs/scene-format.md), checked as sssphere-render does
 _image_size = _checked(int, lambda v: 1 <= v <= 16384, "1 to 16384")
 
@@ -229,7 +240,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
     train, export = _learn_modules()
     try:
         train.train(args.data, args.output, epochs=args.epochs, seed=args.seed,
-                    max_minutes=args.max_minutes, progress=not args.quiet)
+                    max_minutes=args.max_minutes, progress=not args.quiet, models=args.models)
     except (DataError, ValueError, FloatingPointError) as e:  # DataError: a bad data file
         print(f"sssphere: error: {e}", file=sys.stderr)
         return 1
@@ -439,6 +450,10 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--epochs", type=_positive_int, help="passes over the data per model "
                                                         "(default: the shipped models' setting)")
     t.add_argument("--seed", type=_non_negative_int, default=0, help="random seed (default 0)")
+    t.add_argument("--models", type=_model_names, default=_MODEL_NAMES,
+                   help="comma-separated models to train (default: "
+                        "LengthGen,PathGen,EventGen); the others' .json and .onnx stay as they "
+                        "are, cvae_checkpoint.pt then holds these alone")
     t.add_argument("--max-minutes", type=_positive_float,
                    help="wall-clock limit for all three models (the schedules follow the clock)")
     t.add_argument("--quiet", action="store_true", help="no progress bars or summary")
