@@ -1,12 +1,13 @@
 #!/usr/bin/env python3
 """How much of the entering direction a learned sphere step keeps (models/README.md, "Known
 weaknesses"): the mean exit cos θ of the shipped models against exact sphere walks over σ and
-g (albedo 0.9999), split by log N into quintiles at the largest σ given, and the image it
-makes: a backlit index-matched slab (0.2 thick, σt = 2000, albedo 0.9999, g = 0.9, lit
-through by an area light) rendered by `pt`, by `st` on exact walks and by `st` on the models,
-image means over independent seeds. Seeds are fixed: a rerun gives the same numbers.
+g (albedo 0.9999), split by log N into quintiles at the largest σ given, and the images it
+makes: backlit index-matched slabs (0.2 thick, albedo 0.9999, eight (g, σt) from (0.9, 2000)
+to (−0.5, 500), lit through by an area light) rendered by `pt`, by `st` on exact walks and by
+`st` on the models, image means over independent seeds. Seeds are fixed: a rerun gives the
+same numbers.
 
-    python -m bench.forward_memory                 # ~5 min on 2 cores
+    python -m bench.forward_memory                 # ~8 min on 2 cores
     python -m bench.forward_memory --no-render     # the step statistics alone, ~2 min
 
 Writes bench/results/forward_memory.json.
@@ -26,8 +27,8 @@ import sssphere
 RESULTS = Path(__file__).resolve().parent / "results" / "forward_memory.json"
 
 
-def step_statistics(sigmas: list[float], gs: list[float], n: int) -> list[dict]:
-    model = sssphere.ScatteringModel.load()
+def step_statistics(sigmas: list[float], gs: list[float], n: int, models=None) -> list[dict]:
+    model = sssphere.ScatteringModel.load(models)
     rows = []
     for g in gs:
         for sigma in sigmas:
@@ -42,7 +43,7 @@ def step_statistics(sigmas: list[float], gs: list[float], n: int) -> list[dict]:
             print(f"g {g:4} sigma {sigma:5}: mean cos {row['model_mean_cos']:+.4f} (model) "
                   f"{row['walks_mean_cos']:+.4f} (walks), z {row['z']:+.1f}; mean log N "
                   f"{row['model_mean_log_N']:.3f} / {row['walks_mean_log_N']:.3f}", flush=True)
-            if sigma == max(sigmas):  # where the memory goes: by the walk's length
+            if sigma == max(sigmas) and g in (0.9, 0.7):  # where the memory goes: by length
                 la, lb = np.log(a["N"]), np.log(b["N"])
                 edges = np.quantile(lb, np.linspace(0, 1, 6))
                 row["by_log_N_quintile"] = [
@@ -56,7 +57,17 @@ def step_statistics(sigmas: list[float], gs: list[float], n: int) -> list[dict]:
     return rows
 
 
-def slab_scene() -> dict:
+# The step statistics' grid; the quintiles by log N at the largest σ for g = 0.9 and 0.7.
+SIGMAS = [5.0, 10.0, 25.0, 50.0, 100.0, 200.0]
+GS = [0.95, 0.9, 0.7, 0.0, -0.7]
+
+# Backlit slabs, (g, σt): transmission through 20 to 120 reduced mean free paths, where each
+# light path takes hundreds of sphere steps and a small bias per step adds up.
+SLABS = [(0.9, 2000.0), (0.9, 1000.0), (0.95, 3000.0), (0.7, 700.0), (0.7, 2000.0),
+         (0.0, 300.0), (0.0, 1000.0), (-0.5, 500.0)]
+
+
+def slab_scene(g: float = 0.9, sigma_t: float = 2000.0) -> dict:
     # 0.2 thick, 1.4 wide, centred at the origin; the camera in front, the light behind
     x, y, z = 0.7, 0.7, 0.1
     v = [[sx * x, sy * y, sz * z] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
@@ -65,31 +76,32 @@ def slab_scene() -> dict:
     return {"camera": {"origin": [0, 0, 3], "target": [0, 0, 0], "up": [0, 1, 0], "fov": 20,
                        "width": 16, "height": 16},
             "shapes": [{"vertices": v, "faces": faces,
-                        "medium": {"sigma_t": 2000, "albedo": 0.9999, "g": 0.9},
+                        "medium": {"sigma_t": sigma_t, "albedo": 0.9999, "g": g},
                         "boundary": {"type": "index_matched"}}],
             "lights": [{"type": "area", "corner": [-1, -1, -1], "edge1": [2, 0, 0],
                         "edge2": [0, 2, 0], "radiance": 2}]}
 
 
-def slab_images(seeds: int, spp: int) -> dict:
-    scene = sssphere.load_scene(slab_scene())
-    out = {}
+def slab_images(g: float, sigma_t: float, seeds: int, spp: int, models=None) -> dict:
+    scene = sssphere.load_scene(slab_scene(g, sigma_t))
+    out = {"g": g, "sigma_t": sigma_t}
     for name, options in (("pt", {"integrator": "pt"}),
                           ("st_walks", {"integrator": "st", "sphere_sampler": "walk"}),
-                          ("st", {"integrator": "st"})):
+                          ("st", {"integrator": "st", **({"models": models} if models else {})})):
         means = [float(sssphere.render_full(scene, spp=spp, seed=10_000 * k + 7,
                                             **options).image.mean())
                  for k in range(seeds)]
         m, se = float(np.mean(means)), float(np.std(means, ddof=1) / np.sqrt(seeds))
         out[name] = {"mean": m, "standard_error": se}
-        print(f"slab, {name}: {m:.5f} ± {se:.5f}", flush=True)
+    line = f"slab g {g:5} sigma_t {sigma_t:6}: pt {out['pt']['mean']:.5f}"
     for name in ("st_walks", "st"):
         d = out[name]["mean"] - out["pt"]["mean"]
         out[name]["relative_to_pt"] = d / out["pt"]["mean"]
         out[name]["z"] = d / float(np.hypot(out[name]["standard_error"],
                                             out["pt"]["standard_error"]))
-        print(f"  {name} - pt: {100 * out[name]['relative_to_pt']:+.1f} %, "
-              f"z {out[name]['z']:+.1f}", flush=True)
+        line += (f"; {name} {100 * out[name]['relative_to_pt']:+5.1f} % "
+                 f"(z {out[name]['z']:+5.1f})")
+    print(line, flush=True)
     return out
 
 
@@ -99,13 +111,22 @@ def main() -> None:
     p.add_argument("--seeds", type=int, default=64, help="renders of the slab per integrator")
     p.add_argument("--spp", type=int, default=64, help="samples per pixel of each render")
     p.add_argument("--no-render", action="store_true", help="the step statistics only")
+    p.add_argument("--models", help="model directory to measure (default: the shipped models; "
+                                    "then the results are not written)")
     args = p.parse_args()
+    steps = step_statistics(SIGMAS, GS, args.samples, args.models)
+    z = np.array([row["z"] for row in steps])
+    summary = {"rms_z": float(np.sqrt(np.mean(z ** 2))), "max_abs_z": float(np.abs(z).max())}
+    print(f"mean cos θ over {len(steps)} cells: rms z {summary['rms_z']:.2f}, "
+          f"max |z| {summary['max_abs_z']:.1f}", flush=True)
     result = {"date": datetime.date.today().isoformat(), "albedo": 0.9999,
-              "samples": args.samples,
-              "steps": step_statistics([10.0, 25.0, 50.0, 100.0, 200.0], [0.9, 0.7], args.samples)}
+              "samples": args.samples, "steps": steps, "steps_summary": summary}
     if not args.no_render:
-        result["slab"] = {"seeds": args.seeds, "spp": args.spp,
-                          **slab_images(args.seeds, args.spp)}
+        result["slabs"] = {"seeds": args.seeds, "spp": args.spp,
+                           "cells": [slab_images(g, s, args.seeds, args.spp, args.models)
+                                     for g, s in SLABS]}
+    if args.models:
+        return
     RESULTS.parent.mkdir(exist_ok=True)
     RESULTS.write_text(json.dumps(result, indent=1) + "\n")
     print(f"wrote {RESULTS}")

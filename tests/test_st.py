@@ -229,6 +229,44 @@ def test_st_under_a_point_light_agrees_with_pt_for_white_media(albedo, models_di
     assert np.all(np.abs(z) < 4), f"albedo {albedo}: image mean z-scores {z} against pt"
 
 
+def backlit_slab(g: float, sigma_t: float) -> dict:
+    """An index-matched slab 0.2 thick (albedo 0.9999) between the camera and an area light:
+    the image is light transmitted through 20-60 reduced mean free paths by many sphere steps
+    (bench/forward_memory.py, the same scene)."""
+    x, y, z = 0.7, 0.7, 0.1
+    v = [[sx * x, sy * y, sz * z] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    return {"camera": {"origin": [0, 0, 3], "target": [0, 0, 0], "up": [0, 1, 0], "fov": 20,
+                       "width": 16, "height": 16},
+            "shapes": [{"vertices": v, "faces": [t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))],
+                        "medium": {"sigma_t": sigma_t, "albedo": 0.9999, "g": g},
+                        "boundary": {"type": "index_matched"}}],
+            "lights": [{"type": "area", "corner": [-1, -1, -1], "edge1": [2, 0, 0],
+                        "edge2": [0, 2, 0], "radiance": 2}]}
+
+
+# A small bias per step adds up over hundreds of steps: in light transmitted through dense
+# forward-scattering slabs the step's forward memory (mean exit cos theta) decides the image.
+# The shipped models keep within 2 % here (models/README.md, "Known weaknesses"); PathGens
+# trained with other seeds ranged from -14 % to +22 % at g = 0.95. The bound is this allowance
+# on top of 4 sigma of the two renders.
+TRANSMISSION_ALLOWANCE = 0.04
+
+
+@pytest.mark.parametrize("g,sigma_t", [(0.9, 2000.0), (0.95, 3000.0)])
+def test_st_transmission_through_dense_forward_scattering_slabs(g, sigma_t, models_dir):
+    scene = sssphere.load_scene(backlit_slab(g, sigma_t))
+    pt = sssphere.render_full(scene, integrator="pt", spp=4096, seed=1)
+    st = sssphere.render_full(scene, integrator="st", models=models_dir, spp=4096, seed=2)
+    assert st.mean_sphere_steps_per_path > 2  # the steps carry the light
+    npix = pt.image.shape[0] * pt.image.shape[1]
+    a, b = float(st.image.mean()), float(pt.image.mean())
+    # the channels carry the same samples (grey medium and light): one channel's variance
+    sigma = math.sqrt(float(st.variance.sum() + pt.variance.sum()) / 3) / npix
+    assert abs(a - b) <= TRANSMISSION_ALLOWANCE * b + 4 * sigma, \
+        f"g {g}, sigma_t {sigma_t}: st {a:.5f} against pt {b:.5f} ({100 * (a / b - 1):+.1f} %, sigma {sigma:.5f})"
+
+
 def test_nee_with_eventgen_agrees_with_no_nee(models_dir):
     """With the learned models, NEE from EventGen's representative event and st without NEE
     have the same expectation (up to EventGen's error, within the allowance)."""
