@@ -1,14 +1,14 @@
 #!/usr/bin/env python3
 """How much of the entering direction a learned sphere step keeps (models/README.md, "Known
 weaknesses"): the mean exit cos θ of the shipped models against exact sphere walks over σ and
-g (albedo 0.9999), split by log N into quintiles at the largest σ given, and the images it
+g (albedo 0.9999), split by log N into quintiles at the largest σ for g = 0.9 and 0.7, and the images it
 makes: backlit index-matched slabs (0.2 thick, albedo 0.9999, eight (g, σt) from (0.9, 2000)
 to (−0.5, 500), lit through by an area light) rendered by `pt`, by `st` on exact walks and by
 `st` on the models, image means over independent seeds. Seeds are fixed: a rerun gives the
 same numbers.
 
     python -m bench.forward_memory                 # ~8 min on 2 cores
-    python -m bench.forward_memory --no-render     # the step statistics alone, ~2 min
+    python -m bench.forward_memory --no-render     # the step statistics alone, ~3 min
 
 Writes bench/results/forward_memory.json.
 """
@@ -61,7 +61,7 @@ def step_statistics(sigmas: list[float], gs: list[float], n: int, models=None) -
 SIGMAS = [5.0, 10.0, 25.0, 50.0, 100.0, 200.0]
 GS = [0.95, 0.9, 0.7, 0.0, -0.7]
 
-# Backlit slabs, (g, σt): transmission through 20 to 120 reduced mean free paths, where each
+# Backlit slabs, (g, σt): transmission through 20 to 200 reduced mean free paths, where each
 # light path takes hundreds of sphere steps and a small bias per step adds up.
 SLABS = [(0.9, 2000.0), (0.9, 1000.0), (0.95, 3000.0), (0.7, 700.0), (0.7, 2000.0),
          (0.0, 300.0), (0.0, 1000.0), (-0.5, 500.0)]

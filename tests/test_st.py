@@ -232,7 +232,7 @@ def test_st_under_a_point_light_agrees_with_pt_for_white_media(albedo, models_di
 def backlit_slab(g: float, sigma_t: float) -> dict:
     """An index-matched slab 0.2 thick (albedo 0.9999) between the camera and an area light:
     the image is light transmitted through 20-60 reduced mean free paths by many sphere steps
-    (bench/forward_memory.py, the same scene)."""
+    (as bench/forward_memory.py's slabs)."""
     x, y, z = 0.7, 0.7, 0.1
     v = [[sx * x, sy * y, sz * z] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
     quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]

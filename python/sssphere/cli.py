@@ -41,6 +41,10 @@ def _checked(convert, ok, requirement: str):
 _positive_int = _checked(int, lambda v: v >= 1, ">= 1")
 _non_negative_int = _checked(int, lambda v: v >= 0, ">= 0")
 _positive_float = _checked(float, lambda v: 0 < v < float("inf"), "a positive number")
+# camera.width and height's range (docs/scene-format.md), checked as sssphere-render does
+_image_size = _checked(int, lambda v: 1 <= v <= 16384, "1 to 16384")
+# The models `sssphere train` knows (learn.train.TIME_SHARES; repeated so that the command
+# line is checked without importing torch).
 _MODEL_NAMES = ("LengthGen", "PathGen", "EventGen")
 
 
@@ -52,8 +56,6 @@ def _model_names(text: str) -> tuple:
         raise argparse.ArgumentTypeError(
             f"expected model names from {','.join(_MODEL_NAMES)}, each at most once, got {text!r}")
     return tuple(names)
-# camera.width and height's range (docs/scene-format.md), checked as sssphere-render does
-_image_size = _checked(int, lambda v: 1 <= v <= 16384, "1 to 16384")
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
@@ -455,7 +457,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "LengthGen,PathGen,EventGen); the others' .json and .onnx stay as they "
                         "are, cvae_checkpoint.pt then holds these alone")
     t.add_argument("--max-minutes", type=_positive_float,
-                   help="wall-clock limit for all three models (the schedules follow the clock)")
+                   help="wall-clock limit for all the models trained (the schedules follow the "
+                        "clock)")
     t.add_argument("--quiet", action="store_true", help="no progress bars or summary")
     t.set_defaults(func=_cmd_train)
 
