@@ -62,7 +62,8 @@ SIGMAS = [5.0, 10.0, 25.0, 50.0, 100.0, 200.0]
 GS = [0.95, 0.9, 0.7, 0.0, -0.7]
 
 # Backlit slabs, (g, σt): transmission through 20 to 200 reduced mean free paths, where each
-# light path takes hundreds of sphere steps and a small bias per step adds up.
+# light path takes many sphere steps (7.5 and 9.4 per camera path on average at g = 0.9 and
+# 0.95, the first and third) and a small bias per step adds up.
 SLABS = [(0.9, 2000.0), (0.9, 1000.0), (0.95, 3000.0), (0.7, 700.0), (0.7, 2000.0),
          (0.0, 300.0), (0.0, 1000.0), (-0.5, 500.0)]
 

@@ -245,7 +245,7 @@ def backlit_slab(g: float, sigma_t: float) -> dict:
                         "edge2": [0, 2, 0], "radiance": 2}]}
 
 
-# A small bias per step adds up over hundreds of steps: in light transmitted through dense
+# A small bias per step adds up over many steps: in light transmitted through dense
 # forward-scattering slabs the step's forward memory (mean exit cos theta) decides the image.
 # The shipped models keep within 2 % here (models/README.md, "Known weaknesses"); PathGens
 # trained with other seeds ranged from -14 % to +22 % at g = 0.95. The bound is this allowance
