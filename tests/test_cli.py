@@ -316,11 +316,11 @@ def _read_pty(fd: int, until: bytes | None, timeout: float) -> bytes:
 @pytest.mark.parametrize("cli", ["python", "cpp"])
 @pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
 def test_ctrl_c_while_the_scene_loads_writes_nothing_and_says_so(tmp_path, small_scene, sig, code, cli):
-    """Ctrl-C or SIGTERM while the scene is still being built stops either command line once
-    the build returns, with one line and the exit status of an interrupted render (not a
-    KeyboardInterrupt traceback, nor death by the signal). On a terminal it says when it
-    starts loading: the signal is sent half a second later, during a build of seconds (a
-    256-cell grid; a signal before the build gets the same answer)."""
+    """Ctrl-C or SIGTERM while the scene is still being built stops either command line (the
+    grid build at its next slab of nodes), with one line and the exit status of an
+    interrupted render (not a KeyboardInterrupt traceback, nor death by the signal). On a
+    terminal it says when it starts loading: the signal is sent half a second later, during
+    a build of seconds (a 256-cell grid; a signal before the build gets the same answer)."""
     small_scene["render"]["grid_resolution"] = 256
     scene, out = tmp_path / "s.json", tmp_path / "x.exr"
     scene.write_text(json.dumps(small_scene))
@@ -351,9 +351,12 @@ def test_ctrl_c_while_the_scene_loads_writes_nothing_and_says_so(tmp_path, small
 
 
 def test_a_second_signal_ends_a_long_load_of_the_cpp_cli_at_once(tmp_path, small_scene):
-    """The first signal during the scene build is kept (to be said once the build returns);
-    the next ends the process then and there, as nothing has been written yet."""
-    small_scene["render"]["grid_resolution"] = 384  # a build of seconds
+    """A first signal during the parts of the load that do not poll for it (reading and
+    checking the meshes, the BVH, the grid's search trees) is kept, to be said once they
+    return; the next ends the process then and there, as nothing has been written yet."""
+    # 1.3 million triangles: about a second and a half before the grid's first slab
+    small_scene["shapes"][0]["sphere"]["subdivisions"] = 7
+    small_scene["render"]["grid_resolution"] = 16
     scene, out = tmp_path / "s.json", tmp_path / "x.exr"
     scene.write_text(json.dumps(small_scene))
     terminal, child_end = pty.openpty()
@@ -362,9 +365,9 @@ def test_a_second_signal_ends_a_long_load_of_the_cpp_cli_at_once(tmp_path, small
     os.close(child_end)
     try:
         assert b"loading" in _read_pty(terminal, b"loading", timeout=120)
-        time.sleep(0.3)
-        proc.send_signal(signal.SIGTERM)
         time.sleep(0.2)
+        proc.send_signal(signal.SIGTERM)
+        time.sleep(0.1)
         proc.send_signal(signal.SIGTERM)
         proc.wait(timeout=120)
     finally:

@@ -159,6 +159,48 @@ def test_a_stop_ends_paths_that_would_not_end_for_hours(tmp_path, integrator):
     assert (interrupted, spp) == ("True", "0"), r.stdout
 
 
+# Run in a child: the same call twice, whole and then with SIGINT half a second in; prints
+# both times. A call that ignores the signal runs to its end and raises KeyboardInterrupt
+# only then, so the second time tells a stop from a finish.
+_CTRL_C_CHILD = """
+import os, signal, sys, threading, time, sssphere
+signal.signal(signal.SIGINT, signal.default_int_handler)  # even if started ignoring it
+call = eval(sys.argv[1])
+t0 = time.monotonic()
+call()
+whole = time.monotonic() - t0
+threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT)).start()
+t0 = time.monotonic()
+try:
+    call()
+    print("finished", whole, time.monotonic() - t0)
+except KeyboardInterrupt:
+    print("interrupted", whole, time.monotonic() - t0)
+"""
+
+
+@pytest.mark.parametrize("what", ["load_scene", "first_hit_aovs"])
+def test_ctrl_c_stops_a_long_load_and_long_aovs(tmp_path, small_scene, what):
+    """A scene's distance grids (a 384-cell grid on one thread: seconds; 512 cells on a
+    fine mesh: minutes) and first_hit_aovs of many samples ran to their end whatever
+    Ctrl-C said. Both now stop at their next poll and raise KeyboardInterrupt."""
+    small_scene["render"]["grid_resolution"] = 384
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    call = {"load_scene": f"lambda: sssphere.load_scene({str(tmp_path / 's.json')!r}, threads=1)",
+            "first_hit_aovs": "lambda s=sssphere.load_scene(sys.argv[2]): "
+                              "sssphere.first_hit_aovs(s, samples=1 << 17, threads=1)"}[what]
+    if what == "first_hit_aovs":
+        small_scene["render"]["grid_resolution"] = 16
+        (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    r = subprocess.run([sys.executable, "-c", _CTRL_C_CHILD, call, str(tmp_path / "s.json")],
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    outcome, whole, stopped = r.stdout.split()
+    assert outcome == "interrupted", r.stdout
+    assert float(whole) > 2, r.stdout  # long enough for a stop at 0.5 s to tell
+    assert float(stopped) < 0.5 * float(whole), r.stdout
+
+
 def test_record_paths_gives_every_paths_counts(small_scene):
     scene = sssphere.load_scene(small_scene)
     assert sssphere.render_full(scene, spp=2).path_events is None

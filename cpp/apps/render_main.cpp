@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <string>
 
 #include "core/check.h"
@@ -26,8 +27,8 @@ namespace {
 
 // Ctrl-C and SIGTERM (kill, batch schedulers) stop the render; the image so far is
 // written and the exit status says which: 130 or 143.
-// While the scene loads (a build a signal cannot stop), the first signal is kept and the
-// next one ends the process at once.
+// While the scene loads, the first signal stops the distance grids' build (the parts of
+// the load before it run to their end) and the next one ends the process at once.
 volatile std::sig_atomic_t g_signal = 0, g_loading = 0;
 void on_signal(int sig) {
     g_signal = sig;
@@ -205,19 +206,25 @@ int main(int argc, char** argv) {
             std::cerr << "sssphere-render: warning: " << w << "\n";
         const sss::RenderOptions opt = sss::resolve_render_options(
             desc.render, desc.source, overrides, shipped_models());
-        sss::Scene scene(std::move(desc), opt.threads);
+        // The distance grids' build stops at a signal; the rest of the load (reading and
+        // checking the meshes, the BVH) finishes first.
+        std::optional<sss::Scene> built;
+        try {
+            built.emplace(std::move(desc), opt.threads, [] { return g_signal != 0; });
+        } catch (const sss::Cancelled&) {
+        }
         const double load_seconds =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t_load)
                 .count();
         g_loading = 0;
         install();  // again: a second signal during the load put back the defaults
-        // A signal seen once the build (which a signal does not stop) has returned
         if (g_signal) {
             std::fprintf(stderr,
                          "interrupted while loading the scene: wrote nothing to %s\n",
                          out_path.c_str());
             return interrupted();
         }
+        const sss::Scene& scene = *built;
         sss::RenderResult r = sss::render_with_backend(scene, opt, [&](double f) {
             if (!quiet) {
                 int filled = int(f * 40);

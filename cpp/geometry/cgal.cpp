@@ -349,7 +349,7 @@ TriangleMesh make_closed_mesh(const std::vector<Vec3d>& positions,
 }
 
 DistanceGrid DistanceGrid::build(const TriangleMesh& mesh, int resolution, int threads,
-                                 int exact_up_to) {
+                                 int exact_up_to, const StopFn& stop) {
     if (resolution < 2 || resolution > 1024)
         fail("distance grid resolution must be in [2, 1024], got ", resolution);
     Bounds3 b = mesh.bounds();
@@ -396,12 +396,13 @@ DistanceGrid DistanceGrid::build(const TriangleMesh& mesh, int resolution, int t
     float deep = INFINITY;
     if (resolution > std::max(exact_up_to, 2)) {
         coarse = std::make_unique<DistanceGrid>(
-            build(mesh, (resolution + 1) / 2, threads, exact_up_to));
+            build(mesh, (resolution + 1) / 2, threads, exact_up_to, stop));
         deep = kRefineBand * std::sqrt(3.f) * coarse->cell_size();
     }
     // One slab of nodes (one k) per chunk
     parallel_chunks(threads, grid.n_[2], 1, [&](int64_t k0, int64_t k1) {
         for (int k = int(k0); k < int(k1); ++k) {
+            throw_if_stopped(stop);
             // The closest point of the previous node is the hint for the next: one cell
             // away, it bounds the search tightly from the start (the result is exact
             // either way; 2x faster than the tree's own nearest-point hint).

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/cancel.h"
 #include "core/vec.h"
 #include "geometry/mesh.h"
 
@@ -30,8 +31,11 @@ public:
     // times it.
     static constexpr int kExactResolution = 64;
     static constexpr float kRefineBand = 1.f;
+    // `stop` is polled before each slab of nodes (one z), a few milliseconds of work;
+    // once it returns true the build throws Cancelled (core/cancel.h).
     static DistanceGrid build(const TriangleMesh& mesh, int resolution, int threads = 0,
-                              int exact_up_to = kExactResolution);
+                              int exact_up_to = kExactResolution,
+                              const StopFn& stop = {});
 
     // Lower bound on the distance from p to the mesh surface; 0 outside the grid.
     float query(const Vec3& p) const;

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
 
 #include "core/rng.h"
@@ -114,6 +115,34 @@ TEST(DistanceGrid, RefinedGridIsTheExactOneNearTheSurface) {
             }
     EXPECT_GT(near, 1000);
     EXPECT_GT(deeper, 100);  // the deep nodes did keep the coarse bound
+}
+
+// The build polls its StopFn once per slab of nodes, at every level of refinement and
+// from both threads: a stop that turns true partway throws Cancelled without finishing,
+// and one that never does leaves the grid as a build without it, node for node.
+TEST(DistanceGrid, BuildStopsWhenAskedAndOnlyThen) {
+    const TriangleMesh m = test::lumpy_mesh();
+    const int res = 48;
+    std::atomic<int> polls{0};
+    const DistanceGrid plain = DistanceGrid::build(m, res, 2, 12);
+    const DistanceGrid watched =
+        DistanceGrid::build(m, res, 2, 12, [&] { return ++polls < 0; });
+    EXPECT_GE(polls.load(), plain.nz());  // every slab of the fine grid, and the coarse
+    for (int k = 0; k < plain.nz(); ++k)
+        for (int j = 0; j < plain.ny(); ++j)
+            for (int i = 0; i < plain.nx(); ++i) {
+                ASSERT_EQ(watched.node_distance(i, j, k), plain.node_distance(i, j, k));
+                ASSERT_EQ(watched.node_inside(i, j, k), plain.node_inside(i, j, k));
+            }
+    const int all = polls.load();
+    for (const int after : {0, 3, all / 2}) {
+        std::atomic<int> seen{0};
+        EXPECT_THROW(DistanceGrid::build(m, res, 2, 12, [&] { return ++seen > after; }),
+                     Cancelled)
+            << "stop after " << after << " polls";
+        // The threads stop at their next poll: at most one slab more each.
+        EXPECT_LE(seen.load(), after + 1 + 2) << "stop after " << after << " polls";
+    }
 }
 
 // query(p, &cell, &bound) is query(p), and bound holds query(q) for every q with

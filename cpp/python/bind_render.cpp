@@ -255,9 +255,12 @@ void bind_render(py::module_& m) {
                 fail("aov samples must be an integer from 1 to ", kMaxSamples, ", got ",
                      std::string(py::repr(samples)));
             FirstHitAovs a;
-            {
+            SignalStop ctrl_c;
+            try {
                 ReleasedGil release;
-                a = first_hit_aovs(scene, r.seed, n, r.threads);
+                a = first_hit_aovs(scene, r.seed, n, r.threads, ctrl_c.stop());
+            } catch (const Cancelled&) {
+                ctrl_c.rethrow();
             }
             const py::ssize_t H = a.height, W = a.width;
             py::dict d;

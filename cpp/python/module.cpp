@@ -95,8 +95,14 @@ PYBIND11_MODULE(_core, m) {
                          const std::string& source, int threads,
                          std::shared_ptr<MeshCache> meshes) {
                  SceneDesc desc = parse_scene(text, base_dir, source, meshes.get());
-                 ReleasedGil release;
-                 return std::make_shared<Scene>(std::move(desc), threads);
+                 SignalStop ctrl_c;  // a long grid build stops on Ctrl-C
+                 try {
+                     ReleasedGil release;
+                     return std::make_shared<Scene>(std::move(desc), threads,
+                                                    ctrl_c.stop());
+                 } catch (const Cancelled&) {
+                     ctrl_c.rethrow();
+                 }
              }),
              py::arg("json_text"), py::arg("base_dir"), py::arg("source"),
              py::arg("threads") = 0, py::arg("meshes") = nullptr)
@@ -107,9 +113,12 @@ PYBIND11_MODULE(_core, m) {
                std::shared_ptr<MeshCache> meshes) {
                 SceneDesc desc = parse_scene(text, base_dir, source, meshes.get());
                 std::optional<Scene> next;
-                {
+                SignalStop ctrl_c;
+                try {
                     ReleasedGil release;
-                    next.emplace(std::move(desc), threads, s);
+                    next.emplace(std::move(desc), threads, s, ctrl_c.stop());
+                } catch (const Cancelled&) {
+                    ctrl_c.rethrow();  // the scene is unchanged
                 }
                 // Replaced with the GIL held: Python never reads half of it (renders,
                 // which release the GIL, are kept apart by Scene._rendered in scene.py).

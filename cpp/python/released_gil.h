@@ -6,7 +6,10 @@
 
 #include <atomic>
 #include <chrono>
+#include <optional>
 #include <thread>
+
+#include "core/cancel.h"
 
 namespace sss {
 
@@ -63,6 +66,44 @@ struct __attribute__((visibility("hidden"))) ReleasedGil {
             std::this_thread::sleep_for(std::chrono::hours(1));
     }
     pybind11::gil_scoped_release release;
+};
+
+// Ctrl-C for C++ work that runs with the GIL released and polls a StopFn (core/cancel.h):
+// stop() turns true once a signal's Python handler raised (KeyboardInterrupt, or what
+// the CLI's SIGTERM handler raises). Python runs its handlers on the main thread only,
+// so only the thread that made this one checks, at most every 20 ms; the work's other
+// threads see what it saw. Once the work has thrown Cancelled, rethrow() (GIL held)
+// raises the handler's exception.
+class __attribute__((visibility("hidden"))) SignalStop {
+public:
+    StopFn stop() {
+        return [this] { return poll(); };
+    }
+    [[noreturn]] void rethrow() {
+        if (error_) throw *error_;
+        throw pybind11::error_already_set();  // not reached: Cancelled comes from poll()
+    }
+
+private:
+    bool poll() {
+        if (stopped_) return true;
+        if (std::this_thread::get_id() != owner_ || gil_would_end_this_thread())
+            return false;
+        const auto now = std::chrono::steady_clock::now();
+        if (now - last_ < std::chrono::milliseconds(20)) return false;
+        last_ = now;
+        pybind11::gil_scoped_acquire gil;
+        if (PyErr_CheckSignals() != 0) {
+            error_.emplace();  // takes the handler's exception
+            stopped_ = true;
+        }
+        return stopped_;
+    }
+
+    const std::thread::id owner_ = std::this_thread::get_id();
+    std::chrono::steady_clock::time_point last_{};
+    std::atomic<bool> stopped_{false};
+    std::optional<pybind11::error_already_set> error_;
 };
 
 }  // namespace sss

@@ -21,7 +21,8 @@ Vec3 medium_aov_albedo(const Medium& medium) {
     return a;
 }
 
-FirstHitAovs first_hit_aovs(const Scene& scene, uint64_t seed, int samples, int threads) {
+FirstHitAovs first_hit_aovs(const Scene& scene, uint64_t seed, int samples, int threads,
+                            const StopFn& stop) {
     SSS_CHECK(samples >= 1);
     const Camera& cam = scene.desc().camera;
     const PinholeCamera camera(cam);
@@ -47,6 +48,7 @@ FirstHitAovs first_hit_aovs(const Scene& scene, uint64_t seed, int samples, int 
             Vec3 albedo(0.f), normal(0.f);
             float depth = 0.f;
             for (int s = 0; s < samples; ++s) {
+                if (s % 4096 == 0) throw_if_stopped(stop);
                 // The render's camera ray of sample s (integrators/integrator.cpp).
                 Rng rng(seed, uint64_t(p), uint64_t(s));
                 const float jx = rng.uniform(), jy = rng.uniform();

@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/cancel.h"
 #include "render/scene.h"
 
 namespace sss {
@@ -36,8 +37,10 @@ struct FirstHitAovs {
 
 // The AOVs of the scene's camera from `samples` >= 1 rays per pixel (render sample
 // indices 0 .. samples-1 under `seed`), on `threads` threads (0: every core). The result
-// does not depend on the thread count.
-FirstHitAovs first_hit_aovs(const Scene& scene, uint64_t seed, int samples, int threads);
+// does not depend on the thread count. `stop` is polled every few thousand rays; once it
+// returns true the call throws Cancelled (core/cancel.h).
+FirstHitAovs first_hit_aovs(const Scene& scene, uint64_t seed, int samples, int threads,
+                            const StopFn& stop = {});
 
 // The albedo the AOV gives a medium's boundary, per channel.
 Vec3 medium_aov_albedo(const Medium& medium);

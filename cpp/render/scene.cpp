@@ -693,13 +693,13 @@ SceneDesc load_scene_file(const std::string& path,
     return parse_scene(text, base.empty() ? "." : base, path);
 }
 
-Scene::Scene(SceneDesc desc, int threads) : desc_(std::move(desc)) {
-    build(threads, nullptr);
+Scene::Scene(SceneDesc desc, int threads, const StopFn& stop) : desc_(std::move(desc)) {
+    build(threads, nullptr, stop);
 }
 
-Scene::Scene(SceneDesc desc, int threads, const Scene& previous)
+Scene::Scene(SceneDesc desc, int threads, const Scene& previous, const StopFn& stop)
     : desc_(std::move(desc)) {
-    build(threads, &previous);
+    build(threads, &previous, stop);
 }
 
 namespace {
@@ -710,7 +710,7 @@ bool same_mesh(const TriangleMesh& a, const TriangleMesh& b) {
 
 }  // namespace
 
-void Scene::build(int threads, const Scene* previous) {
+void Scene::build(int threads, const Scene* previous, const StopFn& stop) {
     std::vector<TriangleMesh> quads;
     for (size_t i = 0; i < desc_.lights.size(); ++i) {
         const Light& l = desc_.lights[i];
@@ -764,8 +764,8 @@ void Scene::build(int threads, const Scene* previous) {
             grids_.push_back(previous->grids_[i]);
             continue;
         }
-        grids_.push_back(
-            std::make_shared<DistanceGrid>(DistanceGrid::build(s.mesh, res, threads)));
+        grids_.push_back(std::make_shared<DistanceGrid>(DistanceGrid::build(
+            s.mesh, res, threads, DistanceGrid::kExactResolution, stop)));
         if (previous) {
             std::string why = "distance grid of shape '" + s.name + "' (";
             if (!had)

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "core/cancel.h"
 #include "core/vec.h"
 #include "geometry/distance_grid.h"
 #include "geometry/mesh.h"
@@ -159,12 +160,14 @@ Surface parse_surface(const std::string& json_text,
 // The built scene. Immutable after construction and safe to share between threads.
 class Scene {
 public:
-    explicit Scene(SceneDesc desc, int threads = 0);
+    // `stop` is polled while the distance grids are built (the build's long part): once
+    // it returns true the constructor throws Cancelled (core/cancel.h).
+    explicit Scene(SceneDesc desc, int threads = 0, const StopFn& stop = {});
     // The scene `desc` (an edit of `previous`'s), built with what of `previous` it can
     // keep: the BVH when no shape's mesh and no area light's quad changed; a shape's
     // distance grid when its mesh and its grid resolution did not. rebuilt() says what
     // was built anew. Both scenes may be used afterwards (the parts are shared).
-    Scene(SceneDesc desc, int threads, const Scene& previous);
+    Scene(SceneDesc desc, int threads, const Scene& previous, const StopFn& stop = {});
 
     const SceneDesc& desc() const { return desc_; }
     const RayTracer& tracer() const { return *tracer_; }
@@ -205,7 +208,7 @@ public:
     const std::vector<std::string>& rebuilt() const { return rebuilt_; }
 
 private:
-    void build(int threads, const Scene* previous);
+    void build(int threads, const Scene* previous, const StopFn& stop);
 
     SceneDesc desc_;
     std::shared_ptr<const RayTracer> tracer_;
