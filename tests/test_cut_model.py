@@ -118,6 +118,49 @@ def tiny_cut_models(tmp_path_factory):
     return out, report
 
 
+def test_training_interrupted_leaves_the_output_as_it_was(tmp_path, monkeypatch):
+    """train_cut wrote each model as it finished: Ctrl-C while CutPathGen trained left a new
+    CutLengthGen beside an old CutPathGen. Now both go in together, or neither."""
+    from sssphere.learn import train as train_module
+
+    for name in ("cutlengthgen.json", "cutpathgen.json"):
+        (tmp_path / name).write_text("old")
+    real = train_module.train_cvae
+
+    def ctrl_c_in_the_second(spec, *args, **kwargs):
+        if spec.name == "CutPathGen":
+            raise KeyboardInterrupt
+        return real(spec, *args, **kwargs)
+
+    monkeypatch.setattr(train_module, "train_cvae", ctrl_c_in_the_second)
+    with pytest.raises(KeyboardInterrupt):
+        train_cut(generate_cut_data(5_000, seed=4), tmp_path, epochs=1, progress=False)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cutlengthgen.json", "cutpathgen.json"]
+    assert all((tmp_path / n).read_text() == "old" for n in ("cutlengthgen.json",
+                                                               "cutpathgen.json"))
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["train", "-o", "OUT", "--walks", "0"], "argument --walks: must be an integer >= 1, got '0'"),
+    (["train", "-o", "OUT", "--epochs", "x"], "argument --epochs: must be an integer >= 1, got 'x'"),
+    (["eval", "MISSING"], "MISSING/cutlengthgen.json: model file does not exist"),
+    (["eval", str(SHIPPED), "--samples", "-1"], "argument --samples: must be an integer >= 1"),
+])
+def test_cut_command_line_names_bad_input_without_a_traceback(tmp_path, capsys, argv, message):
+    from sssphere.learn.cut import main
+
+    argv = [a.replace("OUT", str(tmp_path / "out")).replace("MISSING", str(tmp_path / "none"))
+            for a in argv]
+    message = message.replace("MISSING", str(tmp_path / "none"))
+    try:
+        status = main(argv)
+    except SystemExit as e:  # argparse's usage errors
+        status = e.code
+    err = capsys.readouterr().err
+    assert status == 2 and message in err and "Traceback" not in err, err
+    assert not (tmp_path / "out").exists()
+
+
 def test_training_writes_models_that_agree_across_torch_onnxruntime_numpy(tiny_cut_models):
     out, report = tiny_cut_models
     assert set(report) >= {"CutLengthGen", "CutPathGen", "files"}

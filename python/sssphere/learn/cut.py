@@ -34,6 +34,7 @@ CutEventGen for next-event estimation.
 from __future__ import annotations
 
 import json
+import sys
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -139,11 +140,12 @@ def generate_cut_data(n: int, seed: int = 0, threads: Optional[int] = None) -> C
 def train_cut(data: CutData, out_dir, epochs: int = 20, seed: int = 0,
               max_minutes: float | None = None, progress: bool = True, config=None) -> dict:
     """Train CutLengthGen and CutPathGen on data (walks with N ≥ 2) and write
-    ``cutlengthgen.json/.onnx`` and ``cutpathgen.json/.onnx`` into out_dir.
+    ``cutlengthgen.json/.onnx`` and ``cutpathgen.json/.onnx`` into out_dir, together once
+    both are trained (an interrupted or failed run leaves out_dir as it was).
     Returns per model its training report, and ``"files"``."""
     import torch
 
-    from sssphere.learn.export import write_model
+    from sssphere.learn.export import staged_output, write_model
     from sssphere.learn.train import TrainConfig, train_cvae
 
     cfg = TrainConfig(**asdict(config)) if config is not None else TrainConfig()
@@ -153,36 +155,37 @@ def train_cut(data: CutData, out_dir, epochs: int = 20, seed: int = 0,
     if max_minutes is not None and not max_minutes > 0:
         raise ValueError(f"max_minutes must be > 0, got {max_minutes}")
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    names = [f"{spec.file_stem}.{ext}" for spec in CUT_SPECS for ext in ("json", "onnx")]
     shares = {"CutLengthGen": 0.3, "CutPathGen": 0.7}
     threads_before = torch.get_num_threads()
     det_before = torch.are_deterministic_algorithms_enabled()
     torch.set_num_threads(max(1, cfg.threads))
     torch.use_deterministic_algorithms(True)
-    results, files = {}, []
+    results = {}
     t0 = time.monotonic()
     try:
-        for spec in CUT_SPECS:
-            budget = 60.0 * max_minutes * shares[spec.name] if max_minutes else None
-            model, enc, report = train_cvae(spec, data, cfg, seed, budget, progress)
-            training = {
-                **{k: [float(lo), float(hi)] for k, (lo, hi) in CONDITION_RANGES.items()},
-                "data_meta": data.meta, "n_walks": len(data), "n_samples": report["n_train"],
-                "n_validation": report["n_val"], "epochs": cfg.epochs,
-                "epochs_completed": report["epochs_completed"], "seed": seed,
-                **{k: v for k, v in asdict(cfg).items() if k != "epochs"},
-                "rows": "N >= 2",
-                "noise": "targets N + U[0,1)" if spec is CUT_LENGTHGEN else "none",
-                "torch_version": torch.__version__,
-            }
-            metrics = {k: report[k] for k in ("val_nll", "val_kl", "val_loss",
-                                              "kl_per_latent_dim", "latent_dims_active")}
-            files += write_model(out, spec, model, enc, training, metrics)
-            results[spec.name] = report
+        with staged_output(out, names) as stage:
+            for spec in CUT_SPECS:
+                budget = 60.0 * max_minutes * shares[spec.name] if max_minutes else None
+                model, enc, report = train_cvae(spec, data, cfg, seed, budget, progress)
+                training = {
+                    **{k: [float(lo), float(hi)] for k, (lo, hi) in CONDITION_RANGES.items()},
+                    "data_meta": data.meta, "n_walks": len(data), "n_samples": report["n_train"],
+                    "n_validation": report["n_val"], "epochs": cfg.epochs,
+                    "epochs_completed": report["epochs_completed"], "seed": seed,
+                    **{k: v for k, v in asdict(cfg).items() if k != "epochs"},
+                    "rows": "N >= 2",
+                    "noise": "targets N + U[0,1)" if spec is CUT_LENGTHGEN else "none",
+                    "torch_version": torch.__version__,
+                }
+                metrics = {k: report[k] for k in ("val_nll", "val_kl", "val_loss",
+                                                  "kl_per_latent_dim", "latent_dims_active")}
+                write_model(stage, spec, model, enc, training, metrics)
+                results[spec.name] = report
     finally:
         torch.set_num_threads(threads_before)
         torch.use_deterministic_algorithms(det_before)
-    results["files"] = [str(f) for f in files]
+    results["files"] = [str(out / n) for n in names]
     results["seconds"] = time.monotonic() - t0
     return results
 
@@ -375,23 +378,54 @@ def summary(cells: list[dict]) -> dict:
     return out
 
 
-def main(argv=None) -> int:
+def _count(text: str) -> int:
+    """An option's integer >= 1."""
     import argparse
 
-    ap = argparse.ArgumentParser(prog="python -m sssphere.learn.cut",
+    try:
+        v = int(text)
+    except ValueError:
+        v = 0
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
+    return v
+
+
+def main(argv=None) -> int:
+    """The command line; bad input is one line naming it (exit 2), not a traceback."""
+    import argparse
+
+    prog = "python -m sssphere.learn.cut"
+    ap = argparse.ArgumentParser(prog=prog,
                                  description="Train and check the cut sphere models.")
     sub = ap.add_subparsers(dest="command", required=True)
     t = sub.add_parser("train", help="generate walks and train CutLengthGen and CutPathGen")
     t.add_argument("-o", "--output", required=True, help="directory for the model files")
-    t.add_argument("--walks", type=int, default=4_000_000)
-    t.add_argument("--epochs", type=int, default=40)
+    t.add_argument("--walks", type=_count, default=4_000_000, help="walks to train on (>= 1)")
+    t.add_argument("--epochs", type=_count, default=40, help="passes over the data (>= 1)")
     t.add_argument("--seed", type=int, default=0)
     e = sub.add_parser("eval", help="KS of the models against cut_sphere_walks, per cell")
     e.add_argument("models", help="directory holding cutlengthgen.json and cutpathgen.json")
-    e.add_argument("--samples", type=int, default=10_000)
+    e.add_argument("--samples", type=_count, default=10_000, help="steps per cell (>= 1)")
     e.add_argument("--json", help="write the cells and summary here")
     args = ap.parse_args(argv)
+    try:
+        return _run(args)
+    except (ValueError, OSError) as e:  # the messages name the file or the value
+        print(f"{prog}: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt as e:  # train_cut moves its files into place only when all are done
+        from sssphere.learn.export import InterruptedAfterWrite
+
+        done = isinstance(e, InterruptedAfterWrite)
+        print(f"{prog}: interrupted: " + ("the models were written" if done else
+                                          "wrote nothing"), file=sys.stderr)
+        return 130
+
+
+def _run(args) -> int:
     if args.command == "train":
+        print(f"generating {args.walks:,} cut sphere walks ...", file=sys.stderr, flush=True)
         data = generate_cut_data(args.walks, seed=args.seed)
         r = train_cut(data, args.output, epochs=args.epochs, seed=args.seed)
         for name in ("CutLengthGen", "CutPathGen"):
