@@ -39,7 +39,15 @@ from bench.machine import machine
 
 REPO = Path(__file__).resolve().parent.parent
 SCALES = (0.25, 0.5, 1.0, 2.0)
-TIME_RE = re.compile(r"wrote .*: ([0-9.]+) s, ")
+# The summary line's render time: "rendered in 3.65s" since 2026-11-28, "wrote x.exr: 3.65 s,"
+# before (a build of an older commit prints that).
+TIME_RE = re.compile(r"rendered in ([0-9.]+) ?s\b|wrote .*: ([0-9.]+) s, ")
+
+
+def render_seconds(output: str) -> float | None:
+    """The render time in a `sssphere-render` summary line (either form), or None."""
+    found = TIME_RE.search(output)
+    return float(found.group(1) or found.group(2)) if found else None
 
 
 def sweep_scenes(directory: Path, size: int, boundary: str | None = None) -> dict[str, Path]:
@@ -78,10 +86,10 @@ def render(binary: str, scene: Path, output: Path, integrator: str, args) -> tup
     cpu = usage.ru_utime + usage.ru_stime
     if proc.returncode != 0:
         raise SystemExit(f"ab: {' '.join(cmd)} failed ({proc.returncode}):\n{output_text}")
-    found = TIME_RE.search(output_text)
-    if not found:
+    seconds = render_seconds(output_text)
+    if seconds is None:
         raise SystemExit(f"ab: no render time in the output of {' '.join(cmd)}:\n{output_text}")
-    return float(found.group(1)), wall, cpu
+    return seconds, wall, cpu
 
 
 def geomean(values: list[float]) -> float:

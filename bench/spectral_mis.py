@@ -30,7 +30,6 @@ import argparse
 import datetime
 import json
 import os
-import re
 import subprocess
 import sys
 import tempfile
@@ -42,11 +41,11 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 
 import sssphere  # noqa: E402
+from bench.ab import render_seconds  # noqa: E402
 from bench.machine import machine  # noqa: E402
 
 BUNNY = "/usr/share/glmark2/models/bunny.obj"
 MITSUBA_SPLITS = 4
-TIME_RE = re.compile(r"wrote .*: ([0-9.]+) s, ")
 
 
 def scene_dict(res: int, scale: float, preset: str) -> dict:
@@ -85,13 +84,13 @@ def render_before(binary: str, scene: dict, spp: int, seed: int, threads: int, m
         cmd = [binary, str(path), "-o", str(out), "--integrator", "pt", "--spp", str(spp),
                "--seed", str(seed), "--threads", str(threads), "--aovs", "--quiet"]
         p = subprocess.run(cmd, capture_output=True, text=True, check=True)
-        m = TIME_RE.search(p.stdout + p.stderr)
-        if not m:
+        seconds = render_seconds(p.stdout + p.stderr)
+        if seconds is None:
             raise RuntimeError(f"no render time in the output of {cmd}:\n{p.stdout}{p.stderr}")
         image = sssphere.read_image(out)
         var = sssphere.read_image(Path(tmp) / "before_variance.exr")
     assert image.shape[:2] == mask_shape
-    return image, var, float(m.group(1))
+    return image, var, seconds
 
 
 def main(argv=None) -> int:

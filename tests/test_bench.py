@@ -25,3 +25,22 @@ def test_bench_holds_no_machine_paths():
         text = path.read_text()
         for prefix in ("/work/", "/root/", "/home/", "/tmp/"):
             assert prefix not in text, f"{path.name} names a path of one machine ({prefix}...)"
+
+
+def test_ab_reads_the_render_time_the_command_line_prints(tmp_path, small_scene):
+    """bench/ab.py times two builds by the render time their summary lines print; the line
+    changed (2026-11-28) and ab stopped with "no render time". It reads today's line, from
+    this build, and the older one an older build prints (bench/spectral_mis.py reads it too)."""
+    import json
+
+    from bench import ab
+    from test_cli import _cpp_cli
+
+    small_scene["render"]["spp"] = 1
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    r = subprocess.run([_cpp_cli(), str(tmp_path / "s.json"), "-o", str(tmp_path / "x.exr"),
+                        "--quiet"], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    seconds = ab.render_seconds(r.stdout + r.stderr)
+    assert seconds is not None and seconds >= 0, r.stdout + r.stderr
+    assert ab.render_seconds("wrote x.exr: 0.06 s, 9.7 scattering events per path") == 0.06
