@@ -677,3 +677,32 @@ def test_a_broken_pipe_other_than_stdout_is_an_error(monkeypatch, capsys):
     monkeypatch.setattr(cli, "_cmd_presets", broken)
     assert cli.main(["presets"]) == 1
     assert "sssphere: error: [Errno 32] Broken pipe" in capsys.readouterr().err
+
+
+def test_a_turntable_holds_one_frame_at_a_time(tmp_path, small_scene, monkeypatch, cli_in_process):
+    """`render --turntable` kept every frame's result (image, variance, AOVs) until the last
+    was done, though each is written as it finishes: memory grew by a frame each time (tens of
+    GB for 360 frames at 1080p). Now a frame is let go once written."""
+    import gc
+    import weakref
+
+    from sssphere import rendering
+
+    real, frames, most_alive = rendering.with_aovs, [], []
+
+    def counted(*args, **kwargs):
+        gc.collect()
+        most_alive.append(sum(ref() is not None for ref in frames))
+        result = real(*args, **kwargs)
+        frames.append(weakref.ref(result))
+        return result
+
+    monkeypatch.setattr(rendering, "with_aovs", counted)
+    small_scene["render"]["spp"] = 1
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    status = cli_in_process(["render", str(tmp_path / "s.json"), "-o", str(tmp_path / "f%02d.exr"),
+                             "--turntable", "5", "--aovs", "--quiet"])
+    assert status == 0
+    assert len(frames) == 5 and sorted(p.name for p in tmp_path.glob("f*.exr")) == [
+        f"f{k:02d}.exr" for k in range(5)]
+    assert max(most_alive) <= 1, most_alive  # the frame before, until this one replaces it

@@ -255,6 +255,11 @@ def test_a_bad_assignment_raises_the_files_error_and_changes_nothing(small_scene
         scene.shapes[3].medium.g = 0.1
     with pytest.raises(SceneError, match=r"shapes\[0\]\.medium\.nonsense: unknown"):
         scene.shapes[0].medium.nonsense = 1
+    # A misspelt block was a new Python attribute that changed nothing
+    with pytest.raises(SceneError, match=r"<dict>: lightz: no such field in the scene \(allowed: "
+                                         r"camera, shapes, lights, render\)"):
+        scene.lightz = []
+    assert "lightz" not in scene.to_dict() and not hasattr(scene, "lightz")
     with pytest.raises(AttributeError, match="shapes\\[0\\].medium.nonsense"):
         scene.shapes[0].medium.nonsense  # noqa: B018 (reading it raises)
     with pytest.raises(SceneError, match="camera.origin.*inside shape 'ball'"):

@@ -174,7 +174,7 @@ def _render_turntable(args: argparse.Namespace, scene, text: dict, load_s: float
         try:
             results = rendering._render_frames(
                 scene, rendering.orbit_cameras(scene, args.turntable), signals.progress(bar),
-                save, args.aovs, args.denoise, text, args.ray, {})
+                save, args.aovs, args.denoise, text, args.ray, {}, keep=False)
         finally:
             bar.close()
     interrupted = bool(results) and results[-1].interrupted or signals.count > 0

@@ -346,8 +346,10 @@ def render_frames(scene: Union[Scene, str, os.PathLike, dict], cameras: list[dic
 
 def _render_frames(scene, cameras, progress, on_frame, aovs: bool, denoise: bool,
                    text: Optional[dict], ray_address: Optional[str],
-                   options: dict) -> list[RenderResult]:
-    """render_frames, with the command line's option text (render/options.h) besides."""
+                   options: dict, keep: bool = True) -> list[RenderResult]:
+    """render_frames, with the command line's option text (render/options.h) besides.
+    keep=False returns the last frame's result only (the others were on_frame's to save):
+    a long turntable's memory stays that of one frame."""
     unknown = set(options) - set(_SPECS)
     if unknown:
         raise TypeError(f"render_frames: unknown options {sorted(unknown)} (allowed: "
@@ -373,7 +375,10 @@ def _render_frames(scene, cameras, progress, on_frame, aovs: bool, denoise: bool
             result = _result(_render(scene, frame_progress, options, text, ray_address))
             if not (result.interrupted and result.spp == 0):  # nothing to add AOVs to
                 result = with_aovs(scene, result, aovs, denoise)
-            results.append(result)
+            if keep or not results:
+                results.append(result)
+            else:
+                results[-1] = result
             if on_frame is not None:
                 on_frame(k, result)
             if result.interrupted:

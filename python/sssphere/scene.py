@@ -92,6 +92,15 @@ class Scene(_core.Scene):
         mesh files, which must be there too."""
         return (Scene, (json.dumps(self._doc), self._base_dir, self._source, self._threads))
 
+    def __setattr__(self, name: str, value: Any) -> None:
+        # A misspelt block (scene.lightz = [...]) would be a new attribute that changes
+        # nothing: refused as the scene file's unknown keys are. Our own start with "_".
+        if name.startswith("_") or hasattr(type(self), name):
+            super().__setattr__(name, value)
+            return
+        raise SceneError(f"{self._source}: {name}: no such field in the scene (allowed: "
+                         "camera, shapes, lights, render)")
+
     def __repr__(self) -> str:
         # A traceback shows the frame of an __init__ whose C++ half raised: not built.
         return super().__repr__() if "_doc" in self.__dict__ else "<sssphere.Scene (not built)>"
