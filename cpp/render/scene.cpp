@@ -78,8 +78,11 @@ Boundary parse_boundary(const json& j, const Field& f) {
     b.type = kind->id;
     // Between equal indices there is no interface, whatever its roughness: light passes
     // straight, with no reflection. That is the index-matched boundary (the default); the
-    // rough BSDF's half vector wi + wo vanishes there (NaN pixels).
-    if (std::string(b.kind().name) == "dielectric" && b.x == 1.f) return Boundary();
+    // rough BSDF's half vector wi + wo vanishes there (NaN pixels). So is an index within
+    // kIorIndexMatched of 1 (boundaries/dielectric.h says why).
+    if (std::string(b.kind().name) == "dielectric" &&
+        std::abs(b.x - 1.f) <= kIorIndexMatched)
+        return Boundary();
     return b;
 }
 
