@@ -605,6 +605,21 @@ def test_set_of_the_image_size_with_width_is_refused(tmp_path, small_scene, cli,
     assert not (tmp_path / "x.exr").exists()
 
 
+@pytest.mark.parametrize("cli", ["python", "cpp"])
+def test_set_refuses_a_key_given_twice_as_the_scene_file_does(tmp_path, small_scene, cli):
+    """A --set value with a key twice rendered with the last one (an outside sweep); in a scene
+    file it is refused. Both are refused now, naming the key."""
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    args = [tmp_path / "s.json", "-o", tmp_path / "x.exr", "--spp", 1, "--quiet", "--set",
+            'shapes[0].medium={"sigma_t": 1, "albedo": 1, "sigma_t": 2}']
+    r = (run_cli("render", *args) if cli == "python"
+         else subprocess.run([_cpp_cli(), *map(str, args)], capture_output=True, text=True))
+    assert r.returncode != 0 and "Traceback" not in r.stderr, r.stderr
+    assert ("--set shapes[0].medium: sigma_t: key 'sigma_t' appears twice in one object "
+            "(allowed: once)") in r.stderr, r.stderr
+    assert not (tmp_path / "x.exr").exists()
+
+
 def test_info_json_is_json_for_a_medium_without_extinction(tmp_path, small_scene):
     """A medium of sigma_t 0 (allowed) has an infinite mean free path: `info --json` wrote it
     as `Infinity`, which is not JSON. It is null now, and the text says inf."""

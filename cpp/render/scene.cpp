@@ -592,8 +592,9 @@ std::string set_scene_field(json& root, const std::string& assignment) {
         fail("--set ", assignment,
              ": no PATH before '='; expected PATH=VALUE, e.g. "
              "shapes[0].medium.sigma_t=1000");
-    json value = json::parse(text, nullptr, false);
-    if (value.is_discarded()) value = text;
+    // JSON (checked as a scene file is: a key given twice is refused), else a string
+    const json value =
+        json::accept(text) ? parse_json(text, "--set " + path) : json(text);
     // Tokens: names, and [index] after a name.
     std::vector<std::variant<std::string, size_t>> tokens;
     size_t i = 0;
