@@ -211,7 +211,8 @@ def test_open_meshes_make_surfaces_but_not_media(tmp_path, small_scene):
 
 def test_bad_environment_maps_are_refused_with_file_and_field_named(tmp_path, small_scene):
     """An environment light takes exactly one of radiance and map; the map must exist, be an
-    EXR or HDR file twice as wide as high, with finite radiance >= 0."""
+    EXR or HDR file twice as wide as high, with radiance from 0 to 1e30, times scale too (a
+    map of 3e38, or of 1e10 with scale 1e30, gave Inf pixels: an outside sweep)."""
     def env_error(**light):
         scene = json.loads(json.dumps(small_scene))
         scene["lights"] = [dict(type="environment", **light)]
@@ -223,6 +224,12 @@ def test_bad_environment_maps_are_refused_with_file_and_field_named(tmp_path, sm
     bad[1, 2, 1] = -1
     sssphere.write_image(tmp_path / "negative.exr", bad)
     (tmp_path / "broken.exr").write_bytes(b"not an image")
+    huge = np.full((4, 8, 3), 0.5, np.float32)
+    huge[3, 5, 2] = 3e38
+    sssphere.write_image(tmp_path / "huge.exr", huge)
+    bright = np.full((4, 8, 3), 0.5, np.float32)
+    bright[2, 1, 0] = 1e10
+    sssphere.write_image(tmp_path / "bright.exr", bright)
     cases = [
         (dict(radiance=1, map="ok.exr"), ["lights[0]", "exactly one of 'radiance'", "'map'"]),
         (dict(), ["lights[0]", "exactly one of 'radiance'"]),
@@ -230,7 +237,12 @@ def test_bad_environment_maps_are_refused_with_file_and_field_named(tmp_path, sm
         (dict(map="missing.exr"), ["lights[0].map", "missing.exr", "does not exist"]),
         (dict(map="ok.png"), ["lights[0].map", "'.png'", "allowed: .exr, linear radiance"]),
         (dict(map="square.exr"), ["lights[0].map", "square.exr", "8 x 8", "twice as wide"]),
-        (dict(map="negative.exr"), ["lights[0].map", "pixel (2, 1) channel 1", "-1", ">= 0"]),
+        (dict(map="negative.exr"), ["lights[0].map", "pixel (2, 1) channel 1", "-1",
+                                    "from 0 to 1e30"]),
+        (dict(map="huge.exr"), ["lights[0].map", "pixel (5, 3) channel 2", "3e+38",
+                                "from 0 to 1e30"]),
+        (dict(map="bright.exr", scale=1e30), ["lights[0].scale", "brightest pixel, 1e+10 at (1, 2)",
+                                              "bright.exr", "1e+40", "at most 1e30"]),
         (dict(map="broken.exr"), ["lights[0].map", "broken.exr"]),
         (dict(map="ok.exr", scale=-1), ["lights[0].scale", "-1", "[0, 1e30]"]),
         (dict(map="ok.exr", rotate_deg=[0, 1]), ["lights[0].rotate_deg", "3 numbers"]),

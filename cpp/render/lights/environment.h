@@ -256,21 +256,33 @@ inline LightType environment_light_type() {
         if (int64_t(img.width) * img.height > (int64_t(1) << 26))
             fm.error("'", path.string(), "' has ", int64_t(img.width) * img.height,
                      " pixels (allowed: at most 67,108,864, e.g. 8192 x 4096)");
+        // A light's radiance is at most 1e30 (light.h), the map's pixels times scale too:
+        // past it the sampling tables and the image overflow float (Inf pixels).
+        constexpr double kMaxRadiance = 1e30;
         std::vector<float> rgb(size_t(3) * img.width * img.height);
+        float brightest = 0.f;
+        size_t brightest_px = 0;
         for (size_t px = 0; px < size_t(img.width) * img.height; ++px)
             for (int c = 0; c < 3; ++c) {
                 const float v =
                     img.pixels[px * img.channels + size_t(std::min(c, img.channels - 1))];
-                if (!(v >= 0.f) || !std::isfinite(v))
+                if (!(v >= 0.f) || !(v <= kMaxRadiance))
                     fm.error("'", path.string(), "': pixel (", px % img.width, ", ",
                              px / img.width, ") channel ", c, " is ", v,
-                             " (allowed: finite radiance >= 0)");
+                             " (allowed: finite radiance from 0 to 1e30)");
+                if (v > brightest) brightest = v, brightest_px = px;
                 rgb[3 * px + c] = v;
             }
         const float scale = j.contains("scale")
                                 ? float(number_in(j["scale"], f.at("scale"), 0.0, 1e30,
                                                   "a number in [0, 1e30]"))
                                 : 1.f;
+        if (double(brightest) * scale > kMaxRadiance)
+            f.at("scale").error(scale, " times the map's brightest pixel, ", brightest,
+                                " at (", brightest_px % img.width, ", ",
+                                brightest_px / img.width, ") of '", path.string(),
+                                "', is ", double(brightest) * scale,
+                                " (allowed: a radiance of at most 1e30)");
         l.value = Vec3(scale);
         Transform rot;
         if (j.contains("rotate_deg"))
