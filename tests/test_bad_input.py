@@ -89,6 +89,9 @@ def error_of(scene, **kwargs):
         (lambda s: s.update(shapes=[]), ["shapes", "non-empty"]),
         (lambda s: s["render"].update(integrator="mc"), ["render.integrator", "\"pt\", \"st\""]),
         (lambda s: s["render"].update(sphere_threshold=-1), ["render.sphere_threshold", "a number >= 0"]),
+        # past 2^64 - 1 the JSON parser makes it a float: out of range, not "not an integer"
+        (lambda s: s["render"].update(seed=2**64), ["render.seed", "is not allowed",
+                                                    "[0, 2^63 - 1]"]),
         (lambda s: s["render"].update(models=3), ["render.models", "directory path"]),
         (lambda s: s["render"].update(integrator="st", models="nowhere"), ["nowhere: not a directory"]),
         # Opaque surfaces: exactly one of medium and surface, no boundary, checked values.
