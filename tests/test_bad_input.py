@@ -262,6 +262,31 @@ def test_bad_environment_maps_are_refused_with_file_and_field_named(tmp_path, sm
     assert np.isfinite(img).all() and img.max() > 0
 
 
+def _write_binary_stl(path, count_in_header=None):
+    """The unit cube as a binary STL; the header's triangle count may lie."""
+    import struct
+
+    tris = [(q[0], q[k], q[k + 1]) for q in CUBE_F for k in (1, 2)]
+    body = b"".join(struct.pack("<12fH", 0, 0, 0, *(c for v in t for c in CUBE_V[v]), 0)
+                    for t in tris)
+    count = len(tris) if count_in_header is None else count_in_header
+    path.write_bytes(b"binary cube".ljust(80, b" ") + struct.pack("<I", count) + body)
+
+
+def test_a_truncated_binary_stl_says_what_its_header_and_size_disagree_on(tmp_path, small_scene):
+    """A binary STL whose header counts more triangles than the file holds (a cut download)
+    was only 'malformed .stl file' (an outside sweep); now the message says what disagrees."""
+    del small_scene["shapes"][0]["sphere"]
+    small_scene["shapes"][0]["mesh"] = str(tmp_path / "cube.stl")
+    small_scene["camera"]["origin"] = [0.5, 0.5, 4]
+    _write_binary_stl(tmp_path / "cube.stl")
+    sssphere.load_scene(small_scene)  # the honest file loads
+    _write_binary_stl(tmp_path / "cube.stl", count_in_header=1000)
+    msg = error_of(small_scene)
+    assert ("cube.stl: cannot parse mesh (malformed .stl file: its header counts 1000 triangles, "
+            "which take 50084 bytes, but the file has 684 bytes)") in msg, msg
+
+
 def test_flat_mesh_is_refused(tmp_path, small_scene):
     # Two triangles back to back: closed and manifold, but no volume.
     _write_off(tmp_path / "flat.off", [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [(0, 1, 2), (0, 2, 1)])

@@ -74,6 +74,24 @@ float round_down(double d) {
     return std::max(f, 0.f);
 }
 
+// Why a binary STL file did not parse, when its size is not the one its header gives
+// (a truncated download, say): "; its header counts N triangles, ...". Else empty.
+std::string stl_size_note(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    char header[84];
+    if (!in.read(header, sizeof header)) return "";
+    uint32_t count = 0;  // little-endian, as the format has it
+    for (int i = 3; i >= 0; --i) count = (count << 8) | uint8_t(header[80 + i]);
+    std::error_code ec;
+    const uintmax_t size = std::filesystem::file_size(path, ec);
+    const uintmax_t expected = 84 + 50 * uintmax_t(count);
+    if (ec || size == expected || std::string(header, 5) == "solid") return "";
+    std::ostringstream os;
+    os << ": its header counts " << count << " triangles, which take " << expected
+       << " bytes, but the file has " << size << " bytes";
+    return os.str();
+}
+
 }  // namespace
 
 TriangleMesh load_mesh(const std::string& path, MeshKind kind) {
@@ -96,7 +114,9 @@ TriangleMesh load_mesh(const std::string& path, MeshKind kind) {
         } catch (const std::exception& e) {
             fail(path, ": cannot parse mesh: ", e.what());
         }
-        if (!ok) fail(path, ": cannot parse mesh (malformed ", ext, " file)");
+        if (!ok)
+            fail(path, ": cannot parse mesh (malformed .stl file", stl_size_note(path),
+                 ")");
     } else {
         // Our readers (polygon_readers.h): CGAL's crash on malformed PLY and OFF files
         // and do not say where an OBJ file is malformed.
