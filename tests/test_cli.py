@@ -645,6 +645,17 @@ def test_unwritable_export_paths_are_one_line_errors(tmp_path, small_scene):
     assert r.stderr.startswith("sssphere: error:") and "d.xml" in r.stderr, r.stderr
 
 
+def test_export_mitsuba_says_scene_warnings_as_render_does(tmp_path, small_scene):
+    """export-mitsuba printed a scene's warning as Python's raw warning (source path and
+    code line; an outside sweep); render and info print `sssphere: warning: ...`."""
+    small_scene["lights"][0]["position"] = [1e9, 2, 0]
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    r = run_cli("export-mitsuba", tmp_path / "s.json", tmp_path / "m.xml")
+    assert r.returncode == 0, r.stderr
+    assert "sssphere: warning: " in r.stderr and "lights[0]" in r.stderr, r.stderr
+    assert "SceneWarning" not in r.stderr and "mitsuba.py" not in r.stderr, r.stderr
+
+
 def test_a_reader_that_leaves_early_ends_the_command_quietly():
     """`sssphere presets | head -1`: when the reader of stdout has gone, the command ends as
     one killed by SIGPIPE (status 141) without a message (it said "error: Broken pipe")."""

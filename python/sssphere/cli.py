@@ -290,8 +290,12 @@ def _cmd_export_mitsuba(args: argparse.Namespace) -> int:
     except ImportError:
         raise SceneError("export-mitsuba needs the mitsuba package (pip install mitsuba, or "
                          "the test extra: pip install 'sssphere[test]')") from None
-    written = export_mitsuba(args.scene, out, spp=args.spp, seed=args.seed,
-                             integrator=args.integrator)
+    with warnings.catch_warnings(record=True) as caught:  # said as render and info say them
+        warnings.simplefilter("always", SceneWarning)
+        written = export_mitsuba(args.scene, out, spp=args.spp, seed=args.seed,
+                                 integrator=args.integrator)
+    for w in caught:
+        print(f"sssphere: warning: {w.message}", file=sys.stderr)
     print(f"wrote {written[0]} and {len(written) - 1} mesh file(s) in "
           f"{Path(written[-1]).parent if len(written) > 1 else out.parent}", file=sys.stderr)
     return 0
