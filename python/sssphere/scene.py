@@ -323,6 +323,8 @@ def load_scene(
     Raises
     ------
     SceneError (a ValueError) naming the file, the field, the value and what is allowed.
+    KeyboardInterrupt on Ctrl-C, which stops the distance grids' build within milliseconds
+    (reading the meshes and the BVH run to their end first).
 
     Warns
     -----
