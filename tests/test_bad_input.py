@@ -92,6 +92,8 @@ def error_of(scene, **kwargs):
         # past 2^64 - 1 the JSON parser makes it a float: out of range, not "not an integer"
         (lambda s: s["render"].update(seed=2**64), ["render.seed", "is not allowed",
                                                     "[0, 2^63 - 1]"]),
+        (lambda s: s["render"].update(seed=-2**63 - 1), ["render.seed", "is not allowed",
+                                                         "[0, 2^63 - 1]"]),
         (lambda s: s["render"].update(models=3), ["render.models", "directory path"]),
         (lambda s: s["render"].update(integrator="st", models="nowhere"), ["nowhere: not a directory"]),
         # Opaque surfaces: exactly one of medium and surface, no boundary, checked values.
@@ -262,7 +264,7 @@ def test_bad_environment_maps_are_refused_with_file_and_field_named(tmp_path, sm
     assert np.isfinite(img).all() and img.max() > 0
 
 
-def _write_binary_stl(path, count_in_header=None):
+def _write_binary_stl(path, count_in_header=None, name=b"binary cube"):
     """The unit cube as a binary STL; the header's triangle count may lie."""
     import struct
 
@@ -270,7 +272,7 @@ def _write_binary_stl(path, count_in_header=None):
     body = b"".join(struct.pack("<12fH", 0, 0, 0, *(c for v in t for c in CUBE_V[v]), 0)
                     for t in tris)
     count = len(tris) if count_in_header is None else count_in_header
-    path.write_bytes(b"binary cube".ljust(80, b" ") + struct.pack("<I", count) + body)
+    path.write_bytes(name.ljust(80, b" ") + struct.pack("<I", count) + body)
 
 
 def test_a_truncated_binary_stl_says_what_its_header_and_size_disagree_on(tmp_path, small_scene):
@@ -281,10 +283,16 @@ def test_a_truncated_binary_stl_says_what_its_header_and_size_disagree_on(tmp_pa
     small_scene["camera"]["origin"] = [0.5, 0.5, 4]
     _write_binary_stl(tmp_path / "cube.stl")
     sssphere.load_scene(small_scene)  # the honest file loads
-    _write_binary_stl(tmp_path / "cube.stl", count_in_header=1000)
+    for name in (b"binary cube", b"solid cube"):  # a binary header may start as ASCII's does
+        _write_binary_stl(tmp_path / "cube.stl", count_in_header=1000, name=name)
+        msg = error_of(small_scene)
+        assert ("cube.stl: cannot parse mesh (malformed .stl file: its header counts 1000 "
+                "triangles, which take 50084 bytes, but the file has 684 bytes)") in msg, msg
+    # A broken ASCII file gets no note made up from its text read as a header
+    (tmp_path / "cube.stl").write_text("  solid cube\n facet normal 0 0 1\n  outer loop\n"
+                                       "   vertex 0 0\n" + "x" * 100)
     msg = error_of(small_scene)
-    assert ("cube.stl: cannot parse mesh (malformed .stl file: its header counts 1000 triangles, "
-            "which take 50084 bytes, but the file has 684 bytes)") in msg, msg
+    assert "cube.stl" in msg and "header counts" not in msg, msg
 
 
 def test_flat_mesh_is_refused(tmp_path, small_scene):
@@ -520,7 +528,10 @@ def test_a_dielectric_of_index_1_is_no_interface(small_scene):
     for roughness in (0, 1e-4, 0.2):
         img = render({"type": "dielectric", "ior": 1.0, "roughness": roughness})
         assert np.array_equal(img, matched), f"roughness {roughness}"
-    assert np.isfinite(render({"type": "dielectric", "ior": 1.0001, "roughness": 0.2})).all()
+    for ior in (0.989, 1.011):  # just past where the boundary is index-matched (below)
+        for roughness in (1e-4, 0.2):
+            img = render({"type": "dielectric", "ior": ior, "roughness": roughness})
+            assert np.isfinite(img).all(), f"ior {ior}, roughness {roughness}"
 
 
 def test_a_dielectric_within_a_hundredth_of_index_1_is_no_interface(small_scene):

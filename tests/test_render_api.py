@@ -179,17 +179,20 @@ except KeyboardInterrupt:
 """
 
 
-@pytest.mark.parametrize("what", ["load_scene", "first_hit_aovs"])
+@pytest.mark.parametrize("what", ["load_scene", "scene_edit", "first_hit_aovs"])
 def test_ctrl_c_stops_a_long_load_and_long_aovs(tmp_path, small_scene, what):
     """A scene's distance grids (a 384-cell grid on one thread: seconds; 512 cells on a
-    fine mesh: minutes) and first_hit_aovs of many samples ran to their end whatever
-    Ctrl-C said. Both now stop at their next poll and raise KeyboardInterrupt."""
+    fine mesh: minutes), built by a load or by an edit, and first_hit_aovs of many samples
+    ran to their end whatever Ctrl-C said. All now stop at their next poll and raise
+    KeyboardInterrupt."""
     small_scene["render"]["grid_resolution"] = 384
     (tmp_path / "s.json").write_text(json.dumps(small_scene))
     call = {"load_scene": f"lambda: sssphere.load_scene({str(tmp_path / 's.json')!r}, threads=1)",
+            "scene_edit": "lambda s=sssphere.load_scene(sys.argv[2], threads=1), "
+                          "r=iter([384, 383]): setattr(s.render, 'grid_resolution', next(r))",
             "first_hit_aovs": "lambda s=sssphere.load_scene(sys.argv[2]): "
                               "sssphere.first_hit_aovs(s, samples=1 << 17, threads=1)"}[what]
-    if what == "first_hit_aovs":
+    if what != "load_scene":  # loaded quickly before the timed calls
         small_scene["render"]["grid_resolution"] = 16
         (tmp_path / "s.json").write_text(json.dumps(small_scene))
     r = subprocess.run([sys.executable, "-c", _CTRL_C_CHILD, call, str(tmp_path / "s.json")],

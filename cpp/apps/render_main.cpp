@@ -6,6 +6,7 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #include <chrono>
 #include <csignal>
@@ -29,7 +30,11 @@ namespace {
 // written and the exit status says which: 130 or 143.
 // While the scene loads, the first signal stops the distance grids' build (the parts of
 // the load before it run to their end) and the next one ends the process at once.
-volatile std::sig_atomic_t g_signal = 0, g_loading = 0;
+// g_signal is read by the grid build's threads too: an atomic (lock-free, so the handler
+// may set it).
+std::atomic<int> g_signal{0};
+static_assert(std::atomic<int>::is_always_lock_free);
+volatile std::sig_atomic_t g_loading = 0;
 void on_signal(int sig) {
     g_signal = sig;
     if (g_loading) {

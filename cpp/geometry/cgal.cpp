@@ -75,17 +75,22 @@ float round_down(double d) {
 }
 
 // Why a binary STL file did not parse, when its size is not the one its header gives
-// (a truncated download, say): "; its header counts N triangles, ...". Else empty.
+// (a truncated download, say): "; its header counts N triangles, ...". Else empty. A
+// file is binary if its first kilobyte holds a NUL byte (a binary one's header may start
+// with "solid" as an ASCII one does; an ASCII one has no NUL).
 std::string stl_size_note(const std::string& path) {
     std::ifstream in(path, std::ios::binary);
-    char header[84];
-    if (!in.read(header, sizeof header)) return "";
+    std::string head(1024, '\0');
+    in.read(head.data(), std::streamsize(head.size()));
+    head.resize(size_t(in.gcount()));
+    if (head.size() < 84 || head.find('\0') == std::string::npos) return "";
+    const char* header = head.data();
     uint32_t count = 0;  // little-endian, as the format has it
     for (int i = 3; i >= 0; --i) count = (count << 8) | uint8_t(header[80 + i]);
     std::error_code ec;
     const uintmax_t size = std::filesystem::file_size(path, ec);
     const uintmax_t expected = 84 + 50 * uintmax_t(count);
-    if (ec || size == expected || std::string(header, 5) == "solid") return "";
+    if (ec || size == expected) return "";
     std::ostringstream os;
     os << ": its header counts " << count << " triangles, which take " << expected
        << " bytes, but the file has " << size << " bytes";
@@ -422,12 +427,12 @@ DistanceGrid DistanceGrid::build(const TriangleMesh& mesh, int resolution, int t
     // One slab of nodes (one k) per chunk
     parallel_chunks(threads, grid.n_[2], 1, [&](int64_t k0, int64_t k1) {
         for (int k = int(k0); k < int(k1); ++k) {
-            throw_if_stopped(stop);
             // The closest point of the previous node is the hint for the next: one cell
             // away, it bounds the search tightly from the start (the result is exact
             // either way; 2x faster than the tree's own nearest-point hint).
             Point row_hint = tree.closest_point(to_point(grid.node_position(0, 0, k)));
             for (int j = 0; j < grid.n_[1]; ++j) {
+                throw_if_stopped(stop);
                 Point hint = row_hint;
                 for (int i = 0; i < grid.n_[0]; ++i) {
                     const Point q = to_point(grid.node_position(i, j, k));

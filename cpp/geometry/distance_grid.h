@@ -31,7 +31,7 @@ public:
     // times it.
     static constexpr int kExactResolution = 64;
     static constexpr float kRefineBand = 1.f;
-    // `stop` is polled before each slab of nodes (one z), a few milliseconds of work;
+    // `stop` is polled before each row of nodes (one y and z), well under a millisecond;
     // once it returns true the build throws Cancelled (core/cancel.h).
     static DistanceGrid build(const TriangleMesh& mesh, int resolution, int threads = 0,
                               int exact_up_to = kExactResolution,

@@ -117,7 +117,7 @@ TEST(DistanceGrid, RefinedGridIsTheExactOneNearTheSurface) {
     EXPECT_GT(deeper, 100);  // the deep nodes did keep the coarse bound
 }
 
-// The build polls its StopFn once per slab of nodes, at every level of refinement and
+// The build polls its StopFn once per row of nodes, at every level of refinement and
 // from both threads: a stop that turns true partway throws Cancelled without finishing,
 // and one that never does leaves the grid as a build without it, node for node.
 TEST(DistanceGrid, BuildStopsWhenAskedAndOnlyThen) {
@@ -127,7 +127,13 @@ TEST(DistanceGrid, BuildStopsWhenAskedAndOnlyThen) {
     const DistanceGrid plain = DistanceGrid::build(m, res, 2, 12);
     const DistanceGrid watched =
         DistanceGrid::build(m, res, 2, 12, [&] { return ++polls < 0; });
-    EXPECT_GE(polls.load(), plain.nz());  // every slab of the fine grid, and the coarse
+    // every row of the fine grid and of the two coarser ones it is refined from
+    int rows = 0;
+    for (const int r : {res, res / 2, res / 4}) {
+        const DistanceGrid g = DistanceGrid::build(m, r, 1, r);
+        rows += g.ny() * g.nz();
+    }
+    EXPECT_EQ(polls.load(), rows);
     for (int k = 0; k < plain.nz(); ++k)
         for (int j = 0; j < plain.ny(); ++j)
             for (int i = 0; i < plain.nx(); ++i) {
@@ -140,7 +146,7 @@ TEST(DistanceGrid, BuildStopsWhenAskedAndOnlyThen) {
         EXPECT_THROW(DistanceGrid::build(m, res, 2, 12, [&] { return ++seen > after; }),
                      Cancelled)
             << "stop after " << after << " polls";
-        // The threads stop at their next poll: at most one slab more each.
+        // The threads stop at their next poll: at most one row more each.
         EXPECT_LE(seen.load(), after + 1 + 2) << "stop after " << after << " polls";
     }
 }

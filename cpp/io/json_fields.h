@@ -173,10 +173,10 @@ inline double number(const json& j, const Field& f) {
 // An integer in [lo, hi]; `allowed` describes the range for the message.
 inline int64_t integer_in(const json& j, const Field& f, int64_t lo, int64_t hi,
                           const char* allowed) {
-    // An integer past 2^64 - 1 reaches us as a float (the JSON parser's choice): it is
-    // out of range, not "not an integer".
+    // An integer past 2^64 - 1, or below -2^63, reaches us as a float (the JSON parser's
+    // choice): it is out of range, not "not an integer".
     if (j.is_number_float() && std::isfinite(j.get<double>()) &&
-        std::abs(j.get<double>()) >= 0x1p64 &&
+        std::abs(j.get<double>()) >= 0x1p63 &&
         std::floor(j.get<double>()) == j.get<double>())
         f.error("value ", show(j), " is not allowed (allowed: ", allowed, ")");
     if (!j.is_number_integer()) f.error("expected an integer, got ", described(j));

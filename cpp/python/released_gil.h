@@ -76,7 +76,11 @@ struct __attribute__((visibility("hidden"))) ReleasedGil {
 // raises the handler's exception.
 class __attribute__((visibility("hidden"))) SignalStop {
 public:
+    // Empty (never stops) on a thread other than Python's main one, which no signal
+    // handler runs on. The work must run partly on this thread (a parallel loop does; a
+    // wait for other threads would never check).
     StopFn stop() {
+        if (PyThread_get_thread_ident() != main_thread_ident()) return {};
         return [this] { return poll(); };
     }
     [[noreturn]] void rethrow() {

@@ -87,7 +87,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", SceneWarning)
             scene = load_scene_with(args.scene, args.set, args.width, args.height, threads=threads)
-    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: the grid build stops at its next slab
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: the grid build stops at its next row
         print(f"interrupted while loading the scene: wrote nothing to {out}", file=sys.stderr)
         return _interrupted_status()
     for w in caught:

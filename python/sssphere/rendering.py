@@ -348,8 +348,8 @@ def _render_frames(scene, cameras, progress, on_frame, aovs: bool, denoise: bool
                    text: Optional[dict], ray_address: Optional[str],
                    options: dict, keep: bool = True) -> list[RenderResult]:
     """render_frames, with the command line's option text (render/options.h) besides.
-    keep=False returns the last frame's result only (the others were on_frame's to save):
-    a long turntable's memory stays that of one frame."""
+    keep=False returns the last frame's result only (the others were on_frame's to save),
+    and lets each go before the next renders: a long turntable's memory is one frame's."""
     unknown = set(options) - set(_SPECS)
     if unknown:
         raise TypeError(f"render_frames: unknown options {sorted(unknown)} (allowed: "
@@ -367,6 +367,9 @@ def _render_frames(scene, cameras, progress, on_frame, aovs: bool, denoise: bool
     results: list[RenderResult] = []
     try:
         for k, camera in enumerate(cameras):
+            if not keep:  # the frame before is saved: let it go before this one renders
+                results.clear()
+                result = None
             scene.camera = {**original, **camera}
 
             def frame_progress(fraction: float, k: int = k):
@@ -375,10 +378,7 @@ def _render_frames(scene, cameras, progress, on_frame, aovs: bool, denoise: bool
             result = _result(_render(scene, frame_progress, options, text, ray_address))
             if not (result.interrupted and result.spp == 0):  # nothing to add AOVs to
                 result = with_aovs(scene, result, aovs, denoise)
-            if keep or not results:
-                results.append(result)
-            else:
-                results[-1] = result
+            results.append(result)
             if on_frame is not None:
                 on_frame(k, result)
             if result.interrupted:

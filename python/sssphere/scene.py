@@ -98,7 +98,8 @@ class Scene(_core.Scene):
         if name.startswith("_") or hasattr(type(self), name):
             super().__setattr__(name, value)
             return
-        raise SceneError(f"{self._source}: {name}: no such field in the scene (allowed: "
+        source = self.__dict__.get("_source", "<scene>")
+        raise SceneError(f"{source}: {name}: no such field in the scene (allowed: "
                          "camera, shapes, lights, render)")
 
     def __repr__(self) -> str:

@@ -425,9 +425,21 @@ def main(argv=None) -> int:
 
 def _run(args) -> int:
     if args.command == "train":
-        print(f"generating {args.walks:,} cut sphere walks ...", file=sys.stderr, flush=True)
-        data = generate_cut_data(args.walks, seed=args.seed)
-        r = train_cut(data, args.output, epochs=args.epochs, seed=args.seed)
+        from sssphere.learn.export import prepare_output_dir
+
+        # a bad output is told before minutes of walks and training, not after
+        out = Path(args.output)
+        created = prepare_output_dir(out, [f"{spec.file_stem}.{ext}" for spec in CUT_SPECS
+                                           for ext in ("json", "onnx")])
+        try:
+            print(f"generating {args.walks:,} cut sphere walks ...", file=sys.stderr,
+                  flush=True)
+            data = generate_cut_data(args.walks, seed=args.seed)
+            r = train_cut(data, out, epochs=args.epochs, seed=args.seed)
+        except BaseException:
+            if created and not any(out.iterdir()):
+                out.rmdir()  # made for this run, and nothing was written
+            raise
         for name in ("CutLengthGen", "CutPathGen"):
             print(f"{name}: val NLL {r[name]['val_nll']:.4f}, KL {r[name]['val_kl']:.4f}, "
                   f"{r[name]['seconds']:.0f} s")
