@@ -22,7 +22,7 @@ area light + environment (next-event estimation and phase sampling both reach th
 the MIS weights are exercised); (e)-(g) an opaque diffuse floor (an open mesh): alone under
 three kinds of light, under an index-matched medium, under a dielectric one; (h) an environment
 map; (i) a rough dielectric medium under three kinds of light; (j) a rough dielectric on a floor
-under an environment map and a directional light.
+under an environment map and a directional light; (k) a point light inside a medium.
 
 Known Mitsuba-side bias (measured, see mitsuba_util.py): Mitsuba re-spawns rays at every null
 (index-matched) interface with an offset of (1 + max|p|) * 8.9e-5 along the normal, which skips a
@@ -78,6 +78,22 @@ def scene_thin_sphere_point() -> dict:
             "boundary": {"type": "index_matched"},
         }],
         "lights": [{"type": "point", "position": [2.5, 2, 2.5], "intensity": [10, 10, 10]}],
+    }
+
+
+def scene_point_light_inside_sphere() -> dict:
+    """(k) A point light inside an index-matched sphere, off its centre (a candle in wax).
+    The shadow-ray roulette bounded every shadow ray's transmittance by the medium it must
+    cross to leave, which a light inside does not: it came through almost never, with a huge
+    weight, and the sphere rendered 40x too dark at this density (an outside sweep)."""
+    return {
+        "camera": _camera([0, 0, 2.5]),
+        "shapes": [{
+            "sphere": {"center": [0, 0, 0], "radius": 0.5},
+            "medium": {"sigma_t": [20, 20, 20], "albedo": [0.9, 0.85, 0.8], "g": 0.0},
+            "boundary": {"type": "index_matched"},
+        }],
+        "lights": [{"type": "point", "position": [0.1, 0.05, 0.0], "intensity": [1, 1, 1]}],
     }
 
 
@@ -327,6 +343,11 @@ def _check(scene_dict: dict) -> None:
 @pytest.mark.slow
 def test_thin_sphere_point_light_matches_mitsuba():
     _check(scene_thin_sphere_point())
+
+
+@pytest.mark.slow
+def test_point_light_inside_a_medium_matches_mitsuba():
+    _check(scene_point_light_inside_sphere())
 
 
 @pytest.mark.slow

@@ -56,6 +56,16 @@ PathTracer::PathTracer(const Scene& scene, int max_bounces, bool nee,
     const auto& lights = scene_.desc().lights;
     for (size_t i = 0; i < lights.size(); ++i)
         if (lights[i].is_delta()) delta_lights_.push_back(int(i));
+    near_points_.resize(size_t(scene_.num_shapes()));
+    for (int s = 0; s < scene_.num_shapes(); ++s) {
+        const Shape& shape = scene_.desc().shapes[size_t(s)];
+        if (shape.is_surface()) continue;
+        const Bounds3 bounds = shape.mesh.bounds();
+        for (int i : delta_lights_)
+            if (lights[size_t(i)].kind().position_key &&
+                bounds.contains(lights[size_t(i)].a))
+                near_points_[size_t(s)].push_back(i);
+    }
 }
 
 Vec3 PathTracer::transmittance(const Vec3& p, const Vec3& w, float dist, int shape,
@@ -173,7 +183,14 @@ Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
         channel < 0 ? min_component(s.medium.sigma_t) : s.medium.sigma_t[channel];
     const DistanceGrid& grid = scene_.grid(shape);
     if (r < 0.f) r = grid.query(p);
-    const float kept = shadow_keep_probability(std::exp(-sigma_min * r));
+    // ... or as far as a point light inside the medium, if nearer (a candle in wax: with
+    // r alone, its light came through almost never, with a huge weight).
+    float reach = r;
+    for (int i : near_points_[size_t(shape)])
+        reach = std::min(reach, light_sample(scene_.desc().lights[size_t(i)], p, 0.5f,
+                                             0.5f, scene_.light_floats())
+                                    .dist);
+    const float kept = shadow_keep_probability(std::exp(-sigma_min * reach));
     float shadow_weight = 1.f;
     if (kept < 1.f) {
         shadow_weight = roulette_weight(kept, rng.uniform());

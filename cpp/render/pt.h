@@ -132,6 +132,9 @@ private:
     bool nee_;
     const SphereTracing* st_;
     std::vector<int> delta_lights_;  // indices of the point and directional lights
+    // Per shape: the point lights within its bounds, the only ones a shadow ray from
+    // inside can reach in less than the grid's bound (direct_light).
+    std::vector<std::vector<int>> near_points_;
 };
 
 }  // namespace sss

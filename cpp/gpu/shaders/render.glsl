@@ -199,7 +199,12 @@ vec3 direct_light(vec3 p, float r, vec3 d, int shape, int channel, inout RngStat
     float sigma_min =
         channel < 0 ? min(s.sigma_t.x, min(s.sigma_t.y, s.sigma_t.z)) : s.sigma_t[channel];
     if (r < 0.0) r = grid_query(shape, p);
-    float kept = shadow_keep_probability(exp(-sigma_min * r));
+    // ... or as far as a point light inside the medium, if nearer (PathTracer::direct_light;
+    // the delta lights come first in lights[], lighting.z of them).
+    float reach = r;
+    for (uint i = 0u; i < lighting.z; ++i)
+        reach = min(reach, light_sample(light_data(lights[i]), p, 0.5, 0.5).dist);
+    float kept = shadow_keep_probability(exp(-sigma_min * reach));
     float shadow_weight = 1.0;
     if (kept < 1.0) {
         shadow_weight = roulette_weight(kept, rng_uniform(rng));
