@@ -8,6 +8,7 @@ import os
 import re
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -199,6 +200,62 @@ def test_mesh_errors_say_where_the_defects_are_and_how_to_repair_them(small_scen
     assert "1 vertices join separate sheets" in msg and "(1, 1, 1) (2 fans)" in msg, msg
 
 
+def _box(lo, hi, name):
+    """A closed box of the small scene's medium, as an inline mesh."""
+    vertices = [[lo[i] if not (c >> i) & 1 else hi[i] for i in range(3)]
+                for c in (0, 1, 3, 2, 4, 5, 7, 6)]  # CUBE_V's order
+    return {"name": name, "vertices": vertices, "faces": [list(f) for f in CUBE_F],
+            "medium": {"sigma_t": [5, 5, 5], "albedo": [0.9, 0.9, 0.9]}}
+
+
+@pytest.mark.parametrize("second, meets", [
+    (([0.5, 0.2, 0.2], [1.5, 0.8, 0.8]), True),      # across the first's face
+    (([1, 0, 0], [2, 1, 1]), True),                   # sharing the face x = 1
+    (([1, 1, 1], [2, 2, 2]), True),                   # touching at a corner
+    (([0.25, 0.25, 0.25], [0.75, 0.75, 0.75]), True),  # inside the first
+    (([-1, -1, -1], [2, 2, 2]), True),                # around the first
+    (([1 + 1e-6, 0, 0], [2, 1, 1]), False),           # a gap of 1e-6
+    (([0.5, 0.5, 1.25], [1.5, 1.5, 2]), False),       # boxes apart by z only
+])
+def test_media_that_overlap_touch_or_nest_are_refused(small_scene, second, meets):
+    """A path inside a medium leaves to vacuum at any surface it meets, so media that meet
+    rendered wrong without a word (an outside sweep saw a cube vanish from one side)."""
+    small_scene["shapes"] = [_box([0, 0, 0], [1, 1, 1], "first"), _box(*second, "second")]
+    small_scene["camera"]["origin"] = [0.5, 0.5, 9]
+    if not meets:
+        assert np.isfinite(sssphere.render(small_scene, spp=1)).all()
+        return
+    msg = error_of(small_scene)
+    assert ("shapes[0] ('first') and shapes[1] ('second'): their media overlap, touch or lie "
+            "one inside the other") in msg and "leave a gap" in msg, msg
+
+
+@pytest.mark.parametrize("corner, meets", [
+    ([0.25, 0.25, 0.5], True),   # inside the medium
+    ([0.25, 0.25, 1], True),     # on its top face
+    ([0.25, 0.25, 1.5], False),  # above it
+])
+def test_an_area_light_inside_or_on_a_medium_is_refused(small_scene, corner, meets):
+    small_scene["shapes"] = [_box([0, 0, 0], [1, 1, 1], "box")]
+    small_scene["camera"]["origin"] = [0.5, 0.5, 9]
+    small_scene["lights"] = [{"type": "area", "corner": corner, "edge1": [0.5, 0, 0],
+                              "edge2": [0, 0.5, 0], "radiance": [1, 1, 1]}]
+    if not meets:
+        assert np.isfinite(sssphere.render(small_scene, spp=1)).all()
+        return
+    msg = error_of(small_scene)
+    assert "lights[0]: the area light meets shapes[0] ('box')" in msg, msg
+
+
+def test_a_scene_edit_that_makes_media_meet_is_refused(small_scene):
+    small_scene["shapes"] = [_box([0, 0, 0], [1, 1, 1], "first"),
+                             _box([2, 0, 0], [3, 1, 1], "second")]
+    small_scene["camera"]["origin"] = [1.5, 0.5, 9]
+    scene = sssphere.load_scene(small_scene)
+    with pytest.raises(SceneError, match="their media overlap, touch"):
+        scene.shapes[1].transform = {"translate": [-1.5, 0, 0]}
+
+
 def test_open_meshes_make_surfaces_but_not_media(tmp_path, small_scene):
     """A floor of two triangles is an opaque surface; the same open mesh cannot hold a
     medium (the error says it is not closed)."""
@@ -302,6 +359,13 @@ def test_flat_mesh_is_refused(tmp_path, small_scene):
     small_scene["shapes"][0]["mesh"] = str(tmp_path / "flat.off")
     msg = error_of(small_scene)
     assert "flat.off" in msg
+    # A sliver with a vertex far away has a large volume, but not for its size: the message
+    # says what it is measured against (it said "no volume (..., volume 1.7e+29)").
+    _write_off(tmp_path / "sliver.off", [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1e30)],
+               [(0, 2, 1), (0, 1, 3), (1, 2, 3), (0, 3, 2)])
+    small_scene["shapes"][0]["mesh"] = str(tmp_path / "sliver.off")
+    msg = error_of(small_scene)
+    assert "sliver.off" in msg and "not above 1e-9 L^3 = 1e+81" in msg and "L = 1e+30" in msg, msg
 
 
 def test_consistently_fixable_orientation_is_fixed(tmp_path):
@@ -550,9 +614,15 @@ def test_a_dielectric_within_a_hundredth_of_index_1_is_no_interface(small_scene)
     assert matched.mean() > 0
     for ior in (0.99, 0.9999, 1.0001, 1.01):
         for roughness in (0, 0.3):
-            img = render({"type": "dielectric", "ior": ior, "roughness": roughness})
+            # The move is said, naming the field and the value.
+            with pytest.warns(sssphere.SceneWarning,
+                              match=rf"shapes\[0\]\.boundary\.ior: {ior} is within 0\.01 of 1"):
+                img = render({"type": "dielectric", "ior": ior, "roughness": roughness})
             assert np.array_equal(img, matched), f"ior {ior}, roughness {roughness}"
-    assert not np.array_equal(render({"type": "dielectric", "ior": 1.011}), matched)
+    with warnings.catch_warnings():  # no interface asked for, or a real one: nothing to say
+        warnings.simplefilter("error")
+        assert np.array_equal(render({"type": "dielectric", "ior": 1}), matched)
+        assert not np.array_equal(render({"type": "dielectric", "ior": 1.011}), matched)
 
 
 def test_a_key_given_twice_is_refused(tmp_path, small_scene):

@@ -124,6 +124,10 @@ struct Bounds3 {
         return p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y && p.z >= lo.z &&
                p.z <= hi.z;
     }
+    bool overlaps(const Bounds3& b) const {  // touching counts
+        return lo.x <= b.hi.x && b.lo.x <= hi.x && lo.y <= b.hi.y && b.lo.y <= hi.y &&
+               lo.z <= b.hi.z && b.lo.z <= hi.z;
+    }
 };
 
 }  // namespace sss

@@ -6,6 +6,7 @@
 #include <CGAL/AABB_triangle_primitive.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/IO/polygon_soup_io.h>
+#include <CGAL/Polygon_mesh_processing/intersection.h>
 #include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
 #include <CGAL/Polygon_mesh_processing/orientation.h>
 #include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
@@ -369,7 +370,9 @@ TriangleMesh make_closed_mesh(const std::vector<Vec3d>& positions,
     Vec3 ext = mesh.bounds().extent();
     double scale = double(max_component(ext));
     if (!(vol > 1e-9 * scale * scale * scale))
-        fail(what, ": mesh encloses no volume (flat or degenerate, volume ", vol, ")");
+        fail(what, ": mesh encloses no volume to speak of (flat or degenerate): volume ",
+             vol, ", not above 1e-9 L^3 = ", 1e-9 * scale * scale * scale,
+             " for the largest side L = ", scale, " of its bounding box");
     return mesh;
 }
 
@@ -572,6 +575,20 @@ std::vector<bool> points_inside_mesh(const TriangleMesh& mesh,
     for (const Vec3& p : points)
         inside.push_back(side(Point(p.x, p.y, p.z)) != CGAL::ON_UNBOUNDED_SIDE);
     return inside;
+}
+
+bool meshes_meet(const TriangleMesh& closed, const TriangleMesh& other,
+                 bool other_closed) {
+    if (!closed.bounds().overlaps(other.bounds())) return false;
+    const SurfaceMesh a = to_surface_mesh(closed), b = to_surface_mesh(other);
+    if (other_closed)  // surfaces crossing or touching, or one inside the other
+        return PMP::do_intersect(
+            a, b, CGAL::parameters::do_overlap_test_of_bounded_sides(true),
+            CGAL::parameters::do_overlap_test_of_bounded_sides(true));
+    if (PMP::do_intersect(a, b)) return true;
+    // No contact: `other` lies wholly inside `closed` or wholly outside; one vertex says.
+    return CGAL::Side_of_triangle_mesh<SurfaceMesh, K>(a)(to_point(other.positions[0])) !=
+           CGAL::ON_UNBOUNDED_SIDE;
 }
 
 std::vector<double> exact_distances(const TriangleMesh& mesh,

@@ -102,6 +102,11 @@ bool point_inside_mesh(const TriangleMesh& mesh, Vec3 p);
 std::vector<bool> points_inside_mesh(const TriangleMesh& mesh,
                                      const std::vector<Vec3>& points);
 
+// Whether two meshes meet (exact predicates): their triangles cross or touch, or one lies
+// inside the closed mesh `closed`; or, if `other_closed`, `closed` lies inside `other`.
+bool meshes_meet(const TriangleMesh& closed, const TriangleMesh& other,
+                 bool other_closed);
+
 // Exact distance from p to the mesh (for tests and tools; builds an AABB tree per call).
 std::vector<double> exact_distances(const TriangleMesh& mesh,
                                     const std::vector<Vec3>& points);

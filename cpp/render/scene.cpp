@@ -208,6 +208,7 @@ struct ParsedShape {
     Shape shape;
     std::vector<Vec3d> positions;
     std::string file;  // the mesh file, if any
+    std::vector<std::string> warnings;
 };
 
 Surface parse_surface(const json& j, const Field& f) {
@@ -360,9 +361,20 @@ ParsedShape parse_shape(const json& j, const Field& f, const std::string& base_d
             f.at("transform").error("moves the mesh out of single-precision range");
     if (s.is_surface()) return {std::move(s), std::move(positions), file};
     s.medium = parse_medium(j["medium"], f.at("medium"));
-    if (j.contains("boundary"))
+    std::vector<std::string> warnings;
+    if (j.contains("boundary")) {
         s.boundary = parse_boundary(j["boundary"], f.at("boundary"));
-    return {std::move(s), std::move(positions), file};
+        // parse_boundary took a dielectric of ior near 1 for index-matched: say so, as a
+        // user who set 1.005 for a faint interface would not expect none.
+        const json& bj = j["boundary"];
+        if (bj["type"] == "dielectric" &&
+            std::string(s.boundary.kind().name) != "dielectric" && bj["ior"] != 1)
+            warnings.push_back(f.source + ": " + f.at("boundary").at("ior").path + ": " +
+                               show(bj["ior"]) +
+                               " is within 0.01 of 1: rendered as index-matched, with no "
+                               "interface (docs/scene-format.md)");
+    }
+    return {std::move(s), std::move(positions), file, std::move(warnings)};
 }
 
 Light parse_light(const json& j, const Field& f, const LightContext& ctx) {
@@ -519,6 +531,7 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
         ps.shape.mesh.origin = Vec3d();
         d.shapes.push_back(std::move(ps.shape));
         if (!ps.file.empty()) d.inputs.push_back(ps.file);
+        d.warnings.insert(d.warnings.end(), ps.warnings.begin(), ps.warnings.end());
     }
     d.camera = parse_camera(camera, f.at("camera"), d.origin);
     if (root.contains("lights")) {
@@ -714,6 +727,32 @@ bool same_mesh(const TriangleMesh& a, const TriangleMesh& b) {
 
 }  // namespace
 
+// A path inside a medium takes any other surface it meets for its own boundary, and
+// leaves to vacuum there: media that overlap, touch or nest, and area lights inside or
+// across a medium, would render wrong without a word. Exact (CGAL), pairs whose boxes
+// meet only.
+void Scene::check_media_apart(const std::vector<TriangleMesh>& quads) const {
+    auto name = [&](size_t i) {
+        return "shapes[" + std::to_string(i) + "] ('" + desc_.shapes[i].name + "')";
+    };
+    for (size_t i = 0; i < desc_.shapes.size(); ++i) {
+        if (desc_.shapes[i].is_surface()) continue;
+        for (size_t j = i + 1; j < desc_.shapes.size(); ++j)
+            if (!desc_.shapes[j].is_surface() &&
+                meshes_meet(desc_.shapes[i].mesh, desc_.shapes[j].mesh, true))
+                fail(desc_.source, ": ", name(i), " and ", name(j),
+                     ": their media overlap, touch or lie one inside the other (allowed: "
+                     "media apart; leave a gap, 1e-6 of the scene is enough, or merge "
+                     "them into one shape)");
+        for (size_t k = 0; k < quads.size(); ++k)
+            if (meshes_meet(desc_.shapes[i].mesh, quads[k], false))
+                fail(desc_.source, ": lights[", area_lights_[k],
+                     "]: the area light meets ", name(i),
+                     ", inside it or across its surface (allowed: area lights "
+                     "outside every medium)");
+    }
+}
+
 void Scene::build(int threads, const Scene* previous, const StopFn& stop) {
     std::vector<TriangleMesh> quads;
     for (size_t i = 0; i < desc_.lights.size(); ++i) {
@@ -739,6 +778,10 @@ void Scene::build(int threads, const Scene* previous, const StopFn& stop) {
     for (size_t k = 0; same_meshes && k < quads.size(); ++k)
         same_meshes = same_mesh(
             quads[k], previous->desc_.lights[previous->area_lights_[k]].quad_mesh());
+    for (int i = 0; same_meshes && i < num_shapes(); ++i)
+        same_meshes =
+            desc_.shapes[i].is_surface() == previous->desc_.shapes[i].is_surface();
+    if (!same_meshes) check_media_apart(quads);
     if (same_meshes) {
         tracer_ = previous->tracer_;
     } else {
