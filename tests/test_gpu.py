@@ -520,6 +520,12 @@ RENDER_CASES = {
     "floor_environment_map_nee": (lambda: sphere_on_floor_scene(lights=[
         {"type": "environment", "map": _sky_map(), "scale": 0.8, "rotate_deg": [0, 30, 0]}]),
         True),
+    # A point light inside the medium: the shadow-ray roulette's bound is the distance to
+    # it where that is nearer than the grid's bound (PathTracer::direct_light).
+    "sphere_point_light_inside_nee": (lambda: sphere_scene(
+        res=(32, 32), sigma_t=200.0, albedo=(0.99, 0.98, 0.97), g=0.0, boundary=INDEX_MATCHED,
+        lights=[{"type": "point", "position": [0.2, 0.1, 0.0], "intensity": [4, 4, 4]}, ENV]),
+        True),
     # Dense: sigma*r up to 300, beyond the models' range (200), so steps are clipped to it.
     "sphere_dense": (lambda: sphere_scene(sigma_t=300.0, albedo=(0.99, 0.98, 0.95), g=0.7), True),
 }
@@ -834,3 +840,29 @@ def test_gpu_record_paths(model_dir):
     # Where it ran.
     assert r.backend == "vulkan" and r.device == _DEVICE
     assert r.gpu_seconds is not None and 0 < r.gpu_seconds
+
+
+def test_gpu_st_renders_a_medium_the_models_were_not_trained_for_without_steps(tmp_path):
+    """As on the CPU (test_st.py): g outside the models' range is no error; the medium takes
+    no steps (pt's image, bit for bit) and the render warns, naming the shape."""
+    edited = tmp_path / "edited"
+    edited.mkdir()
+    for name in ("lengthgen", "pathgen", "eventgen"):
+        d = json.loads((Path(DEFAULT_MODELS) / f"{name}.json").read_text())
+        d["training"]["g"] = [-0.4, 0.4]
+        (edited / f"{name}.json").write_text(json.dumps(d))
+    scene = json.loads((REPO / "scenes" / "sphere.json").read_text())
+    scene["camera"].update(width=8, height=8)
+    scene["shapes"][0]["medium"].update(sigma_t=100.0, albedo=[0.99, 0.95, 0.9], g=0.5)
+    scene["shapes"][0]["sphere"]["subdivisions"] = 3
+    scene["render"] = {"grid_resolution": 32}
+    scene = sssphere.load_scene(scene)
+    with pytest.warns(sssphere.SceneWarning, match=r"shapes\[0\] \('sphere'\): integrator 'st' "
+                      r"takes no sphere steps in this medium.*g = 0.5 is outside"):
+        st = sssphere.render_full(scene, integrator="st", models=edited, spp=4, seed=2,
+                                  backend="vulkan")
+    assert st.mean_sphere_steps_per_path == 0
+    pt = sssphere.render_full(scene, integrator="pt", spp=4, seed=2, backend="vulkan")
+    np.testing.assert_array_equal(st.image, pt.image)
+    trained = sssphere.render_full(scene, integrator="st", spp=4, seed=2, backend="vulkan")
+    assert trained.mean_sphere_steps_per_path > 0

@@ -239,6 +239,8 @@ int main(int argc, char** argv) {
             return g_signal == 0;
         });
         if (!quiet) std::fprintf(stderr, "\n");
+        for (const std::string& w : r.warnings)
+            std::cerr << "sssphere-render: warning: " << w << "\n";
         if (r.cancelled && r.spp == 0) {  // an all-black image would look like a render
             std::fprintf(
                 stderr,

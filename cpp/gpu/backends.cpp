@@ -19,7 +19,9 @@ RenderResult render_with_backend(const Scene& scene, const RenderOptions& option
                        st ? options.models : "", st ? options.cut_models : "");
     VulkanCompute vk;
     GpuRenderer renderer(vk, baked);
-    return renderer.render(options, progress);
+    RenderResult r = renderer.render(options, progress);
+    r.warnings = baked.warnings;
+    return r;
 #else
     fail(
         "backend 'vulkan': this build of sssphere has no GPU path (built without Vulkan: "

@@ -62,7 +62,8 @@ bool can_take_steps(const GpuSceneData& scene) {
         const float r = *std::max_element(scene.floats.begin() + first,
                                           scene.floats.begin() + first + count);
         const float* s = h.shapes[i].sigma_t;
-        if (std::max({s[0], s[1], s[2]}) * r >= h.params[1]) return true;
+        if (std::max({s[0], s[1], s[2]}) * r >= h.params[1] + s[3])
+            return true;  // + clearance
     }
     return false;
 }

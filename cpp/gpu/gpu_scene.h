@@ -42,6 +42,8 @@ struct GpuSceneData {
     std::vector<float> model;  // packed decoders; empty when the scene has no models
     // packed cut decoders (pack_gpu_cut_model); empty when the scene takes no cut steps
     std::vector<float> cut_model;
+    // What a render of it should say (SphereTracing::warnings); not saved to files.
+    std::vector<std::string> warnings;
     int width() const { return int(header.counts[2]); }
     int height() const { return int(header.counts[3]); }
 };

@@ -267,6 +267,7 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
         for (int i = 0; i < scene.num_shapes(); ++i)
             h.shapes[i].sigma_t[3] = st.clearance(i);
         if (st.model()) out.model = pack_gpu_model(*st.model());  // loaded once
+        out.warnings = st.warnings();
         if (st.cut_model()) bake_cut_planes(scene, st, out);
     }
     return out;

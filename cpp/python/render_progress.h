@@ -49,6 +49,7 @@ inline pybind11::dict film_dict(const RenderResult& r, int spp, bool record_path
     d["total_events"] = r.total_events;
     d["total_sphere_steps"] = r.total_sphere_steps;
     d["total_paths"] = r.total_paths;
+    d["warnings"] = r.warnings;
     return d;
 }
 

@@ -118,6 +118,9 @@ struct RenderResult {
     // Backend::Vulkan: the GPU time of the dispatches (timestamps) and the device's name.
     double gpu_seconds = 0.0;
     std::string device;
+    // What the render says, one line each: e.g. media that "st" renders without steps,
+    // as the models were not trained for them.
+    std::vector<std::string> warnings;
     // With RenderOptions::keep_film: the film's sums, to add to other parts of a render
     // split by sample ranges; else empty.
     Film film{0};

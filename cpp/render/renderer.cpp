@@ -86,6 +86,7 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
     r.time_limit_reached = done.time_limit_reached;
     r.seconds = done.seconds;
     r.step_seconds = integrator->step_seconds();
+    r.warnings = integrator->warnings();
     done.film.finish(done.spp, r);
     paths.finish(size_t(W) * H * done.spp, r);
     if (opt.keep_film) r.film = std::move(done.film);

@@ -49,17 +49,12 @@ SphereTracing::SphereTracing(const Scene& scene, float threshold, SphereSampler 
                     .dist < kInf)
             points_.push_back(l);
     clearance_.assign(size_t(scene_.num_shapes()), 0.f);
-    // A path's first step needs the sphere thick enough in every channel (spectral MIS
-    // before it; docs/notation.md, "Colour"), so the smallest extinction decides.
     for (int i = 0; i < scene_.num_shapes(); ++i) {
         const Shape& s = scene_.desc().shapes[i];
         if (s.is_surface()) continue;
         if (step_nee_ == StepNee::Hits && nee_ && delta_lights &&
             s.boundary.passes_shadow_rays())
             clearance_[size_t(i)] = kDeltaLightClearance;
-        if (min_component(s.medium.sigma_t) * scene_.grid(i).max_query() >=
-            threshold_ + clearance_[size_t(i)])
-            may_step_ = true;
     }
     if (!std::isinf(threshold))
         for (const Shape& s : scene_.desc().shapes)
@@ -68,8 +63,12 @@ SphereTracing::SphereTracing(const Scene& scene, float threshold, SphereSampler 
                      "': integrator 'st' takes steps trained for Henyey-Greenstein phase "
                      "functions, not phase '",
                      s.medium.phase.kind().name, "' (use integrator 'pt')");
+    if (sampler_ != SphereSampler::Walk && !std::isinf(threshold)) load_models(models);
+    for (int i = 0; i < scene_.num_shapes(); ++i) may_step_ = may_step_ || can_step(i);
     if (!cut_models.empty()) load_cuts(cut_models);
-    if (sampler_ == SphereSampler::Walk || std::isinf(threshold)) return;
+}
+
+void SphereTracing::load_models(const std::string& models) {
     if (models.empty())
         fail(
             "integrator 'st' needs the directory of the sphere-step models "
@@ -105,37 +104,41 @@ SphereTracing::SphereTracing(const Scene& scene, float threshold, SphereSampler 
     const auto& shapes = scene_.desc().shapes;
     for (size_t i = 0; i < shapes.size(); ++i) {
         const Medium& m = shapes[i].medium;
-        if (shapes[i].is_surface() || max_component(m.sigma_t) == 0.f)
-            continue;  // no collisions, no steps
+        if (shapes[i].is_surface() || !can_step(int(i)))
+            continue;  // the models are never asked
         const bool event = wants_event(int(i));
-        auto context = [&] {
-            std::ostringstream os;
-            os << scene_.desc().source << ": shapes[" << i << "] ('" << shapes[i].name
-               << "'): integrator 'st' "
-               << "cannot use the sphere-step models in " << models
-               << " for this medium: ";
-            return os.str();
-        };
-        for (int c = 0; c < 3; ++c) {
+        // A medium the models were not trained for takes no steps: it renders as with
+        // "pt" (exact, only slower), and the render says so (warnings()).
+        std::string why;
+        for (int c = 0; c < 3 && why.empty(); ++c) {
             const float phi = m.albedo[c];
             if (event && (phi < phi_lo_ - kPhiClampTolerance ||
-                          phi > phi_hi_ + kPhiClampTolerance))
-                fail(
-                    context(), "albedo ", phi,
-                    " is outside EventGen's training range of phi [", phi_lo_, ", ",
-                    phi_hi_,
-                    "] (step_nee 'event' needs EventGen; use step_nee 'hits', nee=False, "
-                    "integrator 'pt', or models trained for it)");
+                          phi > phi_hi_ + kPhiClampTolerance)) {
+                std::ostringstream os;
+                os << "albedo " << phi << " is outside EventGen's training range of phi ["
+                   << phi_lo_ << ", " << phi_hi_
+                   << "] (step_nee 'event' needs EventGen; step_nee 'hits' does not)";
+                why = os.str();
+            }
             for (float s : sigma_ends) {
+                if (!why.empty()) break;
                 try {
                     model_->check_inputs(s, m.phase.x, event ? event_phi(phi) : 0.5f,
                                          event);
                 } catch (const Error& e) {
-                    fail(context(), e.what(),
-                         " (use integrator 'pt', or models trained for this medium)");
+                    why = e.what();
                 }
             }
         }
+        if (why.empty()) continue;
+        clearance_[i] = INFINITY;  // no ball is ever clear enough: no step
+        std::ostringstream os;
+        os << scene_.desc().source << ": shapes[" << i << "] ('" << shapes[i].name
+           << "'): integrator 'st' takes no sphere steps in this medium, which renders "
+              "as "
+              "with 'pt' (exact, but without st's speed-up): the sphere-step models in "
+           << models << " were not trained for it: " << why;
+        warnings_.push_back(os.str());
     }
 }
 
@@ -227,6 +230,15 @@ WorldSphereStep cut_to_world(const StepRequest& r, const CutStep& c) {
 }
 
 }  // namespace
+
+bool SphereTracing::can_step(int shape) const {
+    // A path's first step needs the sphere thick enough in every channel (spectral MIS
+    // before it; docs/notation.md, "Colour"), so the smallest extinction decides.
+    const Shape& s = scene_.desc().shapes[size_t(shape)];
+    return !s.is_surface() &&
+           min_component(s.medium.sigma_t) * scene_.grid(shape).max_query() >=
+               threshold_ + clearance_[size_t(shape)];
+}
 
 bool SphereTracing::wants_event(int shape) const {
     return step_nee_ == StepNee::Event && nee_ && !scene_.desc().lights.empty() &&

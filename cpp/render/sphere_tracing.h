@@ -66,8 +66,9 @@ public:
     // Loads the models from `models` (not for the walks, nor when threshold is infinite:
     // no step can happen) and checks every medium of the scene against their training
     // ranges: g, sigma from max(threshold, lower end) to the upper end, and (with NEE,
-    // for media that get NEE) every channel's albedo. Throws sss::Error naming the shape,
-    // the value and the range.
+    // for media that get NEE) every channel's albedo. A medium outside them takes no
+    // steps (it renders as with "pt"), and warnings() names the shape, the value and the
+    // range.
     //
     // With `cut_models` (a directory; empty: none) it also loads the cut sphere models
     // and builds plane certificates (geometry/cut_planes.h) for every medium whose steps
@@ -86,6 +87,11 @@ public:
     // When none has, "st" is "pt" exactly, and the renderer traces it as "pt" (no paths
     // in flight).
     bool may_step() const { return may_step_; }
+    // Whether `shape` has such a point.
+    bool can_step(int shape) const;
+    // One line per medium that takes no steps because the models were not trained for
+    // it (the constructor's checks).
+    const std::vector<std::string>& warnings() const { return warnings_; }
     // Steps are shrunk so that sigma = sigma_t * r' <= sigma_max.
     float sigma_max() const { return sigma_max_; }
     StepNee step_nee() const { return step_nee_; }
@@ -151,6 +157,7 @@ public:
     float cut_sigma_hi() const { return cut_sigma_hi_; }
 
 private:
+    void load_models(const std::string& dir);
     void load_cuts(const std::string& dir);
     float cleared_radius(Vec3 p, float r, float sigma, float clearance) const;
 
@@ -161,6 +168,7 @@ private:
     StepNee step_nee_;
     float sigma_max_ = kWalkSigmaMax;
     bool may_step_ = false;
+    std::vector<std::string> warnings_;
     float phi_lo_ = 0.f, phi_hi_ = 1.f;
     std::vector<float> clearance_;   // per shape (clearance())
     std::vector<LightData> points_;  // the delta lights at a finite distance

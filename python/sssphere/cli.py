@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import re
 import select
@@ -19,6 +20,19 @@ from sssphere._version import __version__
 from sssphere import _core, rendering
 from sssphere.rendering import RENDER_OPTIONS
 from sssphere.scene import SceneError, SceneWarning, load_scene_with
+
+
+@contextlib.contextmanager
+def _said_warnings():
+    """The SceneWarnings (and any other warning) raised inside, each said once, as
+    `sssphere: warning: ...` lines when the block ends (after its progress bar)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", SceneWarning)
+        try:
+            yield
+        finally:
+            for message in dict.fromkeys(str(w.message) for w in caught):
+                print(f"sssphere: warning: {message}", file=sys.stderr)
 
 
 
@@ -84,14 +98,11 @@ def _cmd_render(args: argparse.Namespace) -> int:
     try:
         if not args.quiet and sys.stderr.isatty():  # the build can take seconds before the bar
             print(f"loading {args.scene} ...", file=sys.stderr, flush=True)
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", SceneWarning)
+        with _said_warnings():
             scene = load_scene_with(args.scene, args.set, args.width, args.height, threads=threads)
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: the grid build stops at its next row
         print(f"interrupted while loading the scene: wrote nothing to {out}", file=sys.stderr)
         return _interrupted_status()
-    for w in caught:
-        print(f"sssphere: warning: {w.message}", file=sys.stderr)
     load_s = time.monotonic() - t0
     for path in outputs:
         _image.check_output_is_not_an_input(path, [*scene.inputs, str(args.scene)])
@@ -104,11 +115,12 @@ def _cmd_render(args: argparse.Namespace) -> int:
         return _render_turntable(args, scene, text, load_s)
     with _Signals() as signals:
         bar = Progress(f"rendering {Path(args.scene).name}", enabled=not args.quiet)
-        try:
-            result = rendering._result(
-                rendering._render(scene, signals.progress(bar), {}, text, args.ray))
-        finally:
-            bar.close()
+        with _said_warnings():
+            try:
+                result = rendering._result(
+                    rendering._render(scene, signals.progress(bar), {}, text, args.ray))
+            finally:
+                bar.close()
         if result.interrupted and result.spp == 0:  # an all-black image would look like one
             print(f"interrupted before the first pass finished: wrote nothing to {out}",
                   file=sys.stderr)
@@ -170,7 +182,7 @@ def _render_turntable(args: argparse.Namespace, scene, text: dict, load_s: float
     bar = Progress(f"rendering {args.turntable} frames of {Path(args.scene).name}",
                    enabled=not args.quiet)
     t0 = time.monotonic()
-    with _Signals() as signals:
+    with _Signals() as signals, _said_warnings():
         try:
             results = rendering._render_frames(
                 scene, rendering.orbit_cameras(scene, args.turntable), signals.progress(bar),
@@ -290,12 +302,9 @@ def _cmd_export_mitsuba(args: argparse.Namespace) -> int:
     except ImportError:
         raise SceneError("export-mitsuba needs the mitsuba package (pip install mitsuba, or "
                          "the test extra: pip install 'sssphere[test]')") from None
-    with warnings.catch_warnings(record=True) as caught:  # said as render and info say them
-        warnings.simplefilter("always", SceneWarning)
+    with _said_warnings():  # as render and info say them
         written = export_mitsuba(args.scene, out, spp=args.spp, seed=args.seed,
                                  integrator=args.integrator)
-    for w in caught:
-        print(f"sssphere: warning: {w.message}", file=sys.stderr)
     print(f"wrote {written[0]} and {len(written) - 1} mesh file(s) in "
           f"{Path(written[-1]).parent if len(written) > 1 else out.parent}", file=sys.stderr)
     return 0
@@ -304,11 +313,8 @@ def _cmd_export_mitsuba(args: argparse.Namespace) -> int:
 def _cmd_info(args: argparse.Namespace) -> int:
     from sssphere.info import format_info, scene_info
 
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", SceneWarning)
+    with _said_warnings():
         scene = load_scene_with(args.scene, args.set, args.width, args.height)
-    for w in caught:
-        print(f"sssphere: warning: {w.message}", file=sys.stderr)
     info = scene_info(scene)
     if args.json:
         import json

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import inspect
 import os
+import sys
+import warnings
 from dataclasses import dataclass, fields
 from typing import Any, Callable, Optional, Union
 
@@ -11,7 +13,7 @@ import numpy as np
 
 from sssphere import _core
 from sssphere.model import DEFAULT_MODELS
-from sssphere.scene import Scene, load_scene
+from sssphere.scene import Scene, SceneWarning, load_scene
 
 # The render options are defined once, in C++ (render/options.h); these name their choices.
 RENDER_OPTIONS = _core.render_option_specs()  # name, kind, choices, metavar, help, command_line
@@ -197,10 +199,23 @@ def _render(scene: Scene, progress, options: dict, text: Optional[dict] = None,
         if ray_address is not None:
             from sssphere import cluster
 
-            return cluster.render(scene, ray_address, progress, options, text,
-                                  os.fspath(DEFAULT_MODELS))
-        given = {k: v for k, v in options.items() if v is not None}
-        return _core.render(scene, os.fspath(DEFAULT_MODELS), progress, text or {}, **given)
+            r = cluster.render(scene, ray_address, progress, options, text,
+                               os.fspath(DEFAULT_MODELS))
+        else:
+            given = {k: v for k, v in options.items() if v is not None}
+            r = _core.render(scene, os.fspath(DEFAULT_MODELS), progress, text or {}, **given)
+    for message in r.get("warnings", ()):  # e.g. media "st" renders without steps
+        warnings.warn(message, SceneWarning, stacklevel=_caller_outside_sssphere())
+    return r
+
+
+def _caller_outside_sssphere() -> int:
+    """The stacklevel, for a warning raised by the caller of this function, of the first
+    frame outside the sssphere package (the user's call)."""
+    frame, level = sys._getframe(1), 1
+    while frame is not None and frame.f_globals.get("__name__", "").startswith("sssphere"):
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 def render_full(

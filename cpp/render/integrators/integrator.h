@@ -8,6 +8,8 @@
 #include <atomic>
 #include <functional>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "render/camera.h"
 #include "render/film.h"
@@ -38,6 +40,8 @@ public:
                              const std::atomic<bool>& cancel) = 0;
     // Seconds spent sampling sphere steps, summed over the tiles (RenderResult).
     virtual double step_seconds() const { return 0.0; }
+    // What the render should say, one line each (RenderResult::warnings).
+    virtual std::vector<std::string> warnings() const { return {}; }
 };
 
 struct IntegratorKind {

@@ -101,6 +101,8 @@ public:
         return complete;
     }
 
+    std::vector<std::string> warnings() const override { return st_.warnings(); }
+
     double step_seconds() const override {
         std::lock_guard<std::mutex> lock(step_mutex_);
         return step_seconds_;
