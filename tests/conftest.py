@@ -25,3 +25,22 @@ SMALL_SCENE = {
 def small_scene():
     """A fresh deep copy of a 24x16 sphere scene (edit freely)."""
     return copy.deepcopy(SMALL_SCENE)
+
+
+@pytest.fixture
+def ctrl_c_while_training(monkeypatch):
+    """Call with a model's name (e.g. "PathGen"): from then on, training that model raises
+    KeyboardInterrupt as Ctrl-C would, and every other model trains as usual."""
+    from sssphere.learn import train as train_module
+
+    real = train_module.train_cvae
+
+    def interrupt_at(name: str) -> None:
+        def train_cvae(spec, *args, **kwargs):
+            if spec.name == name:
+                raise KeyboardInterrupt
+            return real(spec, *args, **kwargs)
+
+        monkeypatch.setattr(train_module, "train_cvae", train_cvae)
+
+    return interrupt_at

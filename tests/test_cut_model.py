@@ -118,21 +118,12 @@ def tiny_cut_models(tmp_path_factory):
     return out, report
 
 
-def test_training_interrupted_leaves_the_output_as_it_was(tmp_path, monkeypatch):
+def test_training_interrupted_leaves_the_output_as_it_was(tmp_path, ctrl_c_while_training):
     """train_cut wrote each model as it finished: Ctrl-C while CutPathGen trained left a new
     CutLengthGen beside an old CutPathGen. Now both go in together, or neither."""
-    from sssphere.learn import train as train_module
-
     for name in ("cutlengthgen.json", "cutpathgen.json"):
         (tmp_path / name).write_text("old")
-    real = train_module.train_cvae
-
-    def ctrl_c_in_the_second(spec, *args, **kwargs):
-        if spec.name == "CutPathGen":
-            raise KeyboardInterrupt
-        return real(spec, *args, **kwargs)
-
-    monkeypatch.setattr(train_module, "train_cvae", ctrl_c_in_the_second)
+    ctrl_c_while_training("CutPathGen")
     with pytest.raises(KeyboardInterrupt):
         train_cut(generate_cut_data(5_000, seed=4), tmp_path, epochs=1, progress=False)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["cutlengthgen.json", "cutpathgen.json"]

@@ -529,19 +529,10 @@ def _old_models(out):
 
 
 def test_interrupted_train_leaves_the_output_directory_unchanged(tiny_data, tmp_path, capsys,
-                                                                 monkeypatch):
+                                                                 ctrl_c_while_training):
     # LengthGen finishes, then Ctrl-C during PathGen: LengthGen's files must not be moved
     # into place beside the old PathGen (a mixed set).
-    from sssphere.learn import train as train_mod
-
-    real = train_mod.train_cvae
-
-    def stop_at_pathgen(spec, *args, **kwargs):
-        if spec.name == "PathGen":
-            raise KeyboardInterrupt
-        return real(spec, *args, **kwargs)
-
-    monkeypatch.setattr(train_mod, "train_cvae", stop_at_pathgen)
+    ctrl_c_while_training("PathGen")
     before = _old_models(tmp_path / "m")
     code = cli_main(["train", str(tiny_data), "-o", str(tmp_path / "m"), "--epochs", "1",
                      "--quiet"])
