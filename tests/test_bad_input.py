@@ -227,7 +227,7 @@ def test_media_that_overlap_touch_or_nest_are_refused(small_scene, second, meets
         return
     msg = error_of(small_scene)
     assert ("shapes[0] ('first') and shapes[1] ('second'): their media overlap, touch or lie "
-            "one inside the other") in msg and "leave a gap" in msg, msg
+            "one inside the other") in msg and "leave a gap of 1e-6" in msg, msg
 
 
 @pytest.mark.parametrize("corner, meets", [
@@ -254,6 +254,37 @@ def test_a_scene_edit_that_makes_media_meet_is_refused(small_scene):
     scene = sssphere.load_scene(small_scene)
     with pytest.raises(SceneError, match="their media overlap, touch"):
         scene.shapes[1].transform = {"translate": [-1.5, 0, 0]}
+
+
+def test_media_and_lights_whose_boxes_overlap_but_that_are_apart_are_taken(small_scene):
+    """The check is exact, not by bounding boxes: two balls whose boxes overlap and an area
+    light in a corner of a ball's box, all apart, render."""
+    ball = small_scene["shapes"][0]
+    small_scene["shapes"] = [ball, {**ball, "name": "other",
+                                    "sphere": {**ball["sphere"], "center": [1.5, 1.5, 1.5]}}]
+    small_scene["camera"]["origin"] = [0, 0, 9]
+    small_scene["lights"] = [{"type": "area", "corner": [0.75, 0.75, -0.95], "edge1": [0.2, 0, 0],
+                              "edge2": [0, 0.2, 0], "radiance": [1, 1, 1]}]
+    assert np.isfinite(sssphere.render(small_scene, spp=1)).all()
+
+
+def test_an_edit_that_turns_an_overlapping_surface_into_a_medium_is_refused(small_scene):
+    """Opaque surfaces are not checked (one may rest on a medium); made a medium, the same
+    mesh is. Apart, it is taken, and the BVH (the same meshes) is kept."""
+    for lo, hi, meets in (([0.5] * 3, [1.5] * 3, True), ([2, 0, 0], [3, 1, 1], False)):
+        second = _box(lo, hi, "second")
+        medium = second.pop("medium")
+        scene_dict = copy.deepcopy(small_scene)
+        scene_dict["shapes"] = [_box([0, 0, 0], [1, 1, 1], "first"),
+                                {**second, "surface": {"type": "diffuse"}}]
+        scene_dict["camera"]["origin"] = [0.5, 0.5, 9]
+        scene = sssphere.load_scene(scene_dict)
+        if meets:
+            with pytest.raises(SceneError, match=r"shapes\[1\] \('second'\): their media"):
+                scene.shapes[1] = {**second, "medium": medium}
+        else:
+            scene.shapes[1] = {**second, "medium": medium}
+            assert "BVH" not in scene.rebuilt, scene.rebuilt
 
 
 def test_open_meshes_make_surfaces_but_not_media(tmp_path, small_scene):

@@ -15,6 +15,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,6 +24,7 @@ import ray
 
 import sssphere
 from sssphere import cluster as sss_cluster
+from sssphere.model import DEFAULT_MODELS
 
 REL = 1e-6
 
@@ -203,6 +205,24 @@ def test_cut_models_reach_the_workers(two_nodes, small_scene, tmp_path):
     (cut / "cutpathgen.json").unlink()
     with pytest.raises(sssphere.SceneError, match="cutpathgen.json: cannot open"):
         sssphere.render_full(scene, ray_address=two_nodes.address, **kw)
+
+
+def test_a_renders_warnings_come_back_once_naming_the_models_given(two_nodes, small_scene,
+                                                                  tmp_path):
+    """st's warning for a medium its models were not trained for is made on every task; the
+    client says it once, with the models directory it was given (not a node's copy)."""
+    models = tmp_path / "narrow"
+    models.mkdir()
+    for name in ("lengthgen", "pathgen", "eventgen"):
+        d = json.loads((Path(DEFAULT_MODELS) / f"{name}.json").read_text())
+        d["training"]["g"] = [-0.2, 0.2]  # the scene's g is 0.3
+        (models / f"{name}.json").write_text(json.dumps(d))
+    scene = _scene(small_scene, sigma_t=60.0)
+    with pytest.warns(sssphere.SceneWarning) as said:
+        sssphere.render_full(scene, integrator="st", models=models, spp=8,
+                             ray_address=two_nodes.address)
+    steps = [str(w.message) for w in said if "takes no sphere steps" in str(w.message)]
+    assert len(steps) == 1 and f"models in {models} were not trained" in steps[0], steps
 
 
 def test_stopping_keeps_the_tasks_merged_in_order(two_nodes, small_scene):

@@ -364,7 +364,7 @@ def _untrained(scene, models, **kwargs):
     assert st.mean_sphere_steps_per_path == 0
     kwargs.pop("step_nee", None)
     np.testing.assert_array_equal(st.image, sssphere.render(scene, "pt", spp=2, **kwargs))
-    return str(said[0].message)
+    return next(str(w.message) for w in said if "takes no sphere steps" in str(w.message))
 
 
 def _trained(scene, models, **kwargs):
@@ -395,6 +395,26 @@ def test_medium_outside_the_training_ranges_renders_without_steps(tmp_path, mode
     env_only = sssphere.load_scene(sphere_scene(res=4, g=0.3, albedo=(0.99, 0.8, 0.8), lights=[ENV]))
     _trained(env_only, edited)
     assert "albedo 0.99 is outside EventGen" in _untrained(env_only, edited, step_nee="event")
+
+
+def test_a_medium_whose_thinnest_channel_cannot_step_is_checked_too(models_dir):
+    """After a path's first step it goes on in one channel, whose extinction may allow steps
+    where the thinnest channel's does not: such a medium outside the models' g range was not
+    checked, and failed in mid-render (a review). It takes no steps, and the render warns."""
+    d = sphere_scene(res=8, g=0.3, lights=[ENV])
+    d["camera"].update(origin=[0, 0, 7], fov=40)
+    d["shapes"][0]["sphere"]["center"] = [-1.1, 0, 0]
+    other = json.loads(json.dumps(d["shapes"][0]))
+    other["name"] = "chromatic"
+    other["sphere"]["center"] = [1.1, 0, 0]
+    other["medium"].update(sigma_t=[0.5, 0.5, 400.0], g=0.97)
+    d["shapes"].append(other)
+    scene = sssphere.load_scene(d)
+    with pytest.warns(sssphere.SceneWarning, match=r"shapes\[1\] \('chromatic'\): integrator "
+                      r"'st' takes no sphere steps.*g = 0.97 is outside") as said:
+        st = sssphere.render_full(scene, integrator="st", models=models_dir, spp=4)
+    assert not any("shapes[0]" in str(w.message) for w in said)
+    assert st.mean_sphere_steps_per_path > 0  # the first sphere still steps
 
 
 def test_threshold_below_the_models_sigma_range(tmp_path, models_dir):

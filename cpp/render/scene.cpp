@@ -367,8 +367,8 @@ ParsedShape parse_shape(const json& j, const Field& f, const std::string& base_d
         // parse_boundary took a dielectric of ior near 1 for index-matched: say so, as a
         // user who set 1.005 for a faint interface would not expect none.
         const json& bj = j["boundary"];
-        if (bj["type"] == "dielectric" &&
-            std::string(s.boundary.kind().name) != "dielectric" && bj["ior"] != 1)
+        if (bj["type"] == "dielectric" && bj.contains("ior") && bj["ior"] != 1 &&
+            std::string(s.boundary.kind().name) != "dielectric")
             warnings.push_back(f.source + ": " + f.at("boundary").at("ior").path + ": " +
                                show(bj["ior"]) +
                                " is within 0.01 of 1: rendered as index-matched, with no "
@@ -730,22 +730,37 @@ bool same_mesh(const TriangleMesh& a, const TriangleMesh& b) {
 // A path inside a medium takes any other surface it meets for its own boundary, and
 // leaves to vacuum there: media that overlap, touch or nest, and area lights inside or
 // across a medium, would render wrong without a word. Exact (CGAL), pairs whose boxes
-// meet only.
-void Scene::check_media_apart(const std::vector<TriangleMesh>& quads) const {
+// meet only; on an edit (`previous`), only pairs with a shape or quad that changed.
+void Scene::check_media_apart(const std::vector<TriangleMesh>& quads,
+                              const Scene* previous) const {
     auto name = [&](size_t i) {
         return "shapes[" + std::to_string(i) + "] ('" + desc_.shapes[i].name + "')";
     };
+    std::vector<bool> changed(desc_.shapes.size(), true),
+        quad_changed(quads.size(), true);
+    if (previous) {
+        for (size_t i = 0; i < desc_.shapes.size() && i < previous->desc_.shapes.size();
+             ++i)
+            changed[i] =
+                desc_.shapes[i].is_surface() != previous->desc_.shapes[i].is_surface() ||
+                !same_mesh(desc_.shapes[i].mesh, previous->desc_.shapes[i].mesh);
+        for (size_t k = 0; k < quads.size() && k < previous->area_lights_.size(); ++k)
+            quad_changed[k] = !same_mesh(
+                quads[k], previous->desc_.lights[previous->area_lights_[k]].quad_mesh());
+    }
     for (size_t i = 0; i < desc_.shapes.size(); ++i) {
         if (desc_.shapes[i].is_surface()) continue;
         for (size_t j = i + 1; j < desc_.shapes.size(); ++j)
-            if (!desc_.shapes[j].is_surface() &&
+            if (!desc_.shapes[j].is_surface() && (changed[i] || changed[j]) &&
                 meshes_meet(desc_.shapes[i].mesh, desc_.shapes[j].mesh, true))
-                fail(desc_.source, ": ", name(i), " and ", name(j),
-                     ": their media overlap, touch or lie one inside the other (allowed: "
-                     "media apart; leave a gap, 1e-6 of the scene is enough, or merge "
-                     "them into one shape)");
+                fail(
+                    desc_.source, ": ", name(i), " and ", name(j),
+                    ": their media overlap, touch or lie one inside the other (allowed: "
+                    "media apart: leave a gap of 1e-6 of the scene or more; nested media "
+                    "are not supported; two pieces of one medium can be one mesh)");
         for (size_t k = 0; k < quads.size(); ++k)
-            if (meshes_meet(desc_.shapes[i].mesh, quads[k], false))
+            if ((changed[i] || quad_changed[k]) &&
+                meshes_meet(desc_.shapes[i].mesh, quads[k], false))
                 fail(desc_.source, ": lights[", area_lights_[k],
                      "]: the area light meets ", name(i),
                      ", inside it or across its surface (allowed: area lights "
@@ -778,10 +793,12 @@ void Scene::build(int threads, const Scene* previous, const StopFn& stop) {
     for (size_t k = 0; same_meshes && k < quads.size(); ++k)
         same_meshes = same_mesh(
             quads[k], previous->desc_.lights[previous->area_lights_[k]].quad_mesh());
-    for (int i = 0; same_meshes && i < num_shapes(); ++i)
-        same_meshes =
+    // Which shapes hold media matters to the media's check, not to the BVH.
+    bool same_media = same_meshes;
+    for (int i = 0; same_media && i < num_shapes(); ++i)
+        same_media =
             desc_.shapes[i].is_surface() == previous->desc_.shapes[i].is_surface();
-    if (!same_meshes) check_media_apart(quads);
+    if (!same_media) check_media_apart(quads, previous);
     if (same_meshes) {
         tracer_ = previous->tracer_;
     } else {

@@ -209,7 +209,8 @@ public:
 
 private:
     void build(int threads, const Scene* previous, const StopFn& stop);
-    void check_media_apart(const std::vector<TriangleMesh>& quads) const;
+    void check_media_apart(const std::vector<TriangleMesh>& quads,
+                           const Scene* previous) const;
 
     SceneDesc desc_;
     std::shared_ptr<const RayTracer> tracer_;

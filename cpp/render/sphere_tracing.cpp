@@ -104,8 +104,12 @@ void SphereTracing::load_models(const std::string& models) {
     const auto& shapes = scene_.desc().shapes;
     for (size_t i = 0; i < shapes.size(); ++i) {
         const Medium& m = shapes[i].medium;
-        if (shapes[i].is_surface() || !can_step(int(i)))
-            continue;  // the models are never asked
+        // The models are never asked where no channel can step (after a path's first step
+        // it goes on in one channel, whose extinction may exceed the smallest: can_step).
+        if (shapes[i].is_surface() ||
+            max_component(m.sigma_t) * scene_.grid(int(i)).max_query() <
+                threshold_ + clearance_[i])
+            continue;
         const bool event = wants_event(int(i));
         // A medium the models were not trained for takes no steps: it renders as with
         // "pt" (exact, only slower), and the render says so (warnings()).
@@ -131,12 +135,12 @@ void SphereTracing::load_models(const std::string& models) {
             }
         }
         if (why.empty()) continue;
-        clearance_[i] = INFINITY;  // no ball is ever clear enough: no step
+        clearance_[i] = kInf;  // no ball is ever clear enough: no step
         std::ostringstream os;
         os << scene_.desc().source << ": shapes[" << i << "] ('" << shapes[i].name
            << "'): integrator 'st' takes no sphere steps in this medium, which renders "
               "as "
-              "with 'pt' (exact, but without st's speed-up): the sphere-step models in "
+           << "with 'pt' (exact, but without st's speed-up): the sphere-step models in "
            << models << " were not trained for it: " << why;
         warnings_.push_back(os.str());
     }
@@ -171,11 +175,15 @@ void SphereTracing::load_cuts(const std::string& dir) {
             continue;
         const float sigma_min = min_component(s.medium.sigma_t);
         if (!(sigma_min > 0.f)) continue;
-        if (!g.contains(s.medium.phase.x))
-            fail(scene_.desc().source, ": shapes[", i, "] ('", s.name,
-                 "'): g = ", s.medium.phase.x,
-                 " is outside the cut models' training range [", g.lo, ", ", g.hi,
-                 "] (models in ", dir, ")");
+        if (!g.contains(s.medium.phase.x)) {  // sphere steps only, as without cut models
+            std::ostringstream os;
+            os << scene_.desc().source << ": shapes[" << i << "] ('" << s.name
+               << "'): integrator 'st' takes no cut steps in this medium: g = "
+               << s.medium.phase.x << " is outside the cut models' training range ["
+               << g.lo << ", " << g.hi << "] (models in " << dir << ")";
+            warnings_.push_back(os.str());
+            continue;
+        }
         cut_sigma_min_[i] = sigma_min;
         cut_planes_[i] = std::make_unique<CutPlanes>(
             CutPlanes::build(s.mesh, scene_.grid(int(i)), kCutRadiusMfp / sigma_min));

@@ -259,7 +259,7 @@ def _render_part(text: str, files: dict, options: dict, first: int, spp: int,
             "built": built, "rebuilt": list(scene.rebuilt) if built else None,
             "pid": os.getpid(), "node": ray.get_runtime_context().get_node_id(),
             "device": r.get("device"), "gpu_seconds": r.get("gpu_seconds"),
-            "warnings": r.get("warnings", [])}
+            "warnings": [w.replace(models_dir, "{models}") for w in r.get("warnings", [])]}
     w = scene.width
     part = {"film": {key: a[y0 * w:y1 * w] for key, a in r["film"].items()},
             "rows": (y0, y1), "width": w, "tasks": [task]}
@@ -478,7 +478,9 @@ def render(scene, address: str, progress: Optional[Callable[[float], object]], o
     r["time_limit_reached"] = time_limit_reached
     r["seconds"] = time.monotonic() - t0
     r["step_seconds"] = sum(t["step_seconds"] for t in tasks)
-    r["warnings"] = list(dict.fromkeys(w for t in tasks for w in t["warnings"]))  # once each
+    # once each, naming the models as given here (a task names its node's copy "{models}")
+    r["warnings"] = list(dict.fromkeys(w.replace("{models}", str(resolved["models"]))
+                                       for t in tasks for w in t["warnings"]))
     if resolved["record_paths"]:
         for key in ("path_events", "path_steps"):
             r[key] = (np.concatenate([p[key] for p in merged]) if merged

@@ -213,7 +213,8 @@ def _caller_outside_sssphere() -> int:
     """The stacklevel, for a warning raised by the caller of this function, of the first
     frame outside the sssphere package (the user's call)."""
     frame, level = sys._getframe(1), 1
-    while frame is not None and frame.f_globals.get("__name__", "").startswith("sssphere"):
+    while frame is not None and (frame.f_globals.get("__name__", "") == "sssphere" or
+                                 frame.f_globals.get("__name__", "").startswith("sssphere.")):
         frame, level = frame.f_back, level + 1
     return level
 

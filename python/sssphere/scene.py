@@ -20,8 +20,11 @@ from sssphere._core import SceneError
 
 
 class SceneWarning(UserWarning):
-    """A scene past the limits of docs/robustness.md: it renders, but float precision may
-    make it differ from the exact answer by more than 1 %."""
+    """A scene that renders, with something to say: past the limits of docs/robustness.md
+    (float precision may make it differ from the exact answer by more than 1 %), a value
+    taken for another (an ior within 0.01 of 1 is index-matched), or, from a render, a
+    medium that integrator "st" renders without steps (its models were not trained for
+    it)."""
 
 
 _DELETE = object()  # _assign's value that removes a field
