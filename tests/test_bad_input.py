@@ -214,7 +214,7 @@ def _box(lo, hi, name):
     (([1, 1, 1], [2, 2, 2]), True),                   # touching at a corner
     (([0.25, 0.25, 0.25], [0.75, 0.75, 0.75]), True),  # inside the first
     (([-1, -1, -1], [2, 2, 2]), True),                # around the first
-    (([1 + 1e-6, 0, 0], [2, 1, 1]), False),           # a gap of 1e-6
+    (([1 + 2e-5, 0, 0], [2, 1, 1]), False),           # a gap of 1e-5 of the scene
     (([0.5, 0.5, 1.25], [1.5, 1.5, 2]), False),       # boxes apart by z only
 ])
 def test_media_that_overlap_touch_or_nest_are_refused(small_scene, second, meets):
@@ -227,7 +227,7 @@ def test_media_that_overlap_touch_or_nest_are_refused(small_scene, second, meets
         return
     msg = error_of(small_scene)
     assert ("shapes[0] ('first') and shapes[1] ('second'): their media overlap, touch or lie "
-            "one inside the other") in msg and "leave a gap of 1e-6" in msg, msg
+            "one inside the other") in msg and "media apart, by 1e-5 of the scene" in msg, msg
 
 
 @pytest.mark.parametrize("corner, meets", [

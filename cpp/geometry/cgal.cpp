@@ -591,6 +591,40 @@ bool meshes_meet(const TriangleMesh& closed, const TriangleMesh& other,
            CGAL::ON_UNBOUNDED_SIDE;
 }
 
+NearContact near_contact(const TriangleMesh& a, const TriangleMesh& b) {
+    const std::vector<double> off_a = ray_offset_bounds(a), off_b = ray_offset_bounds(b);
+    const double most_a = *std::max_element(off_a.begin(), off_a.end()),
+                 most_b = *std::max_element(off_b.begin(), off_b.end());
+    Bounds3 near_a = a.bounds();  // grown by 3 (not 2) for the boxes' own rounding
+    near_a.lo = near_a.lo - Vec3(float(3 * (most_a + most_b)));
+    near_a.hi = near_a.hi + Vec3(float(3 * (most_a + most_b)));
+    if (!near_a.overlaps(b.bounds())) return {};
+    std::vector<Triangle> ta = cgal_triangles(a), tb = cgal_triangles(b);
+    auto grown = [](const CGAL::Bbox_3& box, double by) {
+        return K::Iso_cuboid_3(box.xmin() - by, box.ymin() - by, box.zmin() - by,
+                               box.xmax() + by, box.ymax() + by, box.zmax() + by);
+    };
+    CGAL::Bbox_3 box_b;
+    for (const Triangle& t : tb) box_b += t.bbox();
+    Tree tree(tb.begin(), tb.end());
+    NearContact worst;
+    std::vector<Primitive::Id> near;
+    for (size_t i = 0; i < ta.size(); ++i) {
+        // Pairs nearer than twice the two offsets: a margin of 2 on the bound.
+        const K::Iso_cuboid_3 query = grown(ta[i].bbox(), 2 * (off_a[i] + most_b));
+        if (!CGAL::do_overlap(query.bbox(), box_b)) continue;
+        near.clear();
+        tree.all_intersected_primitives(query, std::back_inserter(near));
+        for (TriIter u : near) {
+            double needed = 2 * (off_a[i] + off_b[size_t(u - tb.begin())]);
+            double gap = std::sqrt(CGAL::squared_distance(ta[i], *u));
+            if (gap < needed && needed - gap > worst.needed - worst.gap)
+                worst = {gap, needed};
+        }
+    }
+    return worst;
+}
+
 std::vector<double> exact_distances(const TriangleMesh& mesh,
                                     const std::vector<Vec3>& points) {
     std::vector<Triangle> tris = cgal_triangles(mesh);

@@ -107,6 +107,16 @@ std::vector<bool> points_inside_mesh(const TriangleMesh& mesh,
 bool meshes_meet(const TriangleMesh& closed, const TriangleMesh& other,
                  bool other_closed);
 
+// Two meshes that do not meet (meshes_meet false) may still be too close: a ray leaving
+// one starts a rounding-sized distance past its surface (shared/ray_offset.h), and
+// within that distance of the other it can start past the other's surface too. The pair
+// of triangles nearest to that, with a margin of 2 on the offsets: its gap and the gap it
+// needs; {inf, 0} when every pair is far enough apart.
+struct NearContact {
+    double gap = INFINITY, needed = 0;
+};
+NearContact near_contact(const TriangleMesh& a, const TriangleMesh& b);
+
 // Exact distance from p to the mesh (for tests and tools; builds an AABB tree per call).
 std::vector<double> exact_distances(const TriangleMesh& mesh,
                                     const std::vector<Vec3>& points);

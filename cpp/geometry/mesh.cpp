@@ -2,10 +2,12 @@
 // compile).
 #include "geometry/mesh.h"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 
 #include "core/check.h"
+#include "shared/ray_offset.h"
 
 namespace sss {
 
@@ -33,6 +35,47 @@ double TriangleMesh::area() const {
         a += 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
     }
     return a;
+}
+
+std::vector<double> ray_offset_bounds(const TriangleMesh& mesh) {
+    std::vector<double> bounds;
+    bounds.reserve(mesh.triangles.size());
+    for (const auto& t : mesh.triangles) {
+        const Vec3d v[3] = {Vec3d(mesh.positions[t[0]]), Vec3d(mesh.positions[t[1]]),
+                            Vec3d(mesh.positions[t[2]])};
+        // triangle_point's error bound is kGamma7 (|v0| + |b1 e1| + |b2 e2|), whichever
+        // corner Embree takes for v0: at most kGamma7 (m + e) per axis (b1 + b2 <= 1), m
+        // the largest |coordinate| and e the triangle's extent.
+        Vec3d error, m;
+        for (int c = 0; c < 3; ++c) {
+            const double lo = std::min({v[0][c], v[1][c], v[2][c]}),
+                         hi = std::max({v[0][c], v[1][c], v[2][c]});
+            m[c] = std::max(std::abs(lo), std::abs(hi));
+            error[c] = kGamma7 * (m[c] + (hi - lo));
+        }
+        const Vec3d e1 = v[1] - v[0], e2 = v[2] - v[0];
+        Vec3d n(e1.y * e2.z - e1.z * e2.y, e1.z * e2.x - e1.x * e2.z,
+                e1.x * e2.y - e1.y * e2.x);
+        n = n * (1 / std::sqrt(n.x * n.x + n.y * n.y + n.z * n.z));
+        // offset_ray_origin moves the hit point by its error along n; where that is 0 (a
+        // corner whose coordinates are 0 on every axis n has a part of), by the largest
+        // error instead. Then each coordinate rounds one float further.
+        double along = 0, most = 0, ulps = 0;
+        bool may_fall_back = false;
+        for (int c = 0; c < 3; ++c) {
+            along += std::abs(n[c]) * error[c];
+            most = std::max(most, error[c]);
+            ulps += std::pow(std::ldexp(m[c] + error[c], -23), 2);
+        }
+        for (const Vec3d& p : v)
+            may_fall_back =
+                may_fall_back || ((n.x == 0 || p.x == 0) && (n.y == 0 || p.y == 0) &&
+                                  (n.z == 0 || p.z == 0));
+        // The hit point itself may lie `along` off the plane, to the same side.
+        bounds.push_back(along + (may_fall_back ? std::max(along, most) : along) +
+                         std::sqrt(ulps));
+    }
+    return bounds;
 }
 
 double TriangleMesh::volume() const {

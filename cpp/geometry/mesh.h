@@ -27,6 +27,11 @@ struct TriangleMesh {
     double volume() const;  // signed; > 0 for an outward-oriented closed mesh
 };
 
+// For each triangle, a bound on how far from its plane a ray leaving it starts:
+// offset_ray_origin at a hit point that triangle_point rebuilt (shared/ray_offset.h),
+// which grows with the coordinates. Two media closer than that could swap sides.
+std::vector<double> ray_offset_bounds(const TriangleMesh& mesh);
+
 enum class MeshKind { Closed, Open };
 
 // Reads a polygon mesh from `path` (by extension: .obj .ply .off .stl), triangulates it

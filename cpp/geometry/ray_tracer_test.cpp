@@ -153,3 +153,54 @@ TEST(RayTracer, RaysLeavingAFloorAtZeroDoNotMeetItAgain) {
         }
     }
 }
+
+// ray_offset_bounds bounds how far from its triangle's plane a ray leaving a hit starts,
+// on meshes far from 0 (large coordinates, large offsets), a long thin one and a floor at
+// y = 0 (whose offset falls back to the other axes' error): the media check
+// (Scene, near_contact) trusts this bound.
+TEST(RayTracer, RayOffsetBoundsHoldForHits) {
+    TriangleMesh far_ball = make_icosphere(Vec3(37.f, -12.f, 5.f), 0.75f, 2);
+    TriangleMesh sliver = make_icosphere(Vec3(0.f), 1.f, 1);
+    for (Vec3& p : sliver.positions) p = Vec3(p.x * 40.f - 300.f, p.y * 0.01f, p.z + 2.f);
+    TriangleMesh floor;
+    floor.positions = {
+        {-3.f, 0.f, -3.f}, {3.f, 0.f, -3.f}, {3.f, 0.f, 3.f}, {-3.f, 0.f, 3.f}};
+    floor.triangles = {{0, 2, 1}, {0, 3, 2}};
+    for (const TriangleMesh* mesh : {&far_ball, &sliver, &floor}) {
+        const std::vector<double> bound = ray_offset_bounds(*mesh);
+        RayTracer tracer;
+        tracer.add_mesh(*mesh);
+        tracer.commit();
+        const Bounds3 box = mesh->bounds();
+        Rng rng(9, 0, 0);
+        int hits = 0;
+        for (int i = 0; i < 4000; ++i) {
+            // From outside the box towards a random point of it.
+            Vec3 target =
+                box.lo + box.extent() * Vec3(rng.uniform(), rng.uniform(), rng.uniform());
+            Vec3 o = target + sample_uniform_sphere(rng.uniform(), rng.uniform()) *
+                                  (length(box.extent()) + 1.f);
+            Hit hit;
+            if (!tracer.intersect(o, normalize(target - o), 0.f, INFINITY, &hit))
+                continue;
+            ++hits;
+            const auto& t = mesh->triangles[hit.prim];
+            const Vec3d v0(mesh->positions[t[0]]);
+            const Vec3d e1 = Vec3d(mesh->positions[t[1]]) - v0,
+                        e2 = Vec3d(mesh->positions[t[2]]) - v0;
+            Vec3d n(e1.y * e2.z - e1.z * e2.y, e1.z * e2.x - e1.x * e2.z,
+                    e1.x * e2.y - e1.y * e2.x);
+            n = n * (1 / std::sqrt(n.x * n.x + n.y * n.y + n.z * n.z));
+            for (int side : {-1, 1}) {
+                const Vec3 w = hit.normal * float(side);
+                const Vec3d off =
+                    Vec3d(offset_ray_origin(hit.p, hit.p_error, hit.normal, w)) - v0;
+                const double from_plane =
+                    std::abs(off.x * n.x + off.y * n.y + off.z * n.z);
+                EXPECT_LE(from_plane, bound[hit.prim]) << "hit " << i;
+                EXPECT_GT(from_plane, 0.0);
+            }
+        }
+        EXPECT_GT(hits, 1000);
+    }
+}
