@@ -1,6 +1,9 @@
 """Shared fixtures: small scenes as dicts, so each test says what it renders."""
 
 import copy
+import json
+import os
+from pathlib import Path
 
 import pytest
 
@@ -44,3 +47,23 @@ def ctrl_c_while_training(monkeypatch):
         monkeypatch.setattr(train_module, "train_cvae", train_cvae)
 
     return interrupt_at
+
+
+@pytest.fixture
+def models_with(tmp_path):
+    """Call with training ranges, e.g. g=[-0.2, 0.2]: a copy of the sphere-step models (the
+    shipped ones, or $SSSPHERE_MODELS) claiming those ranges, for media they were not
+    trained for. Returns its directory."""
+    from sssphere.model import DEFAULT_MODELS
+
+    def make(**ranges) -> Path:
+        out = tmp_path / ("models-" + "-".join(sorted(ranges)))
+        out.mkdir()
+        source = Path(os.environ.get("SSSPHERE_MODELS") or DEFAULT_MODELS)
+        for name in ("lengthgen", "pathgen", "eventgen"):
+            d = json.loads((source / f"{name}.json").read_text())
+            d["training"].update(ranges)
+            (out / f"{name}.json").write_text(json.dumps(d))
+        return out
+
+    return make

@@ -18,7 +18,6 @@ import pytest
 
 import sssphere
 from sssphere import _core
-from sssphere.model import DEFAULT_MODELS
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -762,16 +761,11 @@ def test_a_turntable_holds_one_frame_at_a_time(tmp_path, small_scene, monkeypatc
 
 @pytest.mark.parametrize("cli", ["python", "cpp"])
 def test_st_on_a_medium_the_models_were_not_trained_for_says_so_and_renders(tmp_path, small_scene,
-                                                                            cli):
-    """Both command lines say, once and after the progress bar, that such a medium takes no
-    sphere steps (it renders as with pt); the Python one as its other warnings, not in
-    Python's raw format."""
-    models = tmp_path / "models"
-    models.mkdir()
-    for name in ("lengthgen", "pathgen", "eventgen"):
-        d = json.loads((Path(DEFAULT_MODELS) / f"{name}.json").read_text())
-        d["training"]["g"] = [-0.2, 0.2]  # the scene's g is 0.3
-        (models / f"{name}.json").write_text(json.dumps(d))
+                                                                            models_with, cli):
+    """Both command lines say, once and before the render starts (its progress bar), that
+    such a medium takes no sphere steps (it renders as with pt); the Python one as its
+    other warnings, not in Python's raw format."""
+    models = models_with(g=[-0.2, 0.2])  # the scene's g is 0.3
     small_scene["shapes"][0]["medium"]["sigma_t"] = [100, 100, 100]  # deep enough for steps
     (tmp_path / "s.json").write_text(json.dumps(small_scene))
     args = [tmp_path / "s.json", "-o", tmp_path / "x.exr", "--integrator", "st", "--models",
@@ -785,3 +779,4 @@ def test_st_on_a_medium_the_models_were_not_trained_for_says_so_and_renders(tmp_
     assert len(said) == 1 and said[0].startswith(prefix), r.stderr
     assert "shapes[0] ('ball')" in said[0] and "g = 0.3 is outside the training range" in said[0]
     assert "SceneWarning" not in r.stderr, r.stderr
+    assert r.stderr.index(said[0]) < r.stderr.index("100.0%"), r.stderr  # both bars say it

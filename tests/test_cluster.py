@@ -15,7 +15,6 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,7 +23,6 @@ import ray
 
 import sssphere
 from sssphere import cluster as sss_cluster
-from sssphere.model import DEFAULT_MODELS
 
 REL = 1e-6
 
@@ -208,15 +206,10 @@ def test_cut_models_reach_the_workers(two_nodes, small_scene, tmp_path):
 
 
 def test_a_renders_warnings_come_back_once_naming_the_models_given(two_nodes, small_scene,
-                                                                  tmp_path):
+                                                                  models_with):
     """st's warning for a medium its models were not trained for is made on every task; the
     client says it once, with the models directory it was given (not a node's copy)."""
-    models = tmp_path / "narrow"
-    models.mkdir()
-    for name in ("lengthgen", "pathgen", "eventgen"):
-        d = json.loads((Path(DEFAULT_MODELS) / f"{name}.json").read_text())
-        d["training"]["g"] = [-0.2, 0.2]  # the scene's g is 0.3
-        (models / f"{name}.json").write_text(json.dumps(d))
+    models = models_with(g=[-0.2, 0.2])  # the scene's g is 0.3
     scene = _scene(small_scene, sigma_t=60.0)
     with pytest.warns(sssphere.SceneWarning) as said:
         sssphere.render_full(scene, integrator="st", models=models, spp=8,

@@ -366,6 +366,24 @@ def test_info_counts_the_clearance_of_steps_under_point_lights(small_scene):
     assert cleared < deep(lambda s: s["shapes"][0].update(
         boundary={"type": "dielectric", "ior": 1.4}))
 
+def test_info_predicts_no_steps_in_a_medium_the_models_were_not_trained_for(small_scene,
+                                                                            models_with):
+    """st renders such a medium as pt does, and says so; info predicted sphere steps there."""
+    from sssphere.info import format_info, scene_info
+
+    small_scene["shapes"][0]["medium"]["sigma_t"] = 60
+    small_scene["render"]["models"] = str(models_with(g=[-0.2, 0.2]))  # the ball's g is 0.3
+    info = scene_info(sssphere.load_scene(small_scene))
+    ball = info["shapes"][0]
+    assert ball["st_untrained"] and ball["st_steps"] == 0, ball
+    assert ball["st_events"] == ball["pt_events"] and ball["deep_fraction"] == 0, ball
+    assert "none: the sphere-step models were not trained for this medium" in format_info(info)
+    assert "shapes[0] ('ball')" in info["st_warnings"][0]
+    del small_scene["render"]["models"]
+    trained = scene_info(sssphere.load_scene(small_scene))["shapes"][0]
+    assert not trained["st_untrained"] and trained["st_steps"] > 0, trained
+
+
 def test_info_command_describes_the_scene(small_scene, tmp_path):
     import json
     import subprocess

@@ -848,15 +848,10 @@ def test_gpu_record_paths(model_dir):
     assert r.gpu_seconds is not None and 0 < r.gpu_seconds
 
 
-def test_gpu_st_renders_a_medium_the_models_were_not_trained_for_without_steps(tmp_path):
+def test_gpu_st_renders_a_medium_the_models_were_not_trained_for_without_steps(models_with):
     """As on the CPU (test_st.py): g outside the models' range is no error; the medium takes
     no steps (pt's image, bit for bit) and the render warns, naming the shape."""
-    edited = tmp_path / "edited"
-    edited.mkdir()
-    for name in ("lengthgen", "pathgen", "eventgen"):
-        d = json.loads((Path(DEFAULT_MODELS) / f"{name}.json").read_text())
-        d["training"]["g"] = [-0.4, 0.4]
-        (edited / f"{name}.json").write_text(json.dumps(d))
+    edited = models_with(g=[-0.4, 0.4])
     scene = json.loads((REPO / "scenes" / "sphere.json").read_text())
     scene["camera"].update(width=8, height=8)
     scene["shapes"][0]["medium"].update(sigma_t=100.0, albedo=[0.99, 0.95, 0.9], g=0.5)

@@ -320,17 +320,6 @@ def test_scene_file_settings(tmp_path, models_dir):
 # Errors.
 
 
-def _models_with(tmp_path, models_dir, **ranges):
-    """A copy of the models with training ranges replaced, e.g. g=[-0.5, 0.5]."""
-    out = tmp_path / "edited"
-    out.mkdir()
-    for name in ("lengthgen", "pathgen", "eventgen"):
-        d = json.loads((Path(models_dir) / f"{name}.json").read_text())
-        d["training"].update(ranges)
-        (out / f"{name}.json").write_text(json.dumps(d))
-    return out
-
-
 @pytest.mark.parametrize(
     "kwargs, expected",
     [
@@ -357,14 +346,20 @@ def test_max_bounces_is_refused(models_dir):
 
 def _untrained(scene, models, **kwargs):
     """st's render of a medium the models were not trained for: no steps, pt's image bit
-    for bit, and a SceneWarning that names the shape; returns the warning's text."""
+    for bit, and a SceneWarning that names the shape, said once before the render starts
+    and kept in the result; returns the warning's text."""
+    said_at_start = []  # warnings said when the render first reported progress
     with pytest.warns(sssphere.SceneWarning, match=r"shapes\[0\] \('sphere'\): integrator 'st' "
                       "takes no sphere steps in this medium") as said:
-        st = sssphere.render_full(scene, integrator="st", models=models, spp=2, **kwargs)
+        st = sssphere.render_full(scene, integrator="st", models=models, spp=2,
+                                  progress=lambda f: said_at_start.append(len(said)), **kwargs)
+    assert said_at_start[0] == len(said) == 1  # before the render, and once
     assert st.mean_sphere_steps_per_path == 0
     kwargs.pop("step_nee", None)
     np.testing.assert_array_equal(st.image, sssphere.render(scene, "pt", spp=2, **kwargs))
-    return next(str(w.message) for w in said if "takes no sphere steps" in str(w.message))
+    msg = str(said[0].message)
+    assert st.warnings == (msg,)
+    return msg
 
 
 def _trained(scene, models, **kwargs):
@@ -375,10 +370,10 @@ def _trained(scene, models, **kwargs):
     assert st.mean_sphere_steps_per_path > 0
 
 
-def test_medium_outside_the_training_ranges_renders_without_steps(tmp_path, models_dir):
+def test_medium_outside_the_training_ranges_renders_without_steps(models_with):
     """It was an error; a researcher asking for st on g = 0.97 wants the image (pt's, as
     only a step needs the models) and a word that it came without st's speed-up."""
-    edited = _models_with(tmp_path, models_dir, g=[-0.4, 0.4], phi=[0.0, 0.9])
+    edited = models_with(g=[-0.4, 0.4], phi=[0.0, 0.9])
     msg = _untrained(sssphere.load_scene(sphere_scene(res=4, g=0.5, albedo=(0.8, 0.8, 0.8))),
                      edited)
     for part in ["g = 0.5 is outside the training range [-0.4, 0.4]", "lengthgen.json"]:
@@ -417,8 +412,8 @@ def test_a_medium_whose_thinnest_channel_cannot_step_is_checked_too(models_dir):
     assert st.mean_sphere_steps_per_path > 0  # the first sphere still steps
 
 
-def test_threshold_below_the_models_sigma_range(tmp_path, models_dir):
-    edited = _models_with(tmp_path, models_dir, sigma=[0.5, 200.0])
+def test_threshold_below_the_models_sigma_range(models_with):
+    edited = models_with(sigma=[0.5, 200.0])
     scene = sssphere.load_scene(sphere_scene(res=4))
     with pytest.raises(SceneError, match="sphere_threshold 0.25 is below the smallest optical radius"):
         sssphere.render_full(scene, integrator="st", models=edited, sphere_threshold=0.25, spp=1)

@@ -22,6 +22,7 @@
 #include "io/image_io.h"
 #include "render/aovs.h"
 #include "render/options.h"
+#include "render/renderer.h"
 #include "render/scene.h"
 
 namespace {
@@ -230,6 +231,12 @@ int main(int argc, char** argv) {
             return interrupted();
         }
         const sss::Scene& scene = *built;
+        // Media "st" takes no steps in are said before the render, which may be long.
+        const std::vector<std::string> said =
+            opt.integrator == "st" ? sss::check_sphere_steps(scene, opt).warnings
+                                   : std::vector<std::string>();
+        for (const std::string& w : said)
+            std::cerr << "sssphere-render: warning: " << w << "\n";
         sss::RenderResult r = sss::render_with_backend(scene, opt, [&](double f) {
             if (!quiet) {
                 int filled = int(f * 40);
@@ -240,7 +247,8 @@ int main(int argc, char** argv) {
         });
         if (!quiet) std::fprintf(stderr, "\n");
         for (const std::string& w : r.warnings)
-            std::cerr << "sssphere-render: warning: " << w << "\n";
+            if (std::find(said.begin(), said.end(), w) == said.end())
+                std::cerr << "sssphere-render: warning: " << w << "\n";
         if (r.cancelled && r.spp == 0) {  // an all-black image would look like a render
             std::fprintf(
                 stderr,

@@ -150,6 +150,23 @@ void bind_render(py::module_& m) {
         "The options a render would use: defaults < the scene's render block < `text` "
         "(command-line strings) < keyword arguments.");
     m.def(
+        "check_sphere_steps",
+        [](const Scene& scene, const std::string& default_models, const py::dict& text,
+           const py::kwargs& options) {
+            const SphereStepCheck check = check_sphere_steps(
+                scene,
+                resolve_render_options(scene.desc().render, scene.desc().source,
+                                       overrides_from(text, options), default_models));
+            py::dict d;
+            d["steps"] = check.steps;
+            d["warnings"] = check.warnings;
+            return d;
+        },
+        py::arg("scene"), py::arg("default_models") = "", py::arg("text") = py::dict(),
+        "Integrator 'st' with the options a render would use (whatever their "
+        "integrator): 'steps', per shape, whether it takes sphere steps there, and the "
+        "'warnings' its render would give for media the models were not trained for.");
+    m.def(
         "check_option_values",
         [](const py::dict& text, const py::kwargs& options) {
             check_override_values(overrides_from(text, options));

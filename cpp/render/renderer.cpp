@@ -93,4 +93,13 @@ RenderResult render(const Scene& scene, const RenderOptions& opt,
     return r;
 }
 
+SphereStepCheck check_sphere_steps(const Scene& scene, const RenderOptions& options) {
+    const SphereTracing st(scene, options.sphere_threshold, options.sphere_sampler,
+                           options.models, options.nee, options.step_nee);
+    SphereStepCheck check;
+    for (int i = 0; i < scene.num_shapes(); ++i) check.steps.push_back(st.can_step(i));
+    check.warnings = st.warnings();
+    return check;
+}
+
 }  // namespace sss

@@ -22,4 +22,16 @@ namespace sss {
 RenderResult render(const Scene& scene, const RenderOptions& options,
                     const ProgressFn& progress = {});
 
+// Integrator "st" with these options, whatever options.integrator says: which media take
+// sphere steps (SphereTracing::can_step: deep enough, and the models trained for them),
+// and the warnings it gives for those the models were not trained for (the cut models'
+// checks are left to the render). Before a render, so that the command lines and Python
+// say them when it starts and `sssphere info` predicts no steps there. Throws what
+// SphereTracing's constructor throws (no models, a threshold below their range).
+struct SphereStepCheck {
+    std::vector<bool> steps;  // per shape (false for surfaces)
+    std::vector<std::string> warnings;
+};
+SphereStepCheck check_sphere_steps(const Scene& scene, const RenderOptions& options);
+
 }  // namespace sss

@@ -14,6 +14,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
 from sssphere._progress import Progress
 from sssphere._version import __version__
@@ -24,16 +25,20 @@ from sssphere.scene import SceneError, SceneWarning, load_scene_with
 
 @contextlib.contextmanager
 def _said_warnings():
-    """The SceneWarnings (and any other warning) raised inside, each said once, as
-    `sssphere: warning: ...` lines when the block ends (after its progress bar)."""
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", SceneWarning)
-        try:
-            yield
-        finally:
-            for message in dict.fromkeys(str(w.message) for w in caught):
-                print(f"sssphere: warning: {message}", file=sys.stderr)
+    """The SceneWarnings (and any other warning) raised inside, each said once, as a
+    `sssphere: warning: ...` line when it is raised (above a progress bar: a render's
+    warnings about its media come before it starts)."""
+    said = set()
 
+    def say(message, category, filename, lineno, file=None, line=None):
+        if str(message) not in said:
+            said.add(str(message))
+            tqdm.write(f"sssphere: warning: {message}", file=sys.stderr)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", SceneWarning)
+        warnings.showwarning = say
+        yield
 
 
 def _checked(convert, ok, requirement: str):

@@ -88,6 +88,10 @@ def scene_info(scene: Scene) -> dict[str, Any]:
     tau = float(options["sphere_threshold"])
     lights = scene.lights.to_python() if "lights" in scene.to_dict() else []
     delta_lights = any(light.get("type") in ("point", "directional") for light in lights)
+    try:  # which media "st" steps in: deep enough, and its models trained for them
+        check = rendering._core.check_sphere_steps(scene, str(rendering.DEFAULT_MODELS))
+    except ValueError as e:  # no models, or a threshold below their range
+        check = {"steps": [False] * scene.num_shapes, "warnings": [str(e)]}
     shapes = []
     per_path = {"pt_events": 0.0, "st_events": 0.0, "st_steps": 0.0}
     for i in range(scene.num_shapes):
@@ -100,13 +104,16 @@ def scene_info(scene: Scene) -> dict[str, Any]:
             shape.update(_medium_estimates(
                 scene, i, shape, tau,
                 float(rendering._core.DELTA_LIGHT_CLEARANCE) if cleared else 0.0))
+            shape["st_untrained"] = any(f"shapes[{i}] " in w for w in check["warnings"])
+            if not check["steps"][i]:  # "st" renders it as "pt" does
+                shape.update(deep_fraction=0.0, st_events=shape["pt_events"], st_steps=0.0)
             for key in per_path:
                 per_path[key] += shape["coverage"] * shape[key]
         shapes.append(shape)
     return {"source": scene.source, "width": scene.width, "height": scene.height,
             "options": options, "shapes": shapes,
             "lights": [light.get("type", "?") for light in lights],
-            "per_camera_path": per_path}
+            "per_camera_path": per_path, "st_warnings": check["warnings"]}
 
 
 def _lengths(sigma: np.ndarray) -> list:
@@ -151,7 +158,9 @@ def format_info(info: dict[str, Any]) -> str:
                if s["path_length_with_absorption"] < 0.999 * s["mean_path_length"] else ""),
             f"    pt: ~{_count(s['pt_events'])} scattering events",
             f"    st: ~{_count(s['st_events'])} events + ~{_count(s['st_steps'])} sphere steps "
-            f"({100 * s['deep_fraction']:.0f}% of the volume is deep enough to step)",
+            + ("(none: the sphere-step models were not trained for this medium)"
+               if s["st_untrained"] else
+               f"({100 * s['deep_fraction']:.0f}% of the volume is deep enough to step)"),
         ]
     lines.append("lights: " + (", ".join(info["lights"]) if info["lights"] else "none"))
     p = info["per_camera_path"]

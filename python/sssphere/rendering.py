@@ -95,6 +95,9 @@ class RenderResult:
     denoised : with ``denoise=True``, ``image`` denoised by Intel Open Image Denoise with
         the albedo and normal AOVs (an Image); else None. ``image`` stays the unbiased
         estimate that ``variance`` describes.
+    warnings : what the render warned of (each also a SceneWarning), e.g. a medium
+        ``"st"`` takes no sphere steps in because its models were not trained for it;
+        () if nothing.
     options : the options the render used, resolved (defaults < the scene's render block <
         the arguments): integrator, spp, seed, threads, max_bounces, nee, sphere_threshold,
         models, cut_models, sphere_sampler, step_nee, record_paths, backend, time_limit.
@@ -123,6 +126,7 @@ class RenderResult:
     depth: Optional[np.ndarray] = None
     denoised: Optional[np.ndarray] = None
     cluster: Optional[dict] = None
+    warnings: tuple = ()
 
     @property
     def picture(self) -> np.ndarray:
@@ -195,17 +199,22 @@ def _render(scene: Scene, progress, options: dict, text: Optional[dict] = None,
     if progress is not None and not callable(progress):
         raise TypeError(f"progress must be a function of the fraction done (or None), got "
                         f"{progress!r}")
+    models, given = os.fspath(DEFAULT_MODELS), {k: v for k, v in options.items() if v is not None}
+    said = []  # media "st" takes no steps in, said before the render (which may be long)
+    if _core.resolve_render_options(scene, models, text or {}, **given)["integrator"] == "st":
+        said = _core.check_sphere_steps(scene, models, text or {}, **given)["warnings"]
+    for message in said:
+        warnings.warn(message, SceneWarning, stacklevel=_caller_outside_sssphere())
     with scene._rendered():
         if ray_address is not None:
             from sssphere import cluster
 
-            r = cluster.render(scene, ray_address, progress, options, text,
-                               os.fspath(DEFAULT_MODELS))
+            r = cluster.render(scene, ray_address, progress, options, text, models)
         else:
-            given = {k: v for k, v in options.items() if v is not None}
-            r = _core.render(scene, os.fspath(DEFAULT_MODELS), progress, text or {}, **given)
-    for message in r.get("warnings", ()):  # e.g. media "st" renders without steps
-        warnings.warn(message, SceneWarning, stacklevel=_caller_outside_sssphere())
+            r = _core.render(scene, models, progress, text or {}, **given)
+    for message in r.get("warnings", ()):  # the cut models' checks, say
+        if message not in said:
+            warnings.warn(message, SceneWarning, stacklevel=_caller_outside_sssphere())
     return r
 
 
@@ -482,6 +491,7 @@ def _result(r: dict) -> RenderResult:
         gpu_seconds=r.get("gpu_seconds"),
         device=r.get("device"),
         cluster=r.get("cluster"),
+        warnings=tuple(r.get("warnings", ())),
     )
 
 
