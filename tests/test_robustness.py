@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import math
 import re
+import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -28,6 +30,8 @@ from scipy import stats
 
 import sssphere
 from sssphere import _core
+
+REPO = Path(__file__).resolve().parent.parent
 
 HAS_GPU = _core.gpu_status()[0]
 
@@ -456,3 +460,86 @@ def test_media_nearly_touching_are_refused_and_the_gap_allowed_renders_right():
                      for gap in (1e-3, 1.1 * needed))
     assert wide.image.mean() > 0.1
     assert_same_image(wide, allowed, f"slabs {1.1 * needed:.3g} apart")
+
+
+def cube_on_floor(lift: float, turn=None, floor_y: float = 0.0) -> dict:
+    """A unit cube of medium `lift` above a 4 x 4 diffuse floor, all turned by `turn`; a
+    point light above, the camera below the floor looking up at the cube."""
+    turn = np.eye(3) if turn is None else turn
+    h = 0.5
+    cube = [[x, floor_y + lift + y + h, z] for x in (-h, h) for y in (-h, h) for z in (-h, h)]
+    floor = [[-2, floor_y, -2], [2, floor_y, -2], [2, floor_y, 2], [-2, floor_y, 2]]
+    t = lambda points: [(turn @ p).tolist() for p in points]  # noqa: E731
+    return {"camera": {"origin": (turn @ [0.3, floor_y - 3, 0.4]).tolist(),
+                       "target": (turn @ [0, floor_y + 0.5, 0]).tolist(),
+                       "up": (turn @ [0, 0, 1.0]).tolist(), "fov": 40, "width": 32, "height": 32},
+            "shapes": [{"name": "cube", "vertices": t(cube),
+                        "faces": [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6],
+                                  [0, 2, 6, 4], [1, 5, 7, 3]],
+                        "medium": {"sigma_t": 5, "albedo": 0.99}},
+                       {"name": "floor", "vertices": t(floor), "faces": [[0, 2, 1], [0, 3, 2]],
+                        "surface": {"type": "diffuse", "reflectance": 0.8}}],
+            "lights": [{"type": "point", "position": (turn @ [1.0, floor_y + 4, 2]).tolist(),
+                        "intensity": 10}]}
+
+
+def _scene_warnings(scene) -> tuple:
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        loaded = sssphere.load_scene(scene)
+    return loaded, [str(w.message) for w in said]
+
+
+def test_a_medium_lying_on_a_floor_warns_and_a_lifted_one_is_exact():
+    """A cube resting exactly on a floor: rays leaving the cube's bottom start past the floor
+    (a rounding-sized offset), so the floor lets light through. An outside sweep saw the lit
+    cube from under the floor, and the floor around it darker by 1-6 %. Such contact warns,
+    naming both shapes and the share of the medium's surface; lifted by 1e-5 of the scene
+    (the size the docs give), nothing warns and the floor is opaque: a camera under it, all
+    light above, sees exactly 0, also turned about an oblique axis and with the floor off 0."""
+    axis = np.array([0.3, 1.0, -0.6]) / np.linalg.norm([0.3, 1.0, -0.6])
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    turned = np.eye(3) + math.sin(1.1) * k + (1 - math.cos(1.1)) * k @ k
+    for turn, floor_y in ((np.eye(3), 0.0), (turned, -0.37)):
+        _, said = _scene_warnings(cube_on_floor(0.0, turn, floor_y))
+        assert len(said) == 1, said
+        assert ("shapes[1] ('floor'), an opaque surface, and the medium of shapes[0] ('cube') "
+                "meet over 16.7 % of the medium's surface") in said[0], said[0]
+        scene, said = _scene_warnings(cube_on_floor(4e-5, turn, floor_y))  # 1e-5 of 4
+        assert said == [], said
+        image = sssphere.render(scene, spp=16, seed=1)
+        assert np.count_nonzero(image) == 0, f"{np.count_nonzero(image)} pixels see through"
+        # the same cube seen from above is lit: the camera below sees 0 because the floor
+        # is opaque, not because nothing is lit
+        scene.camera.origin = (turn @ [0.3, floor_y + 4, 0.4]).tolist()
+        assert sssphere.render(scene, spp=4, seed=1).mean() > 0.01
+
+
+def test_an_opaque_surface_through_a_medium_warns():
+    """A floor through the middle of a cube, or a ball sunk into one: light passes the
+    surface inside the medium (the sweep saw 6-14 % of the light below it), with no word.
+    Such a scene warns; a ball touching a floor at a point, and the shipped scene of one,
+    do not."""
+    scene = cube_on_floor(-0.5)
+    _, said = _scene_warnings(scene)
+    assert len(said) == 1 and ("shapes[1] ('floor'), an opaque surface, passes through the "
+                               "surface of shapes[0] ('cube')'s medium") in said[0], said
+    ball = {"name": "ball", "sphere": {"center": [0, 0.9, 0], "radius": 1, "subdivisions": 3},
+            "medium": {"sigma_t": 5, "albedo": 0.99}}
+    scene["shapes"][0] = ball
+    assert "passes through the surface of shapes[0] ('ball')" in _scene_warnings(scene)[1][0]
+    ball["sphere"]["center"][1] = 1.0  # touching at a vertex: no area of contact
+    assert _scene_warnings(scene)[1] == []
+    assert _scene_warnings(REPO / "scenes" / "sphere_on_floor.json")[1] == []
+
+
+def test_contact_warnings_follow_edits():
+    """An edit that lifts the cube ends the warning; one that leaves the pair as it was
+    (a light) keeps it."""
+    scene, said = _scene_warnings(cube_on_floor(0.0))
+    assert len(said) == 1
+    with pytest.warns(sssphere.SceneWarning, match="meet over 16.7 %"):
+        scene.lights[0].intensity = 20
+    assert len(scene.warnings) == 1
+    scene.shapes[0].vertices = cube_on_floor(1e-3)["shapes"][0]["vertices"]  # warns nothing
+    assert scene.warnings == []

@@ -625,6 +625,78 @@ NearContact near_contact(const TriangleMesh& a, const TriangleMesh& b) {
     return worst;
 }
 
+namespace {
+
+// Signed distances of t's corners to the plane of u, and whether they lie beyond `band`
+// on both sides of it.
+bool straddles(const Triangle& t, const Triangle& u, double band) {
+    const K::Vector_3 n = CGAL::cross_product(u[1] - u[0], u[2] - u[0]);
+    const double len = std::sqrt(n.squared_length());
+    double lo = INFINITY, hi = -INFINITY;
+    for (int v = 0; v < 3; ++v) {
+        const double d = (t[v] - u[0]) * n / len;
+        lo = std::min(lo, d);
+        hi = std::max(hi, d);
+    }
+    return lo < -band && hi > band;
+}
+
+}  // namespace
+
+SurfaceContact surface_contact(const TriangleMesh& medium, const TriangleMesh& surface) {
+    const std::vector<double> off_m = ray_offset_bounds(medium),
+                              off_s = ray_offset_bounds(surface);
+    const double most_s = *std::max_element(off_s.begin(), off_s.end()),
+                 most_m = *std::max_element(off_m.begin(), off_m.end());
+    Bounds3 near_m = medium.bounds();  // grown by 3 (not 2) for the boxes' own rounding
+    near_m.lo = near_m.lo - Vec3(float(3 * (most_m + most_s)));
+    near_m.hi = near_m.hi + Vec3(float(3 * (most_m + most_s)));
+    SurfaceContact contact;
+    if (!near_m.overlaps(surface.bounds())) return contact;
+    std::vector<Triangle> tm = cgal_triangles(medium), ts = cgal_triangles(surface);
+
+    // Lying on it: triangles of the medium whose corners are all within the offsets' band
+    // of the surface (twice the two bounds, as near_contact), an area of contact.
+    Tree tree_s(ts.begin(), ts.end());
+    tree_s.accelerate_distance_queries();
+    std::vector<double> vertex_gap(medium.positions.size(), -1.0);
+    const Bounds3 box_s = surface.bounds();
+    const float reach = float(3 * (most_m + most_s));
+    for (size_t i = 0; i < tm.size(); ++i) {
+        const double band = 2 * (off_m[i] + most_s);
+        bool lies = true;
+        for (int c = 0; c < 3 && lies; ++c) {
+            const uint32_t v = medium.triangles[i][c];
+            const Vec3 p = medium.positions[v];
+            if (vertex_gap[v] < 0)
+                vertex_gap[v] = (p.x < box_s.lo.x - reach || p.x > box_s.hi.x + reach ||
+                                 p.y < box_s.lo.y - reach || p.y > box_s.hi.y + reach ||
+                                 p.z < box_s.lo.z - reach || p.z > box_s.hi.z + reach)
+                                    ? INFINITY
+                                    : std::sqrt(tree_s.squared_distance(to_point(p)));
+            lies = vertex_gap[v] <= band;
+        }
+        if (lies) contact.lying_area += std::sqrt(tm[i].squared_area());
+    }
+
+    // Passing through it: a surface triangle and a medium triangle that meet, each with
+    // corners beyond the band on both sides of the other's plane.
+    Tree tree_m(tm.begin(), tm.end());
+    std::vector<Primitive::Id> met;
+    for (size_t k = 0; k < ts.size() && !contact.crosses; ++k) {
+        met.clear();
+        tree_m.all_intersected_primitives(ts[k], std::back_inserter(met));
+        for (TriIter u : met) {
+            const double band = 2 * (off_s[k] + off_m[size_t(u - tm.begin())]);
+            if (straddles(ts[k], *u, band) && straddles(*u, ts[k], band)) {
+                contact.crosses = true;
+                break;
+            }
+        }
+    }
+    return contact;
+}
+
 std::vector<double> exact_distances(const TriangleMesh& mesh,
                                     const std::vector<Vec3>& points) {
     std::vector<Triangle> tris = cgal_triangles(mesh);

@@ -735,7 +735,7 @@ bool same_mesh(const TriangleMesh& a, const TriangleMesh& b) {
 // the coordinates past its surface, and could start past the other's (a sweep measured
 // 93 % of the light lost across a gap of 1.5e-7 of the scene).
 void Scene::check_media_apart(const std::vector<TriangleMesh>& quads,
-                              const Scene* previous) const {
+                              const Scene* previous) {
     auto name = [&](size_t i) {
         return "shapes[" + std::to_string(i) + "] ('" + desc_.shapes[i].name + "')";
     };
@@ -768,6 +768,36 @@ void Scene::check_media_apart(const std::vector<TriangleMesh>& quads,
                      "offset the size of the coordinates' rounding (allowed: a gap of ",
                      near.needed, " or more there; 1e-5 of the scene is always enough; ",
                      "two pieces of one medium can be one mesh)");
+        }
+        for (size_t j = 0; j < desc_.shapes.size(); ++j) {
+            if (!desc_.shapes[j].is_surface()) continue;
+            if (previous && !changed[i] && !changed[j]) {
+                for (const auto& w : previous->contact_warnings_)
+                    if (std::get<0>(w) == int(i) && std::get<1>(w) == int(j))
+                        contact_warnings_.push_back(w);
+                continue;
+            }
+            const TriangleMesh& medium = desc_.shapes[i].mesh;
+            const SurfaceContact contact = surface_contact(medium, desc_.shapes[j].mesh);
+            std::ostringstream os;
+            os.precision(3);
+            os << desc_.source << ": " << name(j) << ", an opaque surface, ";
+            if (contact.crosses)
+                os << "passes through the surface of " << name(i)
+                   << "'s medium: paths inside the medium meet it, but light still "
+                      "passes "
+                      "it in places (a surface reaching into a medium is not supported; "
+                      "allowed: opaque surfaces outside media, apart from them)";
+            else if (contact.lying_area > 0)
+                os << "and the medium of " << name(i) << " meet over "
+                   << 100 * contact.lying_area / medium.area()
+                   << " % of the medium's surface, where the surface lets light through "
+                      "(rays leaving one start past the other, by rounding: "
+                      "robustness.md);"
+                      " lift the medium off it by 1e-5 of the scene for an exact image";
+            else
+                continue;
+            contact_warnings_.emplace_back(int(i), int(j), os.str());
         }
         for (size_t k = 0; k < quads.size(); ++k)
             if ((changed[i] || quad_changed[k]) &&
@@ -809,7 +839,11 @@ void Scene::build(int threads, const Scene* previous, const StopFn& stop) {
     for (int i = 0; same_media && i < num_shapes(); ++i)
         same_media =
             desc_.shapes[i].is_surface() == previous->desc_.shapes[i].is_surface();
-    if (!same_media) check_media_apart(quads, previous);
+    if (!same_media)
+        check_media_apart(quads, previous);
+    else if (previous)
+        contact_warnings_ = previous->contact_warnings_;
+    for (const auto& w : contact_warnings_) desc_.warnings.push_back(std::get<2>(w));
     if (same_meshes) {
         tracer_ = previous->tracer_;
     } else {
