@@ -56,8 +56,11 @@ def models_with(tmp_path):
     trained for. Returns its directory."""
     from sssphere.model import DEFAULT_MODELS
 
+    made = []
+
     def make(**ranges) -> Path:
-        out = tmp_path / ("models-" + "-".join(sorted(ranges)))
+        made.append(ranges)
+        out = tmp_path / f"models-{len(made)}"
         out.mkdir()
         source = Path(os.environ.get("SSSPHERE_MODELS") or DEFAULT_MODELS)
         for name in ("lengthgen", "pathgen", "eventgen"):

@@ -531,15 +531,33 @@ def test_an_opaque_surface_through_a_medium_warns():
     ball["sphere"]["center"][1] = 1.0  # touching at a vertex: no area of contact
     assert _scene_warnings(scene)[1] == []
     assert _scene_warnings(REPO / "scenes" / "sphere_on_floor.json")[1] == []
+    # a wick: a small opaque box wholly inside the cube
+    scene = cube_on_floor(0.0)
+    wick = [[x, y, z] for x in (-0.05, 0.05) for y in (0.4, 0.6) for z in (-0.05, 0.05)]
+    scene["shapes"][1].update(vertices=wick, faces=scene["shapes"][0]["faces"])
+    _, said = _scene_warnings(scene)
+    assert len(said) == 1 and "lies inside shapes[0] ('cube')'s medium" in said[0], said
+    # a cube on a smaller pedestal: no corner of the cube lies on its top, which lies on
+    # the cube
+    top = [[x, 0.0, z] for x, z in ((-0.2, -0.2), (0.2, -0.2), (0.2, 0.2), (-0.2, 0.2))]
+    scene["shapes"][1].update(vertices=top, faces=[[0, 2, 1], [0, 3, 2]])
+    _, said = _scene_warnings(scene)
+    assert len(said) == 1 and "meet over 2.67 % of the medium's surface" in said[0], said
 
 
 def test_contact_warnings_follow_edits():
-    """An edit that lifts the cube ends the warning; one that leaves the pair as it was
-    (a light) keeps it."""
+    """An edit that lifts the cube ends the warning; one that leaves the pair as it was (a
+    light, a shape added elsewhere) keeps it, and a renamed cube is named anew."""
     scene, said = _scene_warnings(cube_on_floor(0.0))
     assert len(said) == 1
     with pytest.warns(sssphere.SceneWarning, match="meet over 16.7 %"):
         scene.lights[0].intensity = 20
+    assert len(scene.warnings) == 1
+    with pytest.warns(sssphere.SceneWarning, match=r"medium of shapes\[0\] \('wax'\) meet"):
+        scene.shapes[0].name = "wax"
+    with pytest.warns(sssphere.SceneWarning, match="meet over 16.7 %"):
+        scene.shapes[2] = {"name": "far", "sphere": {"center": [0, 3, -3], "radius": 0.3},
+                           "medium": {"sigma_t": 5, "albedo": 0.5}}
     assert len(scene.warnings) == 1
     scene.shapes[0].vertices = cube_on_floor(1e-3)["shapes"][0]["vertices"]  # warns nothing
     assert scene.warnings == []

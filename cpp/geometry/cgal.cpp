@@ -591,14 +591,25 @@ bool meshes_meet(const TriangleMesh& closed, const TriangleMesh& other,
            CGAL::ON_UNBOUNDED_SIDE;
 }
 
+namespace {
+
+// Whether boxes a and b come within their meshes' offsets' reach (ray_offset_ceiling,
+// three times: twice, and a margin for the boxes' own rounding): a test of the boxes
+// alone, before any per-triangle work.
+bool within_reach(const Bounds3& a, const Bounds3& b) {
+    const float reach = float(3 * (ray_offset_ceiling(a) + ray_offset_ceiling(b)));
+    Bounds3 grown = a;
+    grown.lo = grown.lo - Vec3(reach);
+    grown.hi = grown.hi + Vec3(reach);
+    return grown.overlaps(b);
+}
+
+}  // namespace
+
 NearContact near_contact(const TriangleMesh& a, const TriangleMesh& b) {
+    if (!within_reach(a.bounds(), b.bounds())) return {};
     const std::vector<double> off_a = ray_offset_bounds(a), off_b = ray_offset_bounds(b);
-    const double most_a = *std::max_element(off_a.begin(), off_a.end()),
-                 most_b = *std::max_element(off_b.begin(), off_b.end());
-    Bounds3 near_a = a.bounds();  // grown by 3 (not 2) for the boxes' own rounding
-    near_a.lo = near_a.lo - Vec3(float(3 * (most_a + most_b)));
-    near_a.hi = near_a.hi + Vec3(float(3 * (most_a + most_b)));
-    if (!near_a.overlaps(b.bounds())) return {};
+    const double most_b = *std::max_element(off_b.begin(), off_b.end());
     std::vector<Triangle> ta = cgal_triangles(a), tb = cgal_triangles(b);
     auto grown = [](const CGAL::Bbox_3& box, double by) {
         return K::Iso_cuboid_3(box.xmin() - by, box.ymin() - by, box.zmin() - by,
@@ -644,44 +655,51 @@ bool straddles(const Triangle& t, const Triangle& u, double band) {
 }  // namespace
 
 SurfaceContact surface_contact(const TriangleMesh& medium, const TriangleMesh& surface) {
+    SurfaceContact contact;
+    const Bounds3 box_m = medium.bounds(), box_s = surface.bounds();
+    if (!within_reach(box_m, box_s)) return contact;
     const std::vector<double> off_m = ray_offset_bounds(medium),
                               off_s = ray_offset_bounds(surface);
     const double most_s = *std::max_element(off_s.begin(), off_s.end()),
                  most_m = *std::max_element(off_m.begin(), off_m.end());
-    Bounds3 near_m = medium.bounds();  // grown by 3 (not 2) for the boxes' own rounding
-    near_m.lo = near_m.lo - Vec3(float(3 * (most_m + most_s)));
-    near_m.hi = near_m.hi + Vec3(float(3 * (most_m + most_s)));
-    SurfaceContact contact;
-    if (!near_m.overlaps(surface.bounds())) return contact;
     std::vector<Triangle> tm = cgal_triangles(medium), ts = cgal_triangles(surface);
-
-    // Lying on it: triangles of the medium whose corners are all within the offsets' band
-    // of the surface (twice the two bounds, as near_contact), an area of contact.
-    Tree tree_s(ts.begin(), ts.end());
+    Tree tree_m(tm.begin(), tm.end()), tree_s(ts.begin(), ts.end());
+    tree_m.accelerate_distance_queries();
     tree_s.accelerate_distance_queries();
-    std::vector<double> vertex_gap(medium.positions.size(), -1.0);
-    const Bounds3 box_s = surface.bounds();
+
+    // Lying on each other: the area of the triangles of one whose corners are all within
+    // the offsets' band of the other (twice the two bounds, as near_contact), from either
+    // side (a cube on a smaller pedestal has no corner on it, but the pedestal's top lies
+    // on the cube). Distances only for corners near the other's box.
     const float reach = float(3 * (most_m + most_s));
-    for (size_t i = 0; i < tm.size(); ++i) {
-        const double band = 2 * (off_m[i] + most_s);
-        bool lies = true;
-        for (int c = 0; c < 3 && lies; ++c) {
-            const uint32_t v = medium.triangles[i][c];
-            const Vec3 p = medium.positions[v];
-            if (vertex_gap[v] < 0)
-                vertex_gap[v] = (p.x < box_s.lo.x - reach || p.x > box_s.hi.x + reach ||
-                                 p.y < box_s.lo.y - reach || p.y > box_s.hi.y + reach ||
-                                 p.z < box_s.lo.z - reach || p.z > box_s.hi.z + reach)
-                                    ? INFINITY
-                                    : std::sqrt(tree_s.squared_distance(to_point(p)));
-            lies = vertex_gap[v] <= band;
+    auto lying_area = [&](const TriangleMesh& mesh, const std::vector<Triangle>& tris,
+                          const std::vector<double>& off, double most_other,
+                          const Tree& other, const Bounds3& other_box) {
+        std::vector<double> gap(mesh.positions.size(), -1.0);
+        double area = 0;
+        for (size_t i = 0; i < tris.size(); ++i) {
+            bool lies = true;
+            for (int c = 0; c < 3 && lies; ++c) {
+                const uint32_t v = mesh.triangles[i][c];
+                const Vec3 p = mesh.positions[v];
+                if (gap[v] < 0)
+                    gap[v] =
+                        (p.x < other_box.lo.x - reach || p.x > other_box.hi.x + reach ||
+                         p.y < other_box.lo.y - reach || p.y > other_box.hi.y + reach ||
+                         p.z < other_box.lo.z - reach || p.z > other_box.hi.z + reach)
+                            ? INFINITY
+                            : std::sqrt(other.squared_distance(to_point(p)));
+                lies = gap[v] <= 2 * (off[i] + most_other);
+            }
+            if (lies) area += std::sqrt(tris[i].squared_area());
         }
-        if (lies) contact.lying_area += std::sqrt(tm[i].squared_area());
-    }
+        return area;
+    };
+    contact.lying_area = std::max(lying_area(medium, tm, off_m, most_s, tree_s, box_s),
+                                  lying_area(surface, ts, off_s, most_m, tree_m, box_m));
 
     // Passing through it: a surface triangle and a medium triangle that meet, each with
     // corners beyond the band on both sides of the other's plane.
-    Tree tree_m(tm.begin(), tm.end());
     std::vector<Primitive::Id> met;
     for (size_t k = 0; k < ts.size() && !contact.crosses; ++k) {
         met.clear();
@@ -693,6 +711,18 @@ SurfaceContact surface_contact(const TriangleMesh& medium, const TriangleMesh& s
                 break;
             }
         }
+    }
+    // Inside it (a wick in a candle): a corner of the surface inside the medium and off
+    // its surface.
+    if (!contact.crosses && contact.lying_area == 0) {
+        const SurfaceMesh sm = to_surface_mesh(medium);
+        CGAL::Side_of_triangle_mesh<SurfaceMesh, K> side(sm);
+        for (const Vec3& p : surface.positions)
+            if (box_m.contains(p) && side(to_point(p)) == CGAL::ON_BOUNDED_SIDE &&
+                std::sqrt(tree_m.squared_distance(to_point(p))) > 2 * (most_m + most_s)) {
+                contact.inside = true;
+                break;
+            }
     }
     return contact;
 }

@@ -119,11 +119,12 @@ NearContact near_contact(const TriangleMesh& a, const TriangleMesh& b);
 
 // How an opaque surface meets a closed medium: whether it passes through the medium's
 // surface (corners of both triangles of a meeting pair beyond the rays' offsets on both
-// sides of the other's plane: a floor cutting a cube, a ball sunk into a floor), and the
-// area of the medium's triangles lying on it within those offsets (a cube resting on a
-// floor; a ball touching it at a point has none).
+// sides of the other's plane: a floor cutting a cube, a ball sunk into a floor), whether
+// it lies wholly inside (a wick in a candle), and the area of the triangles of either
+// lying on the other within those offsets (a cube resting on a floor; a ball touching it
+// at a point has none).
 struct SurfaceContact {
-    bool crosses = false;
+    bool crosses = false, inside = false;
     double lying_area = 0;
 };
 SurfaceContact surface_contact(const TriangleMesh& medium, const TriangleMesh& surface);

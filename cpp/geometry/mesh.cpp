@@ -37,6 +37,18 @@ double TriangleMesh::area() const {
     return a;
 }
 
+double ray_offset_ceiling(const Bounds3& box) {
+    double norm = 0, ulp = 0;
+    for (int c = 0; c < 3; ++c) {
+        const double lo = (&box.lo.x)[c], hi = (&box.hi.x)[c];
+        const double m = std::max(std::abs(lo), std::abs(hi));
+        const double error = kGamma7 * (m + (hi - lo));
+        norm += error * error;
+        ulp += (m + error) * (m + error);
+    }
+    return 2 * std::sqrt(norm) + std::ldexp(std::sqrt(ulp), -22);
+}
+
 std::vector<double> ray_offset_bounds(const TriangleMesh& mesh) {
     std::vector<double> bounds;
     bounds.reserve(mesh.triangles.size());
@@ -56,24 +68,36 @@ std::vector<double> ray_offset_bounds(const TriangleMesh& mesh) {
         const Vec3d e1 = v[1] - v[0], e2 = v[2] - v[0];
         Vec3d n(e1.y * e2.z - e1.z * e2.y, e1.z * e2.x - e1.x * e2.z,
                 e1.x * e2.y - e1.y * e2.x);
-        n = n * (1 / std::sqrt(n.x * n.x + n.y * n.y + n.z * n.z));
+        const double length = std::sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
+        const double norm =
+            std::sqrt(error.x * error.x + error.y * error.y + error.z * error.z);
+        // Rounding p + offset, then one float further: up to 1.5 floats per coordinate
+        // (2 taken, which also covers Embree's float normal against the exact one).
+        const double ulp = std::ldexp(std::sqrt((m.x + error.x) * (m.x + error.x) +
+                                                (m.y + error.y) * (m.y + error.y) +
+                                                (m.z + error.z) * (m.z + error.z)),
+                                      -22);
+        if (!(length > 0) ||
+            !std::isfinite(length)) {  // no normal in float: any direction
+            bounds.push_back(2 * norm + ulp);
+            continue;
+        }
+        n = n * (1 / length);
         // offset_ray_origin moves the hit point by its error along n; where that is 0 (a
         // corner whose coordinates are 0 on every axis n has a part of), by the largest
-        // error instead. Then each coordinate rounds one float further.
-        double along = 0, most = 0, ulps = 0;
+        // error instead.
+        double along = 0, most = 0;
         bool may_fall_back = false;
         for (int c = 0; c < 3; ++c) {
             along += std::abs(n[c]) * error[c];
             most = std::max(most, error[c]);
-            ulps += std::pow(std::ldexp(m[c] + error[c], -23), 2);
         }
         for (const Vec3d& p : v)
             may_fall_back =
                 may_fall_back || ((n.x == 0 || p.x == 0) && (n.y == 0 || p.y == 0) &&
                                   (n.z == 0 || p.z == 0));
         // The hit point itself may lie `along` off the plane, to the same side.
-        bounds.push_back(along + (may_fall_back ? std::max(along, most) : along) +
-                         std::sqrt(ulps));
+        bounds.push_back(along + (may_fall_back ? std::max(along, most) : along) + ulp);
     }
     return bounds;
 }

@@ -31,6 +31,8 @@ struct TriangleMesh {
 // offset_ray_origin at a hit point that triangle_point rebuilt (shared/ray_offset.h),
 // which grows with the coordinates. Two media closer than that could swap sides.
 std::vector<double> ray_offset_bounds(const TriangleMesh& mesh);
+// A bound on every such bound of the triangles within `box` (from the box alone).
+double ray_offset_ceiling(const Bounds3& box);
 
 enum class MeshKind { Closed, Open };
 

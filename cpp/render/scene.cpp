@@ -772,32 +772,15 @@ void Scene::check_media_apart(const std::vector<TriangleMesh>& quads,
         for (size_t j = 0; j < desc_.shapes.size(); ++j) {
             if (!desc_.shapes[j].is_surface()) continue;
             if (previous && !changed[i] && !changed[j]) {
-                for (const auto& w : previous->contact_warnings_)
-                    if (std::get<0>(w) == int(i) && std::get<1>(w) == int(j))
-                        contact_warnings_.push_back(w);
+                for (const auto& c : previous->contacts_)
+                    if (std::get<0>(c) == int(i) && std::get<1>(c) == int(j))
+                        contacts_.push_back(c);
                 continue;
             }
-            const TriangleMesh& medium = desc_.shapes[i].mesh;
-            const SurfaceContact contact = surface_contact(medium, desc_.shapes[j].mesh);
-            std::ostringstream os;
-            os.precision(3);
-            os << desc_.source << ": " << name(j) << ", an opaque surface, ";
-            if (contact.crosses)
-                os << "passes through the surface of " << name(i)
-                   << "'s medium: paths inside the medium meet it, but light still "
-                      "passes "
-                      "it in places (a surface reaching into a medium is not supported; "
-                      "allowed: opaque surfaces outside media, apart from them)";
-            else if (contact.lying_area > 0)
-                os << "and the medium of " << name(i) << " meet over "
-                   << 100 * contact.lying_area / medium.area()
-                   << " % of the medium's surface, where the surface lets light through "
-                      "(rays leaving one start past the other, by rounding: "
-                      "robustness.md);"
-                      " lift the medium off it by 1e-5 of the scene for an exact image";
-            else
-                continue;
-            contact_warnings_.emplace_back(int(i), int(j), os.str());
+            const SurfaceContact contact =
+                surface_contact(desc_.shapes[i].mesh, desc_.shapes[j].mesh);
+            if (contact.crosses || contact.inside || contact.lying_area > 0)
+                contacts_.emplace_back(int(i), int(j), contact);
         }
         for (size_t k = 0; k < quads.size(); ++k)
             if ((changed[i] || quad_changed[k]) &&
@@ -806,6 +789,31 @@ void Scene::check_media_apart(const std::vector<TriangleMesh>& quads,
                      "]: the area light meets ", name(i),
                      ", inside it or across its surface (allowed: area lights "
                      "outside every medium)");
+    }
+}
+
+void Scene::warn_of_contacts() {
+    auto name = [&](int i) {
+        return "shapes[" + std::to_string(i) + "] ('" + desc_.shapes[size_t(i)].name +
+               "')";
+    };
+    for (const auto& [i, j, contact] : contacts_) {
+        std::ostringstream os;
+        os.precision(3);
+        os << desc_.source << ": " << name(j) << ", an opaque surface, ";
+        if (contact.crosses || contact.inside)
+            os << (contact.crosses ? "passes through the surface of " : "lies inside ")
+               << name(i)
+               << "'s medium: paths inside the medium meet it, but light still passes "
+                  "it in places (a surface reaching into a medium is not supported; "
+                  "allowed: opaque surfaces outside media, apart from them)";
+        else
+            os << "and the medium of " << name(i) << " meet over "
+               << 100 * contact.lying_area / desc_.shapes[size_t(i)].mesh.area()
+               << " % of the medium's surface, where the surface lets light through "
+                  "(rays leaving one start past the other, by rounding: robustness.md); "
+                  "lift the medium off it by 1e-5 of the scene for an exact image";
+        desc_.warnings.push_back(os.str());
     }
 }
 
@@ -842,8 +850,8 @@ void Scene::build(int threads, const Scene* previous, const StopFn& stop) {
     if (!same_media)
         check_media_apart(quads, previous);
     else if (previous)
-        contact_warnings_ = previous->contact_warnings_;
-    for (const auto& w : contact_warnings_) desc_.warnings.push_back(std::get<2>(w));
+        contacts_ = previous->contacts_;
+    warn_of_contacts();
     if (same_meshes) {
         tracer_ = previous->tracer_;
     } else {

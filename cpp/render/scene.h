@@ -211,6 +211,7 @@ public:
 private:
     void build(int threads, const Scene* previous, const StopFn& stop);
     void check_media_apart(const std::vector<TriangleMesh>& quads, const Scene* previous);
+    void warn_of_contacts();  // contacts_ as warnings, with the shapes' names now
 
     SceneDesc desc_;
     std::shared_ptr<const RayTracer> tracer_;
@@ -218,9 +219,9 @@ private:
     std::vector<int> grid_resolutions_;
     std::vector<std::string> rebuilt_;
     std::vector<int> area_lights_;  // light index per extra Embree mesh
-    // Warnings of opaque surfaces meeting media (medium, surface, message): kept for the
+    // Opaque surfaces meeting media (medium, surface, how), for warnings: kept for the
     // pairs an edit leaves as they were.
-    std::vector<std::tuple<int, int, std::string>> contact_warnings_;
+    std::vector<std::tuple<int, int, SurfaceContact>> contacts_;
     int environment_ = -1;
     bool grey_ = true;
     bool has_surfaces_ = false;

@@ -90,8 +90,9 @@ def scene_info(scene: Scene) -> dict[str, Any]:
     delta_lights = any(light.get("type") in ("point", "directional") for light in lights)
     try:  # which media "st" steps in: deep enough, and its models trained for them
         check = rendering._core.check_sphere_steps(scene, str(rendering.DEFAULT_MODELS))
-    except ValueError as e:  # no models, or a threshold below their range
-        check = {"steps": [False] * scene.num_shapes, "warnings": [str(e)]}
+        st_error = None
+    except ValueError as e:  # no models, a threshold below their range: st cannot render
+        check, st_error = {"steps": [True] * scene.num_shapes, "warnings": []}, str(e)
     shapes = []
     per_path = {"pt_events": 0.0, "st_events": 0.0, "st_steps": 0.0}
     for i in range(scene.num_shapes):
@@ -113,7 +114,8 @@ def scene_info(scene: Scene) -> dict[str, Any]:
     return {"source": scene.source, "width": scene.width, "height": scene.height,
             "options": options, "shapes": shapes,
             "lights": [light.get("type", "?") for light in lights],
-            "per_camera_path": per_path, "st_warnings": check["warnings"]}
+            "per_camera_path": per_path, "st_warnings": check["warnings"],
+            "st_error": st_error}
 
 
 def _lengths(sigma: np.ndarray) -> list:
@@ -162,6 +164,8 @@ def format_info(info: dict[str, Any]) -> str:
                if s["st_untrained"] else
                f"({100 * s['deep_fraction']:.0f}% of the volume is deep enough to step)"),
         ]
+    if info.get("st_error"):
+        lines.append(f"st cannot render this scene: {info['st_error']}")
     lines.append("lights: " + (", ".join(info["lights"]) if info["lights"] else "none"))
     p = info["per_camera_path"]
     lines.append(f"expected per camera path (camera rays that hit a medium directly): "
