@@ -15,6 +15,9 @@ Three measurements (docs/robustness.md explains what they test):
 * scale limits: an opaque diffuse sphere of radius k/2 (extent k) under an environment and a
   point light, at extents up to the parser's limits [1e-8, 1e10] against extent 1, and
   just past them, where the scene must be refused (the message is recorded).
+* gaps: two media a gap apart, from 1.5e-7 of the scene (refused) to 1e-4, against 1e-3.
+* contact: a cube resting on a floor, lifted off it and cut by it: pixels lit under the
+  floor (must be 0), and resting against lifted seen from above (image and time).
 
     python -m bench.robustness            # ~2 min on 2 cores
     python -m bench.robustness --quick    # fewer cases and samples
@@ -161,6 +164,129 @@ def scale_limits(spp: int) -> list[dict]:
     return rows
 
 
+def two_slabs(gap: float) -> dict:
+    """Two index-matched slabs side by side, `gap` apart, turned about an oblique axis; a
+    black floor makes the scene 2 across with the gap near its edge (coordinates ~0.8,
+    where the rays' offsets are largest). The light reaches the camera only through the
+    gap: it lights the first slab, the camera sees the second."""
+    axis = np.array([1.0, 2.0, 0.5]) / np.linalg.norm([1.0, 2.0, 0.5])
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    turn = np.eye(3) + math.sin(0.7) * k + (1 - math.cos(0.7)) * k @ k
+
+    def box(lo, hi, name):
+        corners = [[(lo, hi)[(c >> i) & 1][i] for i in range(3)] for c in range(8)]
+        return {"name": name, "vertices": [(turn @ c).tolist() for c in corners],
+                "faces": [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3],
+                          [1, 3, 7, 5], [0, 4, 6, 2]],
+                "medium": {"sigma_t": 30, "albedo": 0.995}, "boundary": {"type": "index_matched"}}
+
+    x0 = 0.69
+    floor = [(turn @ [x, -1.0, z]).tolist() for x, z in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+    return {"camera": {"origin": (turn @ [3.0, 0, 0]).tolist(),
+                       "target": (turn @ [x0 + 0.1, 0, 0]).tolist(),
+                       "up": (turn @ [0, 1.0, 0]).tolist(), "fov": 20, "width": 32, "height": 32},
+            "shapes": [box([x0 - 0.1, -0.5, -0.5], [x0, 0.5, 0.5], "first"),
+                       box([x0 + gap, -0.5, -0.5], [x0 + 0.1 + gap, 0.5, 0.5], "second"),
+                       {"vertices": floor, "faces": [[0, 1, 2, 3]],
+                        "surface": {"type": "diffuse", "reflectance": 0}}],
+            "lights": [{"type": "point", "position": (turn @ [-1.0, 0, 0]).tolist(),
+                        "intensity": 50}]}
+
+
+def cube_on_floor(lift: float, turn=None, floor_y: float = 0.0, floor_x=(-2.0, 2.0),
+                  boundary: str | None = None) -> dict:
+    """A unit cube of medium `lift` above a diffuse floor (x from floor_x[0] to floor_x[1], z
+    from -2 to 2), all turned by `turn`; a point light above, the camera below the floor
+    looking up at the cube."""
+    turn = np.eye(3) if turn is None else turn
+    h = 0.5
+    cube = [[x, floor_y + lift + y + h, z] for x in (-h, h) for y in (-h, h) for z in (-h, h)]
+    x0, x1 = floor_x
+    floor = [[x0, floor_y, -2], [x1, floor_y, -2], [x1, floor_y, 2], [x0, floor_y, 2]]
+    t = lambda points: [(turn @ p).tolist() for p in points]  # noqa: E731
+    medium = {"sigma_t": 5, "albedo": 0.99}
+    return {"camera": {"origin": (turn @ [0.3, floor_y - 3, 0.4]).tolist(),
+                       "target": (turn @ [0, floor_y + 0.5, 0]).tolist(),
+                       "up": (turn @ [0, 0, 1.0]).tolist(), "fov": 40, "width": 32, "height": 32},
+            "shapes": [{"name": "cube", "vertices": t(cube),
+                        "faces": [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6],
+                                  [0, 2, 6, 4], [1, 5, 7, 3]],
+                        "medium": medium, **({"boundary": {"type": boundary}} if boundary else {})},
+                       {"name": "floor", "vertices": t(floor), "faces": [[0, 2, 1], [0, 3, 2]],
+                        "surface": {"type": "diffuse", "reflectance": 0.8}}],
+            "lights": [{"type": "point", "position": (turn @ [1.0, floor_y + 4, 2]).tolist(),
+                        "intensity": 10}]}
+
+
+def _lit(image) -> int:
+    return int(np.count_nonzero(image))
+
+
+def gaps(spp: int) -> list[dict]:
+    """Two index-matched slabs `gap` apart, the light crossing the gap: refused below the gap
+    the rays' offsets need (the error names it), and at the gaps allowed, the same light as
+    across a wide one (image means, z-scores)."""
+    wide = sssphere.render_full(two_slabs(1e-3), integrator="pt", spp=spp, seed=3)
+    rows = []
+    for gap in (1.5e-7, 3e-7, 1e-6, 3e-6, 1e-5, 1e-4):
+        try:
+            scene = sssphere.load_scene(two_slabs(gap))
+        except sssphere.SceneError as e:
+            rows.append({"gap": gap, "refused": str(e)})
+            print(f"gaps {gap:g}: refused", flush=True)
+            continue
+        r = sssphere.render_full(scene, integrator="pt", spp=spp, seed=3)
+        rows.append({"gap": gap, "refused": None, "mean": float(r.image.mean()), **compare(wide, r)})
+        print(f"gaps {gap:g}: mean {r.image.mean():.4f} (wide {wide.image.mean():.4f}), z "
+              + ", ".join(f"{x:+.1f}" for x in rows[-1]["z"]), flush=True)
+    return rows
+
+
+def contact(spp: int, repeats: int, backend: str) -> dict:
+    """A unit cube on a floor: resting on it, lifted by 1e-5 of the scene, and with the floor
+    through its middle. Lit pixels seen from under the floor, all light above (must be 0);
+    from above, resting against lifted (index-matched, where a gap changes nothing: image
+    means and z-scores) and their times (medians of interleaved renders at 96 x 96, 4 spp
+    times spp), which price the extra ray a hit on a face touching the floor traces."""
+    under = []
+    for name, lift in (("resting", 0.0), ("lifted", 4e-5), ("through", -0.5)):
+        for sigma_t in (5, 50):
+            scene = cube_on_floor(lift)
+            scene["shapes"][0]["medium"]["sigma_t"] = sigma_t
+            for integrator in ("pt", "st"):
+                image = sssphere.render(scene, integrator=integrator, spp=spp, seed=1, backend=backend)
+                under.append({"case": name, "sigma_t": sigma_t, "integrator": integrator,
+                              "lit_pixels": _lit(image), "pixels": image.shape[0] * image.shape[1]})
+                print(f"contact under the floor: {name} sigma_t {sigma_t} {integrator}: "
+                      f"{under[-1]['lit_pixels']} pixels lit", flush=True)
+    above = []
+    for sigma_t in (5, 100):
+        scenes = {}
+        for name, lift in (("resting", 0.0), ("lifted", 4e-5)):
+            s = cube_on_floor(lift, boundary="index_matched")
+            s["shapes"][0]["medium"]["sigma_t"] = sigma_t
+            s["camera"].update(origin=[2.5, 3, 3.5], width=96, height=96)
+            scenes[name] = sssphere.load_scene(s)
+        for integrator in ("pt", "st"):
+            times = {"resting": [], "lifted": []}
+            renders = {}
+            for _ in range(repeats):
+                for name, scene in scenes.items():
+                    r = sssphere.render_full(scene, integrator=integrator, spp=4 * spp, seed=1,
+                                             backend=backend)
+                    times[name].append(r.seconds)
+                    renders[name] = r
+            med = {k: float(np.median(v)) for k, v in times.items()}
+            row = {"sigma_t": sigma_t, "integrator": integrator, "times": times,
+                   "median_seconds": med, "ratio_resting_over_lifted": med["resting"] / med["lifted"],
+                   **compare(renders["lifted"], renders["resting"])}
+            above.append(row)
+            print(f"contact from above: sigma_t {sigma_t} {integrator}: resting / lifted time "
+                  f"{row['ratio_resting_over_lifted']:.3f}, z "
+                  + ", ".join(f"{x:+.1f}" for x in row["z"]), flush=True)
+    return {"under_the_floor": under, "from_above": above}
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--quick", action="store_true")
@@ -182,6 +308,8 @@ def main(argv=None) -> int:
         "translation": [row for i in integrators
                         for row in invariance(moves, i, spp, 0.1, "translation", args.backend)],
         "scale_limits": scale_limits(spp),
+        "gaps": gaps(spp),
+        "contact": contact(spp, 2 if args.quick else 5, args.backend),
     }
     args.output.parent.mkdir(parents=True, exist_ok=True)
     args.output.write_text(json.dumps(result, indent=1) + "\n")

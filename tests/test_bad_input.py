@@ -269,8 +269,8 @@ def test_media_and_lights_whose_boxes_overlap_but_that_are_apart_are_taken(small
 
 
 def test_an_edit_that_turns_an_overlapping_surface_into_a_medium_is_refused(small_scene):
-    """An opaque surface through a medium warns (one may rest on a medium); made a medium,
-    the same mesh is an error. Apart, it is taken, and the BVH (the same meshes) is kept."""
+    """An opaque surface may pass through a medium; made a medium, the same mesh is an
+    error. Apart, it is taken, and the BVH (the same meshes) is kept."""
     for lo, hi, meets in (([0.5] * 3, [1.5] * 3, True), ([2, 0, 0], [3, 1, 1], False)):
         second = _box(lo, hi, "second")
         medium = second.pop("medium")
@@ -279,8 +279,7 @@ def test_an_edit_that_turns_an_overlapping_surface_into_a_medium_is_refused(smal
                                 {**second, "surface": {"type": "diffuse"}}]
         scene_dict["camera"]["origin"] = [0.5, 0.5, 9]
         if meets:
-            with pytest.warns(sssphere.SceneWarning, match="passes through the surface of"):
-                scene = sssphere.load_scene(scene_dict)
+            scene = sssphere.load_scene(scene_dict)
             with pytest.raises(SceneError, match=r"shapes\[1\] \('second'\): their media"):
                 scene.shapes[1] = {**second, "medium": medium}
         else:

@@ -780,21 +780,3 @@ def test_st_on_a_medium_the_models_were_not_trained_for_says_so_and_renders(tmp_
     assert "shapes[0] ('ball')" in said[0] and "g = 0.3 is outside the training range" in said[0]
     assert "SceneWarning" not in r.stderr, r.stderr
     assert r.stderr.index(said[0]) < r.stderr.index("100.0%"), r.stderr  # both bars say it
-
-
-@pytest.mark.parametrize("cli", ["python", "cpp"])
-def test_both_command_lines_say_what_building_the_scene_found(tmp_path, cli):
-    """A medium lying on an opaque surface is found when the scene is built, after the
-    scene file's own warnings: both command lines say it, once."""
-    from test_robustness import cube_on_floor
-
-    scene = cube_on_floor(0.0)
-    scene["camera"].update(width=8, height=8)
-    (tmp_path / "s.json").write_text(json.dumps(scene))
-    args = [tmp_path / "s.json", "-o", tmp_path / "x.exr", "--spp", 1]
-    r = (run_cli("render", *args) if cli == "python" else
-         subprocess.run([_cpp_cli(), *map(str, args)], capture_output=True, text=True,
-                        timeout=300))
-    assert r.returncode == 0, r.stderr
-    said = [line for line in r.stderr.splitlines() if "meet over 16.7 %" in line]
-    assert len(said) == 1 and "shapes[0] ('cube')" in said[0], r.stderr

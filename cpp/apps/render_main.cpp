@@ -208,7 +208,6 @@ int main(int argc, char** argv) {
                  {"variance", "events", "sphere_steps", "albedo", "normal", "depth"})
                 outputs.push_back(aov_file(out_path, name));
         for (const std::string& o : outputs) sss::check_output_is_not_an_input(o, inputs);
-        const size_t parse_warnings = desc.warnings.size();
         for (const std::string& w : desc.warnings)
             std::cerr << "sssphere-render: warning: " << w << "\n";
         const sss::RenderOptions opt = sss::resolve_render_options(
@@ -232,9 +231,6 @@ int main(int argc, char** argv) {
             return interrupted();
         }
         const sss::Scene& scene = *built;
-        // What building it found (opaque surfaces meeting media)
-        for (size_t i = parse_warnings; i < scene.desc().warnings.size(); ++i)
-            std::cerr << "sssphere-render: warning: " << scene.desc().warnings[i] << "\n";
         // Media "st" takes no steps in are said before the render, which may be long.
         const std::vector<std::string> said =
             opt.integrator == "st" ? sss::check_sphere_steps(scene, opt).warnings

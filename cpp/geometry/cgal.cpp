@@ -66,6 +66,14 @@ SurfaceMesh to_surface_mesh(const TriangleMesh& mesh) {
     return sm;
 }
 
+// The triangles of `mesh` and then those of `obstacles` as one mesh (both in the same
+// frame): distances and certificates hold for both.
+TriangleMesh with_obstacles(const TriangleMesh& mesh, const TriangleMesh& obstacles) {
+    TriangleMesh all = mesh;
+    append_mesh(all, obstacles);
+    return all;
+}
+
 // Rounds a non-negative double down to a float (keeps the grid conservative).
 Point to_point(Vec3 p) { return Point(p.x, p.y, p.z); }
 
@@ -377,7 +385,8 @@ TriangleMesh make_closed_mesh(const std::vector<Vec3d>& positions,
 }
 
 DistanceGrid DistanceGrid::build(const TriangleMesh& mesh, int resolution, int threads,
-                                 int exact_up_to, const StopFn& stop) {
+                                 int exact_up_to, const StopFn& stop,
+                                 const TriangleMesh& obstacles) {
     if (resolution < 2 || resolution > 1024)
         fail("distance grid resolution must be in [2, 1024], got ", resolution);
     Bounds3 b = mesh.bounds();
@@ -398,7 +407,7 @@ DistanceGrid DistanceGrid::build(const TriangleMesh& mesh, int resolution, int t
     grid.dist_.resize(count);
     grid.inside_.resize(count);
 
-    std::vector<Triangle> tris = cgal_triangles(mesh);
+    std::vector<Triangle> tris = cgal_triangles(with_obstacles(mesh, obstacles));
     Tree tree(tris.begin(), tris.end());
     tree.accelerate_distance_queries();
     // CGAL builds the tree and its search structure lazily, at the first query, behind a
@@ -424,7 +433,7 @@ DistanceGrid DistanceGrid::build(const TriangleMesh& mesh, int resolution, int t
     float deep = INFINITY;
     if (resolution > std::max(exact_up_to, 2)) {
         coarse = std::make_unique<DistanceGrid>(
-            build(mesh, (resolution + 1) / 2, threads, exact_up_to, stop));
+            build(mesh, (resolution + 1) / 2, threads, exact_up_to, stop, obstacles));
         deep = kRefineBand * std::sqrt(3.f) * coarse->cell_size();
     }
     // One slab of nodes (one k) per chunk
@@ -478,8 +487,8 @@ DistanceGrid DistanceGrid::build(const TriangleMesh& mesh, int resolution, int t
     return grid;
 }
 
-CutPlanes CutPlanes::build(const TriangleMesh& mesh, const DistanceGrid& grid,
-                           float radius, int threads) {
+CutPlanes CutPlanes::build(const TriangleMesh& medium, const DistanceGrid& grid,
+                           float radius, int threads, const TriangleMesh& obstacles) {
     if (!(radius > 0.f) || !std::isfinite(radius))
         fail("cut planes: radius must be a finite number > 0, got ", radius);
     SSS_CHECK(!grid.empty());
@@ -497,6 +506,7 @@ CutPlanes CutPlanes::build(const TriangleMesh& mesh, const DistanceGrid& grid,
     const size_t count = size_t(cp.n_[0]) * cp.n_[1] * cp.n_[2];
     cp.index_.assign(count, -1);
 
+    const TriangleMesh mesh = with_obstacles(medium, obstacles);
     std::vector<Triangle> tris = cgal_triangles(mesh);
     Tree tree(tris.begin(), tris.end());
     tree.accelerate_distance_queries();
@@ -665,56 +675,47 @@ SurfaceContact surface_contact(const TriangleMesh& medium, const TriangleMesh& s
     std::vector<Triangle> tm = cgal_triangles(medium), ts = cgal_triangles(surface);
     Tree tree_m(tm.begin(), tm.end()), tree_s(ts.begin(), ts.end());
     tree_m.accelerate_distance_queries();
-    tree_s.accelerate_distance_queries();
 
-    // Lying on each other: the area of the triangles of one whose corners are all within
-    // the offsets' band of the other (twice the two bounds, as near_contact), from either
-    // side (a cube on a smaller pedestal has no corner on it, but the pedestal's top lies
-    // on the cube). Distances only for corners near the other's box.
-    const float reach = float(3 * (most_m + most_s));
-    auto lying_area = [&](const TriangleMesh& mesh, const std::vector<Triangle>& tris,
-                          const std::vector<double>& off, double most_other,
-                          const Tree& other, const Bounds3& other_box) {
-        std::vector<double> gap(mesh.positions.size(), -1.0);
-        double area = 0;
-        for (size_t i = 0; i < tris.size(); ++i) {
-            bool lies = true;
-            for (int c = 0; c < 3 && lies; ++c) {
-                const uint32_t v = mesh.triangles[i][c];
-                const Vec3 p = mesh.positions[v];
-                if (gap[v] < 0)
-                    gap[v] =
-                        (p.x < other_box.lo.x - reach || p.x > other_box.hi.x + reach ||
-                         p.y < other_box.lo.y - reach || p.y > other_box.hi.y + reach ||
-                         p.z < other_box.lo.z - reach || p.z > other_box.hi.z + reach)
-                            ? INFINITY
-                            : std::sqrt(other.squared_distance(to_point(p)));
-                lies = gap[v] <= 2 * (off[i] + most_other);
+    // Touching: a surface triangle within twice the two offsets of a medium triangle (the
+    // margin of near_contact), where a ray may hit either first.
+    CGAL::Bbox_3 bbox_s;
+    for (const Triangle& t : ts) bbox_s += t.bbox();
+    std::vector<Primitive::Id> near;
+    for (size_t i = 0; i < tm.size(); ++i) {
+        const double by = 2 * (off_m[i] + most_s);
+        const CGAL::Bbox_3 b = tm[i].bbox();
+        const CGAL::Bbox_3 query(b.xmin() - by, b.ymin() - by, b.zmin() - by,
+                                 b.xmax() + by, b.ymax() + by, b.zmax() + by);
+        if (!CGAL::do_overlap(query, bbox_s)) continue;
+        near.clear();
+        tree_s.all_intersected_primitives(query, std::back_inserter(near));
+        for (TriIter u : near)
+            if (std::sqrt(CGAL::squared_distance(tm[i], *u)) <
+                2 * (off_m[i] + off_s[size_t(u - ts.begin())])) {
+                contact.touching.push_back(uint32_t(i));
+                break;
             }
-            if (lies) area += std::sqrt(tris[i].squared_area());
-        }
-        return area;
-    };
-    contact.lying_area = std::max(lying_area(medium, tm, off_m, most_s, tree_s, box_s),
-                                  lying_area(surface, ts, off_s, most_m, tree_m, box_m));
+    }
 
-    // Passing through it: a surface triangle and a medium triangle that meet, each with
-    // corners beyond the band on both sides of the other's plane.
+    // Inside: a surface triangle and a medium triangle that meet, each with corners
+    // beyond the band on both sides of the other's plane (a floor through a cube), or a
+    // corner of the surface inside the medium and off its surface (a wick in a candle).
     std::vector<Primitive::Id> met;
-    for (size_t k = 0; k < ts.size() && !contact.crosses; ++k) {
+    for (size_t k = 0; k < ts.size() && !contact.inside; ++k) {
         met.clear();
         tree_m.all_intersected_primitives(ts[k], std::back_inserter(met));
         for (TriIter u : met) {
             const double band = 2 * (off_s[k] + off_m[size_t(u - tm.begin())]);
             if (straddles(ts[k], *u, band) && straddles(*u, ts[k], band)) {
-                contact.crosses = true;
+                contact.inside = true;
                 break;
             }
         }
     }
-    // Inside it (a wick in a candle): a corner of the surface inside the medium and off
-    // its surface.
-    if (!contact.crosses && contact.lying_area == 0) {
+    const bool corner_in_box =
+        std::any_of(surface.positions.begin(), surface.positions.end(),
+                    [&](const Vec3& p) { return box_m.contains(p); });
+    if (!contact.inside && corner_in_box) {
         const SurfaceMesh sm = to_surface_mesh(medium);
         CGAL::Side_of_triangle_mesh<SurfaceMesh, K> side(sm);
         for (const Vec3& p : surface.positions)

@@ -29,10 +29,12 @@ public:
     CutPlanes() = default;
 
     // Certificates for balls of up to `radius` (> 0) in the cells of `grid` (built for
-    // `mesh`) that have a corner inside the mesh and within radius + a cell diagonal of
-    // the surface. Built with `threads` workers (0 = all cores).
+    // `mesh` and `obstacles`) that have a corner inside the mesh and within radius + a
+    // cell diagonal of the surface. A certificate's plane has the obstacles' triangles
+    // within reach behind it too. Built with `threads` workers (0 = all cores).
     static CutPlanes build(const TriangleMesh& mesh, const DistanceGrid& grid,
-                           float radius, int threads = 0);
+                           float radius, int threads = 0,
+                           const TriangleMesh& obstacles = TriangleMesh{});
 
     // The certificate at p: false where p's cell has none (then n and s are left alone).
     bool query(const Vec3& p, Vec3* n, float* s) const {

@@ -28,21 +28,6 @@ std::vector<Vec3> surface_samples(const TriangleMesh& m, int per_triangle, Rng& 
     return out;
 }
 
-// The cube [-1, 1]^3, faces wound outward.
-TriangleMesh cube_mesh() {
-    std::vector<Vec3d> v;
-    for (int i = 0; i < 8; ++i)
-        v.emplace_back(i & 1 ? 1.0 : -1.0, i & 2 ? 1.0 : -1.0, i & 4 ? 1.0 : -1.0);
-    return make_closed_mesh(v,
-                            {{0, 2, 3, 1},
-                             {4, 5, 7, 6},
-                             {0, 1, 5, 4},
-                             {2, 6, 7, 3},
-                             {0, 4, 6, 2},
-                             {1, 3, 7, 5}},
-                            "cube");
-}
-
 }  // namespace
 
 // The certificate's promise: no surface point y with |y - p| <= radius lies below the
@@ -116,7 +101,7 @@ TEST(CutPlanes, OnASphereThePlaneIsTheTangentPlaneLoweredByTheSagitta) {
 // On a flat face the bound is exact: a point at depth d below a cube's face, far from its
 // edges, gets the face's normal and s = d (up to the guard).
 TEST(CutPlanes, ExactOnAFlatFace) {
-    const TriangleMesh cube = cube_mesh();
+    const TriangleMesh cube = test::cube_mesh();
     const DistanceGrid grid = DistanceGrid::build(cube, 32, 2);
     const CutPlanes planes = CutPlanes::build(cube, grid, 0.2f, 2);
     for (float d : {0.01f, 0.05f, 0.1f}) {
@@ -130,8 +115,43 @@ TEST(CutPlanes, ExactOnAFlatFace) {
 }
 
 TEST(CutPlanes, RefusesABadRadius) {
-    const TriangleMesh cube = cube_mesh();
+    const TriangleMesh cube = test::cube_mesh();
     const DistanceGrid grid = DistanceGrid::build(cube, 8, 1);
     EXPECT_THROW(CutPlanes::build(cube, grid, 0.f, 1), Error);
     EXPECT_THROW(CutPlanes::build(cube, grid, NAN, 1), Error);
+}
+
+// A floor through the cube: no floor point lies in a certified region either, where a
+// certificate built from the cube alone has some.
+TEST(CutPlanes, KeepsClearOfObstacles) {
+    const TriangleMesh cube = test::cube_mesh(), floor = test::floor_mesh(0.05);
+    const float radius = 0.3f;
+    const DistanceGrid grid = DistanceGrid::build(cube, 24, 2, 24, {}, floor);
+    const CutPlanes with = CutPlanes::build(cube, grid, radius, 2, floor);
+    const CutPlanes without =
+        CutPlanes::build(cube, DistanceGrid::build(cube, 24, 2), radius, 2);
+    Rng rng(5);
+    const std::vector<Vec3> surface = surface_samples(floor, 400, rng);
+    int certified = 0, crossed_without = 0;
+    for (int i = 0; i < 3000; ++i) {
+        const Vec3 p(rng.uniform() * 2.f - 1.f, rng.uniform() * 0.6f - 0.25f,
+                     rng.uniform() * 2.f - 1.f);
+        auto crosses = [&](const CutPlanes& planes) {
+            Vec3 n;
+            float s;
+            if (!planes.query(p, &n, &s)) return false;
+            for (const Vec3& y : surface) {
+                const Vec3 v = y - p;
+                if (dot(v, v) <= radius * radius && dot(v, n) < s) return true;
+            }
+            return false;
+        };
+        Vec3 n;
+        float s;
+        certified += with.query(p, &n, &s);
+        ASSERT_FALSE(crosses(with)) << "point " << i;
+        crossed_without += crosses(without);
+    }
+    EXPECT_GT(certified, 100);
+    EXPECT_GT(crossed_without, 100);  // the floor matters here
 }

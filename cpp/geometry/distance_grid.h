@@ -33,9 +33,13 @@ public:
     static constexpr float kRefineBand = 1.f;
     // `stop` is polled before each row of nodes (one y and z), well under a millisecond;
     // once it returns true the build throws Cancelled (core/cancel.h).
+    //
+    // `obstacles`: opaque surfaces that reach into the medium (a floor through it, a wick
+    // inside it). Distances are to the nearest of the mesh and them, so that a ball the
+    // grid certifies holds neither; inside and outside are the mesh's alone.
     static DistanceGrid build(const TriangleMesh& mesh, int resolution, int threads = 0,
-                              int exact_up_to = kExactResolution,
-                              const StopFn& stop = {});
+                              int exact_up_to = kExactResolution, const StopFn& stop = {},
+                              const TriangleMesh& obstacles = TriangleMesh{});
 
     // Lower bound on the distance from p to the mesh surface; 0 outside the grid.
     float query(const Vec3& p) const;
@@ -117,15 +121,15 @@ struct NearContact {
 };
 NearContact near_contact(const TriangleMesh& a, const TriangleMesh& b);
 
-// How an opaque surface meets a closed medium: whether it passes through the medium's
-// surface (corners of both triangles of a meeting pair beyond the rays' offsets on both
-// sides of the other's plane: a floor cutting a cube, a ball sunk into a floor), whether
-// it lies wholly inside (a wick in a candle), and the area of the triangles of either
-// lying on the other within those offsets (a cube resting on a floor; a ball touching it
-// at a point has none).
+// How an opaque surface meets a closed medium, for the tracers: the medium's triangles
+// that a surface triangle comes within the rays' offsets of (where a ray that hits the
+// medium's face may as well have hit the surface: a cube resting on a floor, a ball
+// touching it), and whether the surface reaches inside the medium (a floor through a
+// cube, a wick in a candle).
 struct SurfaceContact {
-    bool crosses = false, inside = false;
-    double lying_area = 0;
+    std::vector<uint32_t> touching;  // ascending
+    bool inside = false;
+    bool meets() const { return inside || !touching.empty(); }
 };
 SurfaceContact surface_contact(const TriangleMesh& medium, const TriangleMesh& surface);
 

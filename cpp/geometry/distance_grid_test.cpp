@@ -235,3 +235,51 @@ TEST(DistanceGrid, SideIsExactWhereItAnswers) {
         EXPECT_EQ(answered_far, far) << "resolution " << res;
     }
 }
+
+// Obstacles (opaque surfaces meeting the medium) bound the distances too: a floor through
+// the cube is never nearer than the grid says, where the cube's own grid says more; the
+// inside flags stay the cube's.
+TEST(DistanceGrid, KeepsClearOfObstacles) {
+    const TriangleMesh cube = test::cube_mesh(), floor = test::floor_mesh(0.05);
+    const DistanceGrid with = DistanceGrid::build(cube, 16, 2, 16, {}, floor);
+    const DistanceGrid without = DistanceGrid::build(cube, 16, 2);
+    Rng rng(7);
+    int beyond_floor = 0;
+    for (int i = 0; i < 20000; ++i) {
+        const Vec3 p(rng.uniform() * 2.2f - 1.1f, rng.uniform() * 2.2f - 1.1f,
+                     rng.uniform() * 2.2f - 1.1f);
+        const float to_floor = std::abs(p.y - 0.05f);
+        ASSERT_LE(with.query(p), to_floor) << p.x << " " << p.y << " " << p.z;
+        ASSERT_LE(with.query(p), without.query(p));
+        beyond_floor += without.query(p) > to_floor;
+    }
+    EXPECT_GT(beyond_floor, 1000);
+    for (int k = 0; k < with.nz(); ++k)
+        for (int j = 0; j < with.ny(); ++j)
+            for (int i = 0; i < with.nx(); ++i)
+                ASSERT_EQ(with.node_inside(i, j, k), without.node_inside(i, j, k));
+}
+
+// What surface_contact finds: the triangles a floor touches (the cube resting on it),
+// none once the cube is lifted, and a surface inside (a floor through it, a box within
+// it).
+TEST(SurfaceContact, FindsTouchingTrianglesAndSurfacesInside) {
+    const TriangleMesh cube = test::cube_mesh();
+    // The bottom face's two triangles and the sides' eight, which meet the floor along
+    // their lower edges; not the top's.
+    const SurfaceContact resting = surface_contact(cube, test::floor_mesh(-1.0));
+    EXPECT_EQ(resting.touching.size(), 10u);
+    for (uint32_t t : resting.touching) EXPECT_LT(cube.normal(t).y, 0.5f);
+    EXPECT_FALSE(resting.inside);
+    const SurfaceContact lifted = surface_contact(cube, test::floor_mesh(-1.0 - 1e-4));
+    EXPECT_FALSE(lifted.meets());
+    const SurfaceContact through = surface_contact(cube, test::floor_mesh(0.3));
+    EXPECT_TRUE(through.inside);
+    EXPECT_EQ(through.touching.size(), 8u);  // the four sides it crosses
+    for (uint32_t t : through.touching) EXPECT_NEAR(cube.normal(t).y, 0.f, 1e-6f);
+    TriangleMesh wick = test::cube_mesh();
+    for (Vec3& p : wick.positions) p = p * 0.1f;
+    const SurfaceContact inside = surface_contact(cube, wick);
+    EXPECT_TRUE(inside.inside);
+    EXPECT_TRUE(inside.touching.empty());
+}

@@ -74,6 +74,20 @@ void record_crossing(const RTCFilterFunctionNArguments* args) {
                                     RTCHitN_Ng_z(args->hit, args->N, i)));
     }
 }
+
+// The intersect context of intersect_skipping(), as CrossingContext.
+struct SkipContext {
+    RTCIntersectContext rtc;
+    unsigned skip;
+};
+
+// Rejects the hits on the skipped mesh.
+void skip_mesh(const RTCFilterFunctionNArguments* args) {
+    const unsigned skip = reinterpret_cast<const SkipContext*>(args->context)->skip;
+    for (unsigned i = 0; i < args->N; ++i)
+        if (args->valid[i] && RTCHitN_geomID(args->hit, args->N, i) == skip)
+            args->valid[i] = 0;
+}
 }  // namespace
 
 struct RayTracer::Impl {
@@ -141,8 +155,22 @@ bool RayTracer::intersect(const Vec3& o, const Vec3& d, float tnear, float tfar,
                           Hit* hit) const {
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
+    return closest(o, d, tnear, tfar, &ctx, hit);
+}
+
+bool RayTracer::intersect_skipping(const Vec3& o, const Vec3& d, float tnear, float tfar,
+                                   unsigned skip, Hit* hit) const {
+    SkipContext c;
+    rtcInitIntersectContext(&c.rtc);
+    c.rtc.filter = skip_mesh;
+    c.skip = skip;
+    return closest(o, d, tnear, tfar, &c.rtc, hit);
+}
+
+bool RayTracer::closest(const Vec3& o, const Vec3& d, float tnear, float tfar,
+                        void* context, Hit* hit) const {
     RTCRayHit rh = embree_ray(o, d, tnear, tfar);
-    rtcIntersect1(impl_->scene, &ctx, &rh);
+    rtcIntersect1(impl_->scene, static_cast<RTCIntersectContext*>(context), &rh);
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
     hit->t = rh.ray.tfar;
     hit->mesh = rh.hit.geomID;

@@ -43,12 +43,17 @@ public:
 
     // Closest hit with t in (tnear, tfar); false if none.
     bool intersect(const Vec3& o, const Vec3& d, float tnear, float tfar, Hit* hit) const;
+    // The same, passing through mesh `skip`: what else lies where that mesh was hit.
+    bool intersect_skipping(const Vec3& o, const Vec3& d, float tnear, float tfar,
+                            unsigned skip, Hit* hit) const;
     // Every triangle the segment t in (0, tfar) crosses, nearest first, in one traversal:
     // writes out[0 .. count) and returns count, or -1 when there are more than `max`.
     int crossings(const Vec3& o, const Vec3& d, float tfar, Crossing* out, int max) const;
 
 private:
     struct Impl;
+    bool closest(const Vec3& o, const Vec3& d, float tnear, float tfar, void* context,
+                 Hit* hit) const;
     std::unique_ptr<Impl> impl_;
 };
 

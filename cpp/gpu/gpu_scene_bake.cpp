@@ -249,6 +249,10 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
     FlatBvh bvh = build_flat_bvh(meshes);
     out.nodes = std::move(bvh.nodes);
     out.triangles = std::move(bvh.triangles);
+    for (FlatTriangle& t : out.triangles)
+        if (int(t.mesh) < scene.num_shapes() &&
+            scene.touches_surface(int(t.mesh), t.prim))
+            t.touching = 1.f;
 
     h.params[0] = 0.f;  // unused (rays are offset by error bounds: shared/ray_offset.h)
     h.params[1] = INFINITY;  // no sphere steps ("pt")

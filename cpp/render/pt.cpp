@@ -103,6 +103,24 @@ Vec3 PathTracer::transmittance(const Vec3& p, const Vec3& w, float dist, int sha
     return tr;
 }
 
+// Which of a medium's face and a surface lying on it a ray meets first is rounding's
+// choice, and a ray leaving the face starts past the surface (an outside sweep saw a lit
+// cube through the floor it rests on). So a ray that hits a face with a surface near it
+// looks for one between the origins of the rays leaving the face on either side, and the
+// path takes it instead: the medium in optical contact with it, as where a surface passes
+// through a medium. render.glsl does the same.
+bool PathTracer::surface_at(const Hit& hit, const Vec3& d, Hit* surface) const {
+    if (!scene_.touches_surface(int(hit.mesh), hit.prim)) return false;
+    const Vec3 from = leave(hit, -d), to = leave(hit, d);
+    // from and to lie on the face's normal through the hit point: the ray from one
+    // reaches the other's plane after their distance / |cos|.
+    const float cos = std::max(std::abs(dot(d, hit.normal)), 1e-3f);
+    const float reach = length(to - from) / cos * (1.f + 1e-3f);
+    return scene_.tracer().intersect_skipping(from, d, 0.f, reach, hit.mesh, surface) &&
+           int(surface->mesh) < scene_.num_shapes() &&
+           scene_.desc().shapes[surface->mesh].is_surface();
+}
+
 namespace {
 
 // A scattering event in a medium, for sample_light: the phase function is its own pdf,
@@ -526,6 +544,10 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
                 o = leave(hit, d);
                 continue;
             }
+            if (Hit on; surface_at(hit, d, &on)) {
+                if (!reflect(on, desc.shapes[on.mesh].surface)) break;
+                continue;
+            }
             if (!cross(hit, s.boundary)) break;
             continue;
         }
@@ -682,6 +704,10 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             if (dot(d, hit.normal) < 0.f && int(hit.mesh) < scene_.num_shapes())
                 shape = int(hit.mesh);
             o = leave(hit, d);
+            continue;
+        }
+        if (Hit on; surface_at(hit, d, &on)) {
+            if (!reflect(on, desc.shapes[on.mesh].surface)) break;
             continue;
         }
         if (!cross(hit, s.boundary)) break;

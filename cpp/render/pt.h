@@ -84,6 +84,9 @@ private:
     // step.
     template <bool kSphereTracing>
     bool run(PathState& state, const WorldSphereStep* step) const;
+    // An opaque surface met where `hit` meets the face of a medium, to rounding (a cube
+    // resting on a floor), for a ray along d: false where there is none.
+    bool surface_at(const Hit& hit, const Vec3& d, Hit* surface) const;
     // "st": applies the sphere step the path waited for (weights, NEE from its
     // representative event, the exit) to its state; false when the path ends there.
     bool take_step(PathState& state, const WorldSphereStep& step) const;

@@ -733,7 +733,8 @@ bool same_mesh(const TriangleMesh& a, const TriangleMesh& b) {
 // meet only; on an edit (`previous`), only pairs with a shape or quad that changed.
 // Media nearly touching are refused too: a ray leaving one starts a few float steps of
 // the coordinates past its surface, and could start past the other's (a sweep measured
-// 93 % of the light lost across a gap of 1.5e-7 of the scene).
+// 93 % of the light lost across a gap of 1.5e-7 of the scene). Where opaque surfaces meet
+// media is found here too (contacts_, for the tracers and the grids).
 void Scene::check_media_apart(const std::vector<TriangleMesh>& quads,
                               const Scene* previous) {
     auto name = [&](size_t i) {
@@ -779,8 +780,7 @@ void Scene::check_media_apart(const std::vector<TriangleMesh>& quads,
             }
             const SurfaceContact contact =
                 surface_contact(desc_.shapes[i].mesh, desc_.shapes[j].mesh);
-            if (contact.crosses || contact.inside || contact.lying_area > 0)
-                contacts_.emplace_back(int(i), int(j), contact);
+            if (contact.meets()) contacts_.emplace_back(int(i), int(j), contact);
         }
         for (size_t k = 0; k < quads.size(); ++k)
             if ((changed[i] || quad_changed[k]) &&
@@ -789,31 +789,6 @@ void Scene::check_media_apart(const std::vector<TriangleMesh>& quads,
                      "]: the area light meets ", name(i),
                      ", inside it or across its surface (allowed: area lights "
                      "outside every medium)");
-    }
-}
-
-void Scene::warn_of_contacts() {
-    auto name = [&](int i) {
-        return "shapes[" + std::to_string(i) + "] ('" + desc_.shapes[size_t(i)].name +
-               "')";
-    };
-    for (const auto& [i, j, contact] : contacts_) {
-        std::ostringstream os;
-        os.precision(3);
-        os << desc_.source << ": " << name(j) << ", an opaque surface, ";
-        if (contact.crosses || contact.inside)
-            os << (contact.crosses ? "passes through the surface of " : "lies inside ")
-               << name(i)
-               << "'s medium: paths inside the medium meet it, but light still passes "
-                  "it in places (a surface reaching into a medium is not supported; "
-                  "allowed: opaque surfaces outside media, apart from them)";
-        else
-            os << "and the medium of " << name(i) << " meet over "
-               << 100 * contact.lying_area / desc_.shapes[size_t(i)].mesh.area()
-               << " % of the medium's surface, where the surface lets light through "
-                  "(rays leaving one start past the other, by rounding: robustness.md); "
-                  "lift the medium off it by 1e-5 of the scene for an exact image";
-        desc_.warnings.push_back(os.str());
     }
 }
 
@@ -851,7 +826,6 @@ void Scene::build(int threads, const Scene* previous, const StopFn& stop) {
         check_media_apart(quads, previous);
     else if (previous)
         contacts_ = previous->contacts_;
-    warn_of_contacts();
     if (same_meshes) {
         tracer_ = previous->tracer_;
     } else {
@@ -863,7 +837,21 @@ void Scene::build(int threads, const Scene* previous, const StopFn& stop) {
         rebuilt_.push_back("BVH");
     }
 
-    // A distance grid per medium: kept when its shape's mesh and resolution are the same.
+    // The surfaces each medium's grid keeps clear of (a floor through a cube: a flight
+    // the grid allowed, or a sphere step, passed it, and 6-14 % of the light got
+    // through), and the medium's triangles where the tracers look for a surface too.
+    obstacles_.assign(size_t(num_shapes()), TriangleMesh{});
+    touching_.assign(size_t(num_shapes()), {});
+    for (const auto& [i, j, contact] : contacts_) {
+        append_mesh(obstacles_[size_t(i)], desc_.shapes[size_t(j)].mesh);
+        if (contact.touching.empty()) continue;
+        std::vector<bool>& touching = touching_[size_t(i)];
+        touching.resize(desc_.shapes[size_t(i)].mesh.triangles.size());
+        for (uint32_t t : contact.touching) touching[t] = true;
+    }
+
+    // A distance grid per medium: kept when its shape's mesh and resolution and the
+    // surfaces meeting it are the same.
     for (int i = 0; i < num_shapes(); ++i) {
         const Shape& s = desc_.shapes[i];
         if (s.is_surface()) {  // no medium to step through
@@ -876,19 +864,23 @@ void Scene::build(int threads, const Scene* previous, const StopFn& stop) {
         grid_resolutions_.push_back(res);
         const bool had = previous && i < previous->num_shapes() &&
                          !previous->desc_.shapes[i].is_surface();
-        if (had && previous->grid_resolutions_[i] == res &&
+        const bool same_obstacles =
+            had && same_mesh(obstacles_[i], previous->obstacles_[i]);
+        if (had && previous->grid_resolutions_[i] == res && same_obstacles &&
             same_mesh(s.mesh, previous->desc_.shapes[i].mesh)) {
             grids_.push_back(previous->grids_[i]);
             continue;
         }
         grids_.push_back(std::make_shared<DistanceGrid>(DistanceGrid::build(
-            s.mesh, res, threads, DistanceGrid::kExactResolution, stop)));
+            s.mesh, res, threads, DistanceGrid::kExactResolution, stop, obstacles_[i])));
         if (previous) {
             std::string why = "distance grid of shape '" + s.name + "' (";
             if (!had)
                 why += "new";
             else if (!same_mesh(s.mesh, previous->desc_.shapes[i].mesh))
                 why += "its mesh changed";
+            else if (!same_obstacles)
+                why += "the opaque surfaces meeting it changed";
             else
                 why += std::to_string(previous->grid_resolutions_[i]) + " -> " +
                        std::to_string(res) + " cells: the resolution follows sigma_t" +

@@ -174,6 +174,16 @@ public:
     const RayTracer& tracer() const { return *tracer_; }
     // The distance grid of a medium's shape (a surface's is empty).
     const DistanceGrid& grid(int shape) const { return *grids_[shape]; }
+    // The opaque surfaces that meet a medium (through it, inside it or lying on it), as
+    // one mesh: its grid's distances and its cut steps' certificates keep clear of them
+    // too, so that a flight or a step the grid allows cannot pass one. Empty for most.
+    const TriangleMesh& obstacles(int shape) const { return obstacles_[shape]; }
+    // Whether triangle `prim` of a medium's shape has an opaque surface within the rays'
+    // offsets (SurfaceContact::touching): a ray that hits it may as well have hit that.
+    bool touches_surface(int shape, unsigned prim) const {
+        const std::vector<bool>& t = touching_[size_t(shape)];
+        return !t.empty() && t[prim];
+    }
     // The lights' table of floats, for light_sample and light_eval.
     const float* light_floats() const { return desc_.light_floats.data(); }
     int num_shapes() const { return int(desc_.shapes.size()); }
@@ -211,7 +221,6 @@ public:
 private:
     void build(int threads, const Scene* previous, const StopFn& stop);
     void check_media_apart(const std::vector<TriangleMesh>& quads, const Scene* previous);
-    void warn_of_contacts();  // contacts_ as warnings, with the shapes' names now
 
     SceneDesc desc_;
     std::shared_ptr<const RayTracer> tracer_;
@@ -219,9 +228,12 @@ private:
     std::vector<int> grid_resolutions_;
     std::vector<std::string> rebuilt_;
     std::vector<int> area_lights_;  // light index per extra Embree mesh
-    // Opaque surfaces meeting media (medium, surface, how), for warnings: kept for the
-    // pairs an edit leaves as they were.
+    // Opaque surfaces meeting media (medium, surface, how): kept for the pairs an edit
+    // leaves as they were.
     std::vector<std::tuple<int, int, SurfaceContact>> contacts_;
+    // Per shape, from contacts_.
+    std::vector<TriangleMesh> obstacles_;
+    std::vector<std::vector<bool>> touching_;
     int environment_ = -1;
     bool grey_ = true;
     bool has_surfaces_ = false;

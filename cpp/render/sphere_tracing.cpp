@@ -186,7 +186,8 @@ void SphereTracing::load_cuts(const std::string& dir) {
         }
         cut_sigma_min_[i] = sigma_min;
         cut_planes_[i] = std::make_unique<CutPlanes>(
-            CutPlanes::build(s.mesh, scene_.grid(int(i)), kCutRadiusMfp / sigma_min));
+            CutPlanes::build(s.mesh, scene_.grid(int(i)), kCutRadiusMfp / sigma_min, 0,
+                             scene_.obstacles(int(i))));
         if (cut_planes_[i]->empty())
             cut_planes_[i].reset();
         else

@@ -84,6 +84,17 @@ SurfaceData surface_data(GpuShape s) {
 
 bool is_surface(uint mesh) { return mesh < counts.x && shapes[mesh].surface.x >= 0.0; }
 
+// An opaque surface met where `hit` meets the face of a medium, to rounding, for a ray
+// along d (PathTracer::surface_at): false where there is none.
+bool surface_at(Hit hit, vec3 d, out Hit surface) {
+    if (!hit.touching) return false;
+    vec3 from = leave(hit, -d), to = leave(hit, d);
+    float cos_d = max(abs(dot(d, hit.normal)), 1e-3);
+    float reach = length(to - from) / cos_d * (1.0 + 1e-3);
+    return intersect_skipping(from, d, 0.0, reach, hit.mesh, surface) &&
+           is_surface(surface.mesh);
+}
+
 // A GpuLight unpacked (gpu/shaders/layout.h).
 LightData light_data(GpuLight g) {
     LightData l;
@@ -425,6 +436,11 @@ void path_iterate(inout Path p) {
             p.o = leave(hit, p.d);
             return;
         }
+        Hit on;
+        if (surface_at(hit, p.d, on)) {
+            reflect_off(p, on);
+            return;
+        }
         cross(p, hit);
         return;
     }
@@ -536,6 +552,11 @@ void path_iterate(inout Path p) {
     if (int(hit.mesh) != p.shape || dot(p.d, hit.normal) <= 0.0) {
         if (dot(p.d, hit.normal) < 0.0 && hit.mesh < num_shapes) p.shape = int(hit.mesh);
         p.o = leave(hit, p.d);
+        return;
+    }
+    Hit on;
+    if (surface_at(hit, p.d, on)) {
+        reflect_off(p, on);
         return;
     }
     cross(p, hit);
