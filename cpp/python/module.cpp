@@ -236,6 +236,7 @@ PYBIND11_MODULE(_core, m) {
                                ? shape.boundary.x
                                : 1.f;
                 d["grid_resolution"] = s.grid_resolutions()[i];
+                d["surfaces_meeting"] = s.surfaces_meeting(i);
                 return d;
             },
             "Shape i in brief: name, kind ('medium' or 'surface'), triangles, vertices, "

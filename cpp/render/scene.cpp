@@ -907,6 +907,13 @@ void Scene::build(int threads, const Scene* previous, const StopFn& stop) {
     }
 }
 
+std::vector<int> Scene::surfaces_meeting(int shape) const {
+    std::vector<int> out;
+    for (const auto& [i, j, contact] : contacts_)
+        if (i == shape) out.push_back(j);
+    return out;
+}
+
 int Scene::auto_grid_resolution(const Shape& shape) {
     const float side = max_component(shape.mesh.bounds().extent());
     const float mean_free_paths = max_component(shape.medium.sigma_t) * side / 64.f;

@@ -178,6 +178,9 @@ public:
     // one mesh: its grid's distances and its cut steps' certificates keep clear of them
     // too, so that a flight or a step the grid allows cannot pass one. Empty for most.
     const TriangleMesh& obstacles(int shape) const { return obstacles_[shape]; }
+    // The opaque surfaces (their shape indices, ascending) that meet a medium's shape:
+    // resting on it, through it or inside it (SurfaceContact).
+    std::vector<int> surfaces_meeting(int shape) const;
     // Whether triangle `prim` of a medium's shape has an opaque surface within the rays'
     // offsets (SurfaceContact::touching): a ray that hits it may as well have hit that.
     bool touches_surface(int shape, unsigned prim) const {
