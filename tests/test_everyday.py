@@ -384,19 +384,19 @@ def test_info_predicts_no_steps_in_a_medium_the_models_were_not_trained_for(smal
     assert not trained["st_untrained"] and trained["st_steps"] > 0, trained
 
 
-def test_info_names_the_surfaces_a_medium_is_in_optical_contact_with():
-    """A cube resting on a floor is in optical contact with it (docs/scene-format.md): info
-    names the floor under the cube, and nothing once the cube is lifted off it."""
+def test_info_names_the_surfaces_a_medium_meets():
+    """A cube resting on a floor meets it (docs/scene-format.md, "Scene rules"): info names
+    the floor under the cube, and nothing once the cube is lifted off it."""
     from bench.robustness import cube_on_floor
     from sssphere.info import format_info, scene_info
 
     info = scene_info(sssphere.load_scene(cube_on_floor(0.0)))
     assert info["shapes"][0]["surfaces_meeting"] == [1], info["shapes"][0]
-    assert "in optical contact with the opaque surface(s) 'floor' where they meet" in \
+    assert "meets the opaque surface(s) 'floor': resting on one as across a gap" in \
         format_info(info)
     info = scene_info(sssphere.load_scene(cube_on_floor(1e-3)))
     assert info["shapes"][0]["surfaces_meeting"] == []
-    assert "optical contact" not in format_info(info)
+    assert "meets the opaque surface" not in format_info(info)
 
 
 def test_info_says_when_st_cannot_render_the_scene(small_scene, tmp_path):

@@ -70,7 +70,7 @@ SurfaceMesh to_surface_mesh(const TriangleMesh& mesh) {
 // frame): distances and certificates hold for both.
 TriangleMesh with_obstacles(const TriangleMesh& mesh, const TriangleMesh& obstacles) {
     TriangleMesh all = mesh;
-    append_mesh(all, obstacles);
+    append_mesh(all, obstacles, obstacles.bounds());
     return all;
 }
 
@@ -532,12 +532,17 @@ CutPlanes CutPlanes::build(const TriangleMesh& medium, const DistanceGrid& grid,
                     entry.centre = grid.node_position(i, j, k) + Vec3(0.5f * cp.cell_);
                     const Point c = to_point(entry.centre);
                     const auto [q, id] = tree.closest_point_and_primitive(c);
-                    const Vec3 face = mesh.normal(size_t(id - tris.begin()));
+                    const size_t t = size_t(id - tris.begin());
+                    const Vec3 face = mesh.normal(t);
                     const Vec3 to_q(float(q.x() - c.x()), float(q.y() - c.y()),
                                     float(q.z() - c.z()));
                     const float l = length(to_q);
-                    entry.n =
-                        dot(to_q, face) > 0.f && l > 1e-6f * cp.cell_ ? to_q / l : face;
+                    // An obstacle's normal may point either way (an open floor's
+                    // winding).
+                    const bool obstacle = t >= medium.triangles.size();
+                    entry.n = (obstacle || dot(to_q, face) > 0.f) && l > 1e-6f * cp.cell_
+                                  ? to_q / l
+                                  : face;
                     const K::Iso_cuboid_3 box(c.x() - reach, c.y() - reach, c.z() - reach,
                                               c.x() + reach, c.y() + reach,
                                               c.z() + reach);
@@ -616,114 +621,71 @@ bool within_reach(const Bounds3& a, const Bounds3& b) {
 
 }  // namespace
 
-NearContact near_contact(const TriangleMesh& a, const TriangleMesh& b) {
-    if (!within_reach(a.bounds(), b.bounds())) return {};
+namespace {
+
+// Calls f(i, gap, needed) for the pairs of a triangle i of `a` and one of `b` nearer than
+// twice the sum of their offset bounds (`needed`: a margin of 2 on the bound), the
+// triangles of `a` in order, until f returns true for i (then on with i + 1).
+template <class F>
+void near_pairs(const TriangleMesh& a, const TriangleMesh& b, F f) {
     const std::vector<double> off_a = ray_offset_bounds(a), off_b = ray_offset_bounds(b);
     const double most_b = *std::max_element(off_b.begin(), off_b.end());
     std::vector<Triangle> ta = cgal_triangles(a), tb = cgal_triangles(b);
-    auto grown = [](const CGAL::Bbox_3& box, double by) {
-        return K::Iso_cuboid_3(box.xmin() - by, box.ymin() - by, box.zmin() - by,
-                               box.xmax() + by, box.ymax() + by, box.zmax() + by);
-    };
     CGAL::Bbox_3 box_b;
     for (const Triangle& t : tb) box_b += t.bbox();
     Tree tree(tb.begin(), tb.end());
-    NearContact worst;
     std::vector<Primitive::Id> near;
     for (size_t i = 0; i < ta.size(); ++i) {
-        // Pairs nearer than twice the two offsets: a margin of 2 on the bound.
-        const K::Iso_cuboid_3 query = grown(ta[i].bbox(), 2 * (off_a[i] + most_b));
-        if (!CGAL::do_overlap(query.bbox(), box_b)) continue;
+        const double by = 2 * (off_a[i] + most_b);
+        const CGAL::Bbox_3 t = ta[i].bbox();
+        const CGAL::Bbox_3 query(t.xmin() - by, t.ymin() - by, t.zmin() - by,
+                                 t.xmax() + by, t.ymax() + by, t.zmax() + by);
+        if (!CGAL::do_overlap(query, box_b)) continue;
         near.clear();
         tree.all_intersected_primitives(query, std::back_inserter(near));
         for (TriIter u : near) {
-            double needed = 2 * (off_a[i] + off_b[size_t(u - tb.begin())]);
-            double gap = std::sqrt(CGAL::squared_distance(ta[i], *u));
-            if (gap < needed && needed - gap > worst.needed - worst.gap)
-                worst = {gap, needed};
+            const double needed = 2 * (off_a[i] + off_b[size_t(u - tb.begin())]);
+            const double gap = std::sqrt(CGAL::squared_distance(ta[i], *u));
+            if (gap < needed && f(i, gap, needed)) break;
         }
     }
-    return worst;
-}
-
-namespace {
-
-// Signed distances of t's corners to the plane of u, and whether they lie beyond `band`
-// on both sides of it.
-bool straddles(const Triangle& t, const Triangle& u, double band) {
-    const K::Vector_3 n = CGAL::cross_product(u[1] - u[0], u[2] - u[0]);
-    const double len = std::sqrt(n.squared_length());
-    double lo = INFINITY, hi = -INFINITY;
-    for (int v = 0; v < 3; ++v) {
-        const double d = (t[v] - u[0]) * n / len;
-        lo = std::min(lo, d);
-        hi = std::max(hi, d);
-    }
-    return lo < -band && hi > band;
 }
 
 }  // namespace
 
+NearContact near_contact(const TriangleMesh& a, const TriangleMesh& b) {
+    NearContact worst;
+    if (!within_reach(a.bounds(), b.bounds())) return worst;
+    near_pairs(a, b, [&](size_t, double gap, double needed) {
+        if (needed - gap > worst.needed - worst.gap) worst = {gap, needed};
+        return false;
+    });
+    return worst;
+}
+
 SurfaceContact surface_contact(const TriangleMesh& medium, const TriangleMesh& surface) {
     SurfaceContact contact;
-    const Bounds3 box_m = medium.bounds(), box_s = surface.bounds();
-    if (!within_reach(box_m, box_s)) return contact;
-    const std::vector<double> off_m = ray_offset_bounds(medium),
-                              off_s = ray_offset_bounds(surface);
-    const double most_s = *std::max_element(off_s.begin(), off_s.end()),
-                 most_m = *std::max_element(off_m.begin(), off_m.end());
-    std::vector<Triangle> tm = cgal_triangles(medium), ts = cgal_triangles(surface);
-    Tree tree_m(tm.begin(), tm.end()), tree_s(ts.begin(), ts.end());
-    tree_m.accelerate_distance_queries();
+    const Bounds3 box_m = medium.bounds();
+    if (!within_reach(box_m, surface.bounds())) return contact;
+    // Touching: a surface triangle within twice the two offsets of a medium triangle,
+    // where a ray may hit either first.
+    near_pairs(medium, surface, [&](size_t i, double, double) {
+        contact.touching.push_back(uint32_t(i));
+        return true;
+    });
 
-    // Touching: a surface triangle within twice the two offsets of a medium triangle (the
-    // margin of near_contact), where a ray may hit either first.
-    CGAL::Bbox_3 bbox_s;
-    for (const Triangle& t : ts) bbox_s += t.bbox();
-    std::vector<Primitive::Id> near;
-    for (size_t i = 0; i < tm.size(); ++i) {
-        const double by = 2 * (off_m[i] + most_s);
-        const CGAL::Bbox_3 b = tm[i].bbox();
-        const CGAL::Bbox_3 query(b.xmin() - by, b.ymin() - by, b.zmin() - by,
-                                 b.xmax() + by, b.ymax() + by, b.zmax() + by);
-        if (!CGAL::do_overlap(query, bbox_s)) continue;
-        near.clear();
-        tree_s.all_intersected_primitives(query, std::back_inserter(near));
-        for (TriIter u : near)
-            if (std::sqrt(CGAL::squared_distance(tm[i], *u)) <
-                2 * (off_m[i] + off_s[size_t(u - ts.begin())])) {
-                contact.touching.push_back(uint32_t(i));
-                break;
-            }
-    }
-
-    // Inside: a surface triangle and a medium triangle that meet, each with corners
-    // beyond the band on both sides of the other's plane (a floor through a cube), or a
-    // corner of the surface inside the medium and off its surface (a wick in a candle).
-    std::vector<Primitive::Id> met;
-    for (size_t k = 0; k < ts.size() && !contact.inside; ++k) {
-        met.clear();
-        tree_m.all_intersected_primitives(ts[k], std::back_inserter(met));
-        for (TriIter u : met) {
-            const double band = 2 * (off_s[k] + off_m[size_t(u - tm.begin())]);
-            if (straddles(ts[k], *u, band) && straddles(*u, ts[k], band)) {
-                contact.inside = true;
-                break;
-            }
-        }
-    }
+    // Inside, touching nothing (a wick in a candle): a corner of the surface inside the
+    // medium. (A surface through the medium's surface touches the triangles it crosses.)
     const bool corner_in_box =
         std::any_of(surface.positions.begin(), surface.positions.end(),
                     [&](const Vec3& p) { return box_m.contains(p); });
-    if (!contact.inside && corner_in_box) {
+    if (contact.touching.empty() && corner_in_box) {
         const SurfaceMesh sm = to_surface_mesh(medium);
         CGAL::Side_of_triangle_mesh<SurfaceMesh, K> side(sm);
-        for (const Vec3& p : surface.positions)
-            if (box_m.contains(p) && side(to_point(p)) == CGAL::ON_BOUNDED_SIDE &&
-                std::sqrt(tree_m.squared_distance(to_point(p))) > 2 * (most_m + most_s)) {
-                contact.inside = true;
-                break;
-            }
+        contact.inside = std::any_of(
+            surface.positions.begin(), surface.positions.end(), [&](const Vec3& p) {
+                return box_m.contains(p) && side(to_point(p)) == CGAL::ON_BOUNDED_SIDE;
+            });
     }
     return contact;
 }

@@ -124,8 +124,8 @@ NearContact near_contact(const TriangleMesh& a, const TriangleMesh& b);
 // How an opaque surface meets a closed medium, for the tracers: the medium's triangles
 // that a surface triangle comes within the rays' offsets of (where a ray that hits the
 // medium's face may as well have hit the surface: a cube resting on a floor, a ball
-// touching it), and whether the surface reaches inside the medium (a floor through a
-// cube, a wick in a candle).
+// touching it, a floor through a cube along the sides it cuts), and whether the surface
+// lies inside the medium touching none of them (a wick in a candle).
 struct SurfaceContact {
     std::vector<uint32_t> touching;  // ascending
     bool inside = false;

@@ -260,9 +260,8 @@ TEST(DistanceGrid, KeepsClearOfObstacles) {
                 ASSERT_EQ(with.node_inside(i, j, k), without.node_inside(i, j, k));
 }
 
-// What surface_contact finds: the triangles a floor touches (the cube resting on it),
-// none once the cube is lifted, and a surface inside (a floor through it, a box within
-// it).
+// What surface_contact finds: the triangles a floor touches (the cube resting on it, or
+// cut by it), none once the cube is lifted, and a surface inside touching nothing.
 TEST(SurfaceContact, FindsTouchingTrianglesAndSurfacesInside) {
     const TriangleMesh cube = test::cube_mesh();
     // The bottom face's two triangles and the sides' eight, which meet the floor along
@@ -274,8 +273,8 @@ TEST(SurfaceContact, FindsTouchingTrianglesAndSurfacesInside) {
     const SurfaceContact lifted = surface_contact(cube, test::floor_mesh(-1.0 - 1e-4));
     EXPECT_FALSE(lifted.meets());
     const SurfaceContact through = surface_contact(cube, test::floor_mesh(0.3));
-    EXPECT_TRUE(through.inside);
-    EXPECT_EQ(through.touching.size(), 8u);  // the four sides it crosses
+    EXPECT_FALSE(through.inside);            // it touches what it cuts:
+    EXPECT_EQ(through.touching.size(), 8u);  // the four sides
     for (uint32_t t : through.touching) EXPECT_NEAR(cube.normal(t).y, 0.f, 1e-6f);
     TriangleMesh wick = test::cube_mesh();
     for (Vec3& p : wick.positions) p = p * 0.1f;

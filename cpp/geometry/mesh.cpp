@@ -49,13 +49,17 @@ double ray_offset_ceiling(const Bounds3& box) {
     return 2 * std::sqrt(norm) + std::ldexp(std::sqrt(ulp), -22);
 }
 
-void append_mesh(TriangleMesh& to, const TriangleMesh& from) {
+void append_mesh(TriangleMesh& to, const TriangleMesh& from, const Bounds3& keep) {
     SSS_CHECK(from.origin.x == to.origin.x && from.origin.y == to.origin.y &&
               from.origin.z == to.origin.z);
     const auto base = uint32_t(to.positions.size());
     to.positions.insert(to.positions.end(), from.positions.begin(), from.positions.end());
-    for (const auto& t : from.triangles)
-        to.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
+    for (const auto& t : from.triangles) {
+        Bounds3 b;
+        for (uint32_t v : t) b.extend(from.positions[v]);
+        if (b.overlaps(keep))
+            to.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
+    }
 }
 
 std::vector<double> ray_offset_bounds(const TriangleMesh& mesh) {

@@ -27,8 +27,9 @@ struct TriangleMesh {
     double volume() const;  // signed; > 0 for an outward-oriented closed mesh
 };
 
-// Appends the triangles of `from` to `to` (both in the same frame).
-void append_mesh(TriangleMesh& to, const TriangleMesh& from);
+// Appends the triangles of `from` whose bounds overlap `keep` to `to` (both in the same
+// frame).
+void append_mesh(TriangleMesh& to, const TriangleMesh& from, const Bounds3& keep);
 
 // For each triangle, a bound on how far from its plane a ray leaving it starts:
 // offset_ray_origin at a hit point that triangle_point rebuilt (shared/ray_offset.h),

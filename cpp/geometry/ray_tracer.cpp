@@ -110,7 +110,8 @@ RayTracer::RayTracer() : impl_(std::make_unique<Impl>()) {
     impl_->scene = rtcNewScene(impl_->device);
     // Robust traversal: watertight hits on shared edges, so no ray leaks through a closed
     // mesh.
-    // Context filters: crossings() collects every hit of one ray.
+    // Context filters: crossings() collects every hit of one ray, intersect_skipping()
+    // passes through one mesh.
     rtcSetSceneFlags(impl_->scene,
                      RTC_SCENE_FLAG_ROBUST | RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
     rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);

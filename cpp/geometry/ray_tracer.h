@@ -52,6 +52,8 @@ public:
 
 private:
     struct Impl;
+    // The closest hit through `context`, an RTCIntersectContext* (void* here: Embree's
+    // headers stay out of ours).
     bool closest(const Vec3& o, const Vec3& d, float tnear, float tfar, void* context,
                  Hit* hit) const;
     std::unique_ptr<Impl> impl_;

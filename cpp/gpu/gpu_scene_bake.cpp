@@ -160,7 +160,7 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
     const Vec3 up = cross(right, forward);
     put3(h.cam_origin, c.origin, std::tan(0.5f * c.fov * 0.017453292519943295f));
     put3(h.cam_forward, forward, float(c.width) / float(c.height));
-    put3(h.cam_right, right, 0.f);
+    put3(h.cam_right, right, scene.camera_ray_start());
     put3(h.cam_up, up, 0.f);
 
     // Lights, for NEE in the shaders; area lights are also the meshes after the shapes

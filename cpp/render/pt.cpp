@@ -104,21 +104,29 @@ Vec3 PathTracer::transmittance(const Vec3& p, const Vec3& w, float dist, int sha
 }
 
 // Which of a medium's face and a surface lying on it a ray meets first is rounding's
-// choice, and a ray leaving the face starts past the surface (an outside sweep saw a lit
-// cube through the floor it rests on). So a ray that hits a face with a surface near it
-// looks for one between the origins of the rays leaving the face on either side, and the
-// path takes it instead: the medium in optical contact with it, as where a surface passes
-// through a medium. render.glsl does the same.
-bool PathTracer::surface_at(const Hit& hit, const Vec3& d, Hit* surface) const {
-    if (!scene_.touches_surface(int(hit.mesh), hit.prim)) return false;
-    const Vec3 from = leave(hit, -d), to = leave(hit, d);
-    // from and to lie on the face's normal through the hit point: the ray from one
-    // reaches the other's plane after their distance / |cos|.
-    const float cos = std::max(std::abs(dot(d, hit.normal)), 1e-3f);
-    const float reach = length(to - from) / cos * (1.f + 1e-3f);
-    return scene_.tracer().intersect_skipping(from, d, 0.f, reach, hit.mesh, surface) &&
-           int(surface->mesh) < scene_.num_shapes() &&
+// choice: a ray leaving the face started past the floor (an outside sweep saw a lit cube
+// through the floor it rests on), and a ray from a camera far away may find the face
+// before a floor a little in front of it. So a ray from o that hits one of them where the
+// other may lie (Scene::touches_surface) is traced again, passing through the mesh it
+// hit, to tie_reach past the hit: what it finds there it met at the same place, to
+// rounding. The path then meets both (run). render.glsl does the same.
+bool PathTracer::other_at(const Vec3& o, const Vec3& d, const Hit& hit,
+                          Hit* other) const {
+    return scene_.tracer().intersect_skipping(
+        o, d, 0.f, tie_reach(o, d, hit.t, hit.p_error, hit.normal), hit.mesh, other);
+}
+
+bool PathTracer::surface_at(const Vec3& o, const Vec3& d, const Hit& face,
+                            Hit* surface) const {
+    return scene_.touches_surface(int(face.mesh), face.prim) &&
+           other_at(o, d, face, surface) && int(surface->mesh) < scene_.num_shapes() &&
            scene_.desc().shapes[surface->mesh].is_surface();
+}
+
+bool PathTracer::face_at(const Vec3& o, const Vec3& d, const Hit& surface, int shape,
+                         Hit* face) const {
+    return other_at(o, d, surface, face) && int(face->mesh) == shape &&
+           scene_.touches_surface(shape, face->prim) && dot(d, face->normal) > 0.f;
 }
 
 namespace {
@@ -496,6 +504,23 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
         return true;
     };
 
+    // The photon meets, from inside, the face of `hit` where an opaque surface lies on it
+    // (at `on`: a cube resting on a floor). It meets it as across a gap too thin to see,
+    // so that the image is the one of the medium lifted off the surface by any small gap:
+    // the face reflects or transmits it; out in the gap, it reflects off the surface and
+    // meets the face again, until it is back inside, leaves along the gap, or the path
+    // ends (false). Behind an index-matched face that is the surface as seen from inside,
+    // which its shadow rays, starting in the medium, also see right: run takes that.
+    auto across_gap = [&](const Hit& face, const Hit& on, const Boundary& boundary) {
+        if (!cross(face, boundary)) return false;
+        while (shape < 0) {
+            if (!reflect(on, desc.shapes[on.mesh].surface)) return false;
+            if (!(dot(d, face.normal) < 0.f)) return true;  // o: off the surface
+            if (!cross(face, boundary)) return false;
+        }
+        return true;
+    };
+
     // A stop (Ctrl-C) ends even a path of 1e9 flights within a second (65536 flights are
     // a few ms): in a medium, or between the walls of a white room. The render then drops
     // the tile it was part of, so the cut path counts nowhere.
@@ -544,7 +569,7 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
                 o = leave(hit, d);
                 continue;
             }
-            if (Hit on; surface_at(hit, d, &on)) {
+            if (Hit on; surface_at(o, d, hit, &on)) {
                 if (!reflect(on, desc.shapes[on.mesh].surface)) break;
                 continue;
             }
@@ -693,7 +718,13 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
         // from the crossing, never from distances: behind a front face of a shape it is
         // inside that shape, behind a back face outside it.
         if (int(hit.mesh) < scene_.num_shapes() && desc.shapes[hit.mesh].is_surface()) {
-            if (!reflect(hit, desc.shapes[hit.mesh].surface)) break;
+            // A surface in the medium, or (met first by rounding) one lying on its face
+            if (Hit face;
+                !s.boundary.passes_shadow_rays() && face_at(o, d, hit, shape, &face)) {
+                if (!across_gap(face, hit, s.boundary)) break;
+            } else if (!reflect(hit, desc.shapes[hit.mesh].surface)) {
+                break;
+            }
             continue;
         }
         if (int(hit.mesh) != shape || dot(d, hit.normal) <= 0.f) {
@@ -706,8 +737,11 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             o = leave(hit, d);
             continue;
         }
-        if (Hit on; surface_at(hit, d, &on)) {
-            if (!reflect(on, desc.shapes[on.mesh].surface)) break;
+        if (Hit on; surface_at(o, d, hit, &on)) {
+            if (s.boundary.passes_shadow_rays()
+                    ? !reflect(on, desc.shapes[on.mesh].surface)
+                    : !across_gap(hit, on, s.boundary))
+                break;
             continue;
         }
         if (!cross(hit, s.boundary)) break;

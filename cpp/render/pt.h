@@ -84,9 +84,14 @@ private:
     // step.
     template <bool kSphereTracing>
     bool run(PathState& state, const WorldSphereStep* step) const;
-    // An opaque surface met where `hit` meets the face of a medium, to rounding (a cube
-    // resting on a floor), for a ray along d: false where there is none.
-    bool surface_at(const Hit& hit, const Vec3& d, Hit* surface) const;
+    // What else the ray from o along d meets where it hits `hit`, to rounding (a cube
+    // resting on a floor: its face and the floor): false where nothing.
+    bool other_at(const Vec3& o, const Vec3& d, const Hit& hit, Hit* other) const;
+    // The opaque surface lying on a medium's face where the ray hits the face, and the
+    // face of medium `shape` under a surface where the ray, inside it, hits the surface.
+    bool surface_at(const Vec3& o, const Vec3& d, const Hit& face, Hit* surface) const;
+    bool face_at(const Vec3& o, const Vec3& d, const Hit& surface, int shape,
+                 Hit* face) const;
     // "st": applies the sphere step the path waited for (weights, NEE from its
     // representative event, the exit) to its state; false when the path ends there.
     bool take_step(PathState& state, const WorldSphereStep& step) const;

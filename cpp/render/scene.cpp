@@ -817,6 +817,14 @@ void Scene::build(int threads, const Scene* previous, const StopFn& stop) {
     for (size_t k = 0; same_meshes && k < quads.size(); ++k)
         same_meshes = same_mesh(
             quads[k], previous->desc_.lights[previous->area_lights_[k]].quad_mesh());
+    bounds_ = Bounds3();
+    auto extend = [&](const TriangleMesh& m) {
+        const Bounds3 b = m.bounds();
+        bounds_.extend(b.lo);
+        bounds_.extend(b.hi);
+    };
+    for (const Shape& s : desc_.shapes) extend(s.mesh);
+    for (const TriangleMesh& q : quads) extend(q);
     // Which shapes hold media matters to the media's check, not to the BVH.
     bool same_media = same_meshes;
     for (int i = 0; same_media && i < num_shapes(); ++i)
@@ -843,7 +851,13 @@ void Scene::build(int threads, const Scene* previous, const StopFn& stop) {
     obstacles_.assign(size_t(num_shapes()), TriangleMesh{});
     touching_.assign(size_t(num_shapes()), {});
     for (const auto& [i, j, contact] : contacts_) {
-        append_mesh(obstacles_[size_t(i)], desc_.shapes[size_t(j)].mesh);
+        // Only what could be nearer a grid node than the medium: a large room's walls
+        // far from a candle are not copied, nor searched by the grid's build.
+        Bounds3 keep = desc_.shapes[size_t(i)].mesh.bounds();
+        const float reach = 3.f * length(keep.extent());
+        keep.lo = keep.lo - Vec3(reach);
+        keep.hi = keep.hi + Vec3(reach);
+        append_mesh(obstacles_[size_t(i)], desc_.shapes[size_t(j)].mesh, keep);
         if (contact.touching.empty()) continue;
         std::vector<bool>& touching = touching_[size_t(i)];
         touching.resize(desc_.shapes[size_t(i)].mesh.triangles.size());
@@ -905,6 +919,18 @@ void Scene::build(int threads, const Scene* previous, const StopFn& stop) {
                  "' (allowed: a camera outside every medium)");
         }
     }
+}
+
+float Scene::camera_ray_start() const {
+    const Vec3 c = bounds_.center(), e = bounds_.extent(), eye = desc_.camera.origin;
+    const double radius =
+        0.5 * std::sqrt(double(e.x) * e.x + double(e.y) * e.y + double(e.z) * e.z);
+    const double to_eye = std::sqrt(double(eye.x - c.x) * (eye.x - c.x) +
+                                    double(eye.y - c.y) * (eye.y - c.y) +
+                                    double(eye.z - c.z) * (eye.z - c.z));
+    // The margin: a hundredth of the ball's radius, and the float rounding of o + d t.
+    const double start = to_eye - 1.01 * radius - 1e-6 * to_eye;
+    return start > 0 ? float(start) * (1.f - 1e-6f) : 0.f;
 }
 
 std::vector<int> Scene::surfaces_meeting(int shape) const {

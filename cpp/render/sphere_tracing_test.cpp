@@ -450,8 +450,9 @@ TEST(SphereTracer, PathsInFlightAreThePathsTracedOneAtATime) {
                     for (int k = 0; k < opt.spp; ++k) {
                         Rng rng(opt.seed, p, uint64_t(k));
                         float jx = rng.uniform(), jy = rng.uniform();
+                        const Vec3 d = camera.direction(x + jx, y + jy);
                         PathSample s = tracer.trace(
-                            camera.origin(), camera.direction(x + jx, y + jy), rng);
+                            camera.origin() + d * scene.camera_ray_start(), d, rng);
                         for (int c = 0; c < 3; ++c) sum_d[c] += s.radiance[c];
                         events += s.scatter_events;
                         steps += s.sphere_steps;

@@ -52,6 +52,20 @@ SSS_FN Vec3 offset_ray_origin(Vec3 p, Vec3 error, Vec3 n, Vec3 w) {
     return o;
 }
 
+// How far along a ray (origin o, unit direction d) that hit a triangle of unit normal n
+// at distance t, at a point with error bound `error`, something else the ray met there by
+// rounding can lie (a floor under the face of a cube resting on it): to the plane of the
+// origin of a ray leaving the hit on the far side (offset_ray_origin's offset, twice,
+// over |cos|; at grazing incidence, 1000 times the offset), and the hit distances' own
+// rounding, which grows with the origin's coordinates (a camera far away).
+SSS_FN float tie_reach(Vec3 o, Vec3 d, float t, Vec3 error, Vec3 n) {
+    float offset = dot(abs(n), error);
+    if (!(offset > 0.f)) offset = max(error.x, max(error.y, error.z));
+    float cos_d = max(abs(dot(d, n)), 1e-3f);
+    float o_max = max(abs(o.x), max(abs(o.y), abs(o.z)));
+    return t + 2.002f * offset / cos_d + 1e-6f * (o_max + t);
+}
+
 #ifdef __cplusplus
 }  // namespace sss
 #endif

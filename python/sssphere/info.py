@@ -166,8 +166,8 @@ def format_info(info: dict[str, Any]) -> str:
         ]
         if s["surfaces_meeting"]:
             names = ", ".join(f"'{info['shapes'][j]['name']}'" for j in s["surfaces_meeting"])
-            lines.append(f"  in optical contact with the opaque surface(s) {names} where they "
-                         "meet (no Fresnel there; lift it by 1e-5 of the scene for an air gap)")
+            lines.append(f"  meets the opaque surface(s) {names}: resting on one as across a "
+                         "gap too thin to see, one through it in optical contact")
     if info.get("st_error"):
         lines.append(f"st cannot render this scene: {info['st_error']}")
     lines.append("lights: " + (", ".join(info["lights"]) if info["lights"] else "none"))

@@ -66,9 +66,10 @@ class Scene(_core.Scene):
 
     Each assignment is checked at once, with the scene file's messages (a SceneError; the
     scene is then unchanged), and rebuilds only what it must: the BVH when a shape's or an
-    area light's geometry changed, a shape's distance grid when its mesh or its grid
-    resolution did (``rebuilt`` says what the last change built; lights other than area
-    lights' quads, the camera and render settings build nothing, and so do materials unless
+    area light's geometry changed, a shape's distance grid when its mesh, its grid
+    resolution or the opaque surfaces meeting it did (``rebuilt`` says what the last change
+    built; lights other than area lights' quads, the camera and render settings build
+    nothing, and so do materials unless
     the largest sigma_t crosses a threshold of the grid's resolution, which follows it:
     docs/notation.md, "Distance grid"). Mesh files are
     not read again unless they changed on disk. An edit while another thread renders the

@@ -25,7 +25,8 @@ void TileSamples::start(int item, const PathTracer& tracer, PathState& ps) const
     Rng rng(opt.seed, uint64_t(y) * setup_.scene.desc().camera.width + x,
             uint64_t(work_.s0 + item % m_));
     const float jx = rng.uniform(), jy = rng.uniform();
-    tracer.start(ps, setup_.camera.origin(), setup_.camera.direction(x + jx, y + jy),
+    const Vec3 d = setup_.camera.direction(x + jx, y + jy);
+    tracer.start(ps, setup_.camera.origin() + d * setup_.scene.camera_ray_start(), d,
                  rng);
 }
 
