@@ -109,7 +109,8 @@ Vec3 PathTracer::transmittance(const Vec3& p, const Vec3& w, float dist, int sha
 // before a floor a little in front of it. So a ray from o that hits one of them where the
 // other may lie (Scene::touches_surface) is traced again, passing through the mesh it
 // hit, to tie_reach past the hit: what it finds there it met at the same place, to
-// rounding. The path then meets both (run). render.glsl does the same.
+// rounding. The path then meets both (run). render.glsl does not do this yet
+// (docs/robustness.md).
 bool PathTracer::other_at(const Vec3& o, const Vec3& d, const Hit& hit,
                           Hit* other) const {
     return scene_.tracer().intersect_skipping(

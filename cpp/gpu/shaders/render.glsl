@@ -84,23 +84,6 @@ SurfaceData surface_data(GpuShape s) {
 
 bool is_surface(uint mesh) { return mesh < counts.x && shapes[mesh].surface.x >= 0.0; }
 
-// What else the ray from o along d meets where it hits `hit`, to rounding
-// (PathTracer::other_at), the opaque surface lying on a medium's face there (surface_at)
-// and the face of medium `shape` under a surface (face_at).
-bool other_at(vec3 o, vec3 d, Hit hit, out Hit other) {
-    return intersect_skipping(o, d, 0.0, tie_reach(o, d, hit.t, hit.p_error, hit.normal),
-                              hit.mesh, other);
-}
-
-bool surface_at(vec3 o, vec3 d, Hit face, out Hit surface) {
-    return face.touching && other_at(o, d, face, surface) && is_surface(surface.mesh);
-}
-
-bool face_at(vec3 o, vec3 d, Hit surface, int shape, out Hit face) {
-    return other_at(o, d, surface, face) && face.mesh == uint(shape) && face.touching &&
-           dot(d, face.normal) > 0.0;
-}
-
 // A GpuLight unpacked (gpu/shaders/layout.h).
 LightData light_data(GpuLight g) {
     LightData l;
@@ -344,17 +327,6 @@ void cross(inout Path p, Hit hit) {
     p.r_at_o = p.shape >= 0 ? 0.0 : -1.0;
 }
 
-// PathTracer::run's across_gap: the face of `face`, met from inside where an opaque
-// surface lies on it (at `on`), as across a gap too thin to see.
-void across_gap(inout Path p, Hit face, Hit on) {
-    cross(p, face);
-    while (!p.done && p.shape < 0) {
-        reflect_off(p, on);
-        if (p.done || !(dot(p.d, face.normal) < 0.0)) return;
-        cross(p, face);
-    }
-}
-
 #if SSS_ST
 // SphereTracing::step_radius: the grid's bound r at p, or the ball that keeps the shape's
 // clearance (sigma_t.w mean free paths of sigma) from the boundary and the point lights
@@ -451,11 +423,6 @@ void path_iterate(inout Path p) {
         GpuShape s = shapes[hit.mesh];
         if (dot(p.d, hit.normal) >= 0.0) {
             p.o = leave(hit, p.d);
-            return;
-        }
-        Hit on;
-        if (surface_at(p.o, p.d, hit, on)) {
-            reflect_off(p, on);
             return;
         }
         cross(p, hit);
@@ -562,25 +529,13 @@ void path_iterate(inout Path p) {
     // Reached a boundary from inside; the crossing decides where the photon is after it
     // (as PathTracer::run): an unexpected one passes straight through, into the shape
     // whose front face it crosses.
-    if (is_surface(hit.mesh)) {  // a surface in the medium, or one lying on its face
-        Hit face;
-        if (!boundary_passes_shadow_rays(boundary_data(s)) && face_at(p.o, p.d, hit, p.shape, face))
-            across_gap(p, face, hit);
-        else
-            reflect_off(p, hit);
+    if (is_surface(hit.mesh)) {  // a surface touching the medium
+        reflect_off(p, hit);
         return;
     }
     if (int(hit.mesh) != p.shape || dot(p.d, hit.normal) <= 0.0) {
         if (dot(p.d, hit.normal) < 0.0 && hit.mesh < num_shapes) p.shape = int(hit.mesh);
         p.o = leave(hit, p.d);
-        return;
-    }
-    Hit on;
-    if (surface_at(p.o, p.d, hit, on)) {
-        if (boundary_passes_shadow_rays(boundary_data(shapes[hit.mesh])))
-            reflect_off(p, on);
-        else
-            across_gap(p, hit, on);
         return;
     }
     cross(p, hit);
@@ -667,8 +622,8 @@ Path start_path(uint i) {
     float fx = float(x) + rng_uniform(p.rng), fy = float(y) + rng_uniform(p.rng);
     float u = (2.0 * fx / float(width) - 1.0) * cam_origin.w * cam_forward.w;
     float v = (1.0 - 2.0 * fy / float(height)) * cam_origin.w;
+    p.o = cam_origin.xyz;
     p.d = normalize(cam_forward.xyz + cam_right.xyz * u + cam_up.xyz * v);
-    p.o = cam_origin.xyz + p.d * cam_right.w;
     p.L = vec3(0.0);
     p.beta = vec3(1.0);
     p.channel = -1;
