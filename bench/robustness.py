@@ -164,14 +164,19 @@ def scale_limits(spp: int) -> list[dict]:
     return rows
 
 
+def rotation(axis, angle: float) -> np.ndarray:
+    """The rotation by `angle` (radians) about `axis` (Rodrigues' formula)."""
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    k = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * k @ k
+
+
 def two_slabs(gap: float) -> dict:
     """Two index-matched slabs side by side, `gap` apart, turned about an oblique axis; a
     black floor makes the scene 2 across with the gap near its edge (coordinates ~0.8,
     where the rays' offsets are largest). The light reaches the camera only through the
     gap: it lights the first slab, the camera sees the second."""
-    axis = np.array([1.0, 2.0, 0.5]) / np.linalg.norm([1.0, 2.0, 0.5])
-    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-    turn = np.eye(3) + math.sin(0.7) * k + (1 - math.cos(0.7)) * k @ k
+    turn = rotation([1.0, 2.0, 0.5], 0.7)
 
     def box(lo, hi, name):
         corners = [[(lo, hi)[(c >> i) & 1][i] for i in range(3)] for c in range(8)]

@@ -126,8 +126,9 @@ bool PathTracer::surface_at(const Vec3& o, const Vec3& d, const Hit& face,
 
 bool PathTracer::face_at(const Vec3& o, const Vec3& d, const Hit& surface, int shape,
                          Hit* face) const {
-    return other_at(o, d, surface, face) && int(face->mesh) == shape &&
-           scene_.touches_surface(shape, face->prim) && dot(d, face->normal) > 0.f;
+    return scene_.touches_surfaces(shape) && other_at(o, d, surface, face) &&
+           int(face->mesh) == shape && scene_.touches_surface(shape, face->prim) &&
+           dot(d, face->normal) > 0.f;
 }
 
 namespace {

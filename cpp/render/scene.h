@@ -194,6 +194,8 @@ public:
         const std::vector<bool>& t = touching_[size_t(shape)];
         return !t.empty() && t[prim];
     }
+    // Whether any triangle of it does.
+    bool touches_surfaces(int shape) const { return !touching_[size_t(shape)].empty(); }
     // The lights' table of floats, for light_sample and light_eval.
     const float* light_floats() const { return desc_.light_floats.data(); }
     int num_shapes() const { return int(desc_.shapes.size()); }
