@@ -9,7 +9,7 @@
 #   bash scripts/sanitize.sh thread           build/tsan: ThreadSanitizer, the threaded
 #                                             render and walk tests (ctest)
 # --ci: ctest only, in full; no Python module and no pytest. CI stops at 90 minutes, and pytest
-# under ASan is slow (the three files CI once ran, 173 tests, took more than 13 minutes on
+# under ASan is slow (the three files CI once ran, 146 tests, took more than 13 minutes on
 # 2 cores, the whole suite about 3x its plain time): run it here, before a release or after
 # changing the bindings.
 # Extra arguments after these go to pytest (address only), e.g. -k scene, or test files to
