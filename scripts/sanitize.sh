@@ -40,6 +40,10 @@ if [ "$ci" = 1 ] && [ $# -gt 0 ]; then
   echo "sanitize.sh: --ci runs ctest only and takes no pytest arguments (got: $*)" >&2
   exit 2
 fi
+if [ "$ci" = 1 ] && [ "${SKIP_CTEST:-0}" = 1 ]; then
+  echo "sanitize.sh: --ci runs ctest only, so SKIP_CTEST=1 would leave nothing to run" >&2
+  exit 2
+fi
 py=.venv/bin/python
 [ -f build/dev/python ] && py=$(cat build/dev/python)
 if [ ! -x "$py" ]; then
