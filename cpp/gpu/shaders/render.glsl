@@ -84,6 +84,13 @@ SurfaceData surface_data(GpuShape s) {
 
 bool is_surface(uint mesh) { return mesh < counts.x && shapes[mesh].surface.x >= 0.0; }
 
+// What else the ray from o along d meets where it hits `hit`, to rounding
+// (PathTracer::other_at).
+bool other_at(vec3 o, vec3 d, Hit hit, out Hit other) {
+    return intersect_skipping(o, d, 0.0, tie_reach(o, d, hit.t, hit.p_error, hit.normal),
+                              hit.mesh, other);
+}
+
 // A GpuLight unpacked (gpu/shaders/layout.h).
 LightData light_data(GpuLight g) {
     LightData l;
@@ -327,6 +334,17 @@ void cross(inout Path p, Hit hit) {
     p.r_at_o = p.shape >= 0 ? 0.0 : -1.0;
 }
 
+// PathTracer::run's across_gap: the face of `face`, met from inside where an opaque
+// surface lies on it (at `on`), as across a gap too thin to see.
+void across_gap(inout Path p, Hit face, Hit on) {
+    cross(p, face);
+    while (!p.done && p.shape < 0) {
+        reflect_off(p, on);
+        if (p.done || !(dot(p.d, face.normal) < 0.0)) return;
+        cross(p, face);
+    }
+}
+
 #if SSS_ST
 // SphereTracing::step_radius: the grid's bound r at p, or the ball that keeps the shape's
 // clearance (sigma_t.w mean free paths of sigma) from the boundary and the point lights
@@ -388,6 +406,49 @@ float path_grid_query(inout Path p, vec3 x) {
 // One iteration of PathTracer::run's loop: a flight in vacuum to the next surface, or a
 // free flight in a medium and what ends it (a collision or the boundary). A collision
 // deep enough for a sphere step only marks the path as pending ("st").
+// The boundary or surface `hit` that the path's ray reaches (from vacuum: a surface, or a
+// shape's face from outside; from inside a medium: anything), as PathTracer::run. Where a
+// surface and a face meet to rounding, the ray is traced once more (other_at) and the two
+// are met as across a gap too thin to see. Each of other_at, reflect_off, cross and
+// across_gap appears once here: lavapipe runs the loops of code its lanes skip at least
+// once, from one budget of 65535 loop iterations per invocation (cut_model.glsl), so every
+// inlined copy of a traversal shortens the longest path it can finish.
+void meet_boundary(inout Path p, Hit hit) {
+    bool surface = is_surface(hit.mesh);
+    bool dielectric = p.shape >= 0 && !boundary_passes_shadow_rays(boundary_data(shapes[p.shape]));
+    // An unexpected face from inside passes straight through, into the shape whose front
+    // face it crosses.
+    if (p.shape >= 0 && !surface && (int(hit.mesh) != p.shape || dot(p.d, hit.normal) <= 0.0)) {
+        if (dot(p.d, hit.normal) < 0.0 && hit.mesh < counts.x) p.shape = int(hit.mesh);
+        p.o = leave(hit, p.d);
+        return;
+    }
+    // Whether something else may lie here: a surface on a face marked touching (entered
+    // from outside or left from inside), or the face of the dielectric medium the path is
+    // in, under a surface met from inside it.
+    bool probe = surface ? dielectric : hit.touching;
+    Hit other;
+    bool found = probe && other_at(p.o, p.d, hit, other);
+    bool gap = false;
+    Hit face = hit, on = hit;
+    if (surface) {
+        gap = found && other.mesh == uint(p.shape) && other.touching &&
+              dot(p.d, other.normal) > 0.0;
+        face = other;
+    } else if (found && is_surface(other.mesh)) {
+        on = other;
+        // Entering, or leaving an index-matched face: the surface is met first.
+        gap = p.shape >= 0 && dielectric;
+        if (!gap) surface = true;
+    }
+    if (gap)
+        across_gap(p, face, on);
+    else if (surface)
+        reflect_off(p, on);
+    else
+        cross(p, hit);
+}
+
 void path_iterate(inout Path p) {
     uint num_shapes = counts.x;
     Hit hit;
@@ -416,16 +477,11 @@ void path_iterate(inout Path p) {
             p.done = true;
             return;
         }
-        if (is_surface(hit.mesh)) {
-            reflect_off(p, hit);
-            return;
-        }
-        GpuShape s = shapes[hit.mesh];
-        if (dot(p.d, hit.normal) >= 0.0) {
+        if (!is_surface(hit.mesh) && dot(p.d, hit.normal) >= 0.0) {
             p.o = leave(hit, p.d);
             return;
         }
-        cross(p, hit);
+        meet_boundary(p, hit);
         return;
     }
 
@@ -526,19 +582,7 @@ void path_iterate(inout Path p) {
         return;
     }
 
-    // Reached a boundary from inside; the crossing decides where the photon is after it
-    // (as PathTracer::run): an unexpected one passes straight through, into the shape
-    // whose front face it crosses.
-    if (is_surface(hit.mesh)) {  // a surface touching the medium
-        reflect_off(p, hit);
-        return;
-    }
-    if (int(hit.mesh) != p.shape || dot(p.d, hit.normal) <= 0.0) {
-        if (dot(p.d, hit.normal) < 0.0 && hit.mesh < num_shapes) p.shape = int(hit.mesh);
-        p.o = leave(hit, p.d);
-        return;
-    }
-    cross(p, hit);
+    meet_boundary(p, hit);
 }
 
 #if SSS_ST
@@ -622,8 +666,8 @@ Path start_path(uint i) {
     float fx = float(x) + rng_uniform(p.rng), fy = float(y) + rng_uniform(p.rng);
     float u = (2.0 * fx / float(width) - 1.0) * cam_origin.w * cam_forward.w;
     float v = (1.0 - 2.0 * fy / float(height)) * cam_origin.w;
-    p.o = cam_origin.xyz;
     p.d = normalize(cam_forward.xyz + cam_right.xyz * u + cam_up.xyz * v);
+    p.o = cam_origin.xyz + p.d * cam_right.w;
     p.L = vec3(0.0);
     p.beta = vec3(1.0);
     p.channel = -1;
