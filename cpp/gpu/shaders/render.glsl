@@ -252,6 +252,12 @@ struct Path {
     float r_step;   //   (a cut step: the certificate's plane distance s)
     bool cut;       //   a cut sphere step, its plane's normal cut_n
     vec3 cut_n;
+    // A face of a dielectric medium met where an opaque surface lies on it, as across a
+    // gap too thin to see (PathTracer::run's across_gap), one round per iteration: 1, the
+    // path is in the gap and meets the surface gap_on next; 2, it crosses the face
+    // gap_face next; 0, not in a gap.
+    uint gap;
+    Hit gap_face, gap_on;
 };
 
 // The throughput a vertex's light is weighted by, and the path's Russian roulette on it
@@ -334,17 +340,6 @@ void cross(inout Path p, Hit hit) {
     p.r_at_o = p.shape >= 0 ? 0.0 : -1.0;
 }
 
-// PathTracer::run's across_gap: the face of `face`, met from inside where an opaque
-// surface lies on it (at `on`), as across a gap too thin to see.
-void across_gap(inout Path p, Hit face, Hit on) {
-    cross(p, face);
-    while (!p.done && p.shape < 0) {
-        reflect_off(p, on);
-        if (p.done || !(dot(p.d, face.normal) < 0.0)) return;
-        cross(p, face);
-    }
-}
-
 #if SSS_ST
 // SphereTracing::step_radius: the grid's bound r at p, or the ball that keeps the shape's
 // clearance (sigma_t.w mean free paths of sigma) from the boundary and the point lights
@@ -407,18 +402,21 @@ float path_grid_query(inout Path p, vec3 x) {
 // free flight in a medium and what ends it (a collision or the boundary). A collision
 // deep enough for a sphere step only marks the path as pending ("st").
 // The boundary or surface `hit` that the path's ray reaches (from vacuum: a surface, or a
-// shape's face from outside; from inside a medium: anything), as PathTracer::run. Where a
-// surface and a face meet to rounding, the ray is traced once more (other_at) and the two
-// are met as across a gap too thin to see. Each of other_at, reflect_off, cross and
-// across_gap appears once here: lavapipe runs the loops of code its lanes skip at least
-// once, from one budget of 65535 loop iterations per invocation (cut_model.glsl), so every
-// inlined copy of a traversal shortens the longest path it can finish.
+// shape's face from outside; from inside a medium: anything), or the gap's next round, as
+// PathTracer::run. Where a surface and a face meet to rounding, the ray is traced once
+// more (other_at) and the two are met as across a gap too thin to see, one round per
+// iteration (Path::gap). Each of other_at, reflect_off and cross appears once, and this
+// function is called once: lavapipe gives an invocation 65535 loop iterations in all, and
+// code its lanes skip evidently uses them too (every copy of reflect_off or cross carries
+// sample_light's shadow ray), so each inlined copy shortens the longest path it finishes.
 void meet_boundary(inout Path p, Hit hit) {
+    bool in_gap = p.gap != 0u;
     bool surface = is_surface(hit.mesh);
     bool dielectric = p.shape >= 0 && !boundary_passes_shadow_rays(boundary_data(shapes[p.shape]));
     // An unexpected face from inside passes straight through, into the shape whose front
     // face it crosses.
-    if (p.shape >= 0 && !surface && (int(hit.mesh) != p.shape || dot(p.d, hit.normal) <= 0.0)) {
+    if (!in_gap && p.shape >= 0 && !surface &&
+        (int(hit.mesh) != p.shape || dot(p.d, hit.normal) <= 0.0)) {
         if (dot(p.d, hit.normal) < 0.0 && hit.mesh < counts.x) p.shape = int(hit.mesh);
         p.o = leave(hit, p.d);
         return;
@@ -426,32 +424,45 @@ void meet_boundary(inout Path p, Hit hit) {
     // Whether something else may lie here: a surface on a face marked touching (entered
     // from outside or left from inside), or the face of the dielectric medium the path is
     // in, under a surface met from inside it.
-    bool probe = surface ? dielectric : hit.touching;
+    bool probe = !in_gap && (surface ? dielectric : hit.touching);
     Hit other;
     bool found = probe && other_at(p.o, p.d, hit, other);
-    bool gap = false;
-    Hit face = hit, on = hit;
-    if (surface) {
-        gap = found && other.mesh == uint(p.shape) && other.touching &&
-              dot(p.d, other.normal) > 0.0;
-        face = other;
-    } else if (found && is_surface(other.mesh)) {
-        on = other;
-        // Entering, or leaving an index-matched face: the surface is met first.
-        gap = p.shape >= 0 && dielectric;
-        if (!gap) surface = true;
+    Hit target = hit;
+    bool reflect = surface;
+    if (found && surface && other.mesh == uint(p.shape) && other.touching &&
+        dot(p.d, other.normal) > 0.0) {
+        p.gap = 2u;  // the face under the surface first
+        p.gap_face = other;
+        p.gap_on = hit;
+        target = other;
+        reflect = false;
+    } else if (found && !surface && is_surface(other.mesh)) {
+        if (dielectric) {  // leaving a dielectric: its face first
+            p.gap = 2u;
+            p.gap_face = hit;
+            p.gap_on = other;
+        } else {  // entering, or leaving an index-matched face: the surface
+            target = other;
+            reflect = true;
+        }
     }
-    if (gap)
-        across_gap(p, face, on);
-    else if (surface)
-        reflect_off(p, on);
+    if (reflect)
+        reflect_off(p, target);
     else
-        cross(p, hit);
+        cross(p, target);
+    // The gap's next round: out of the face into the gap, the surface; sent back from
+    // the surface towards the face, the face.
+    if (p.gap != 0u) {
+        bool again = !p.done && (reflect ? dot(p.d, p.gap_face.normal) < 0.0 : p.shape < 0);
+        p.gap = again ? (reflect ? 2u : 1u) : 0u;
+    }
 }
 
-void path_iterate(inout Path p) {
+
+// One flight of the path (PathTracer::run's loop body): true when it ends on a boundary
+// or surface `hit` for meet_boundary.
+bool fly(inout Path p, out Hit hit) {
     uint num_shapes = counts.x;
-    Hit hit;
     if (p.shape < 0) {
         // Vacuum: fly to the next surface.
         if (!intersect(p.o, p.d, kInf, hit)) {
@@ -464,7 +475,7 @@ void path_iterate(inout Path p) {
                 p.L += path_weight(p) * e.L * w;
             }
             p.done = true;
-            return;
+            return false;
         }
         vec3 x = hit.p;
         if (hit.mesh >= num_shapes) {  // an emitter's quad: absorbs
@@ -475,14 +486,13 @@ void path_iterate(inout Path p) {
                                          : 1.0;
             p.L += path_weight(p) * e.L * w;
             p.done = true;
-            return;
+            return false;
         }
         if (!is_surface(hit.mesh) && dot(p.d, hit.normal) >= 0.0) {
             p.o = leave(hit, p.d);
-            return;
+            return false;
         }
-        meet_boundary(p, hit);
-        return;
+        return true;
     }
 
     // Inside a medium: a free flight; the grid tells when it cannot reach the boundary.
@@ -506,7 +516,7 @@ void path_iterate(inout Path p) {
         // A numerical leak out of the mesh (pt.cpp): on along d from where it is.
         if (t < kInf) p.o = end;
         p.shape = -1;
-        return;
+        return false;
     }
     if (p.spectral) {
         vec3 f = hero_flight_ratio(s.sigma_t.xyz, p.channel, at_boundary ? hit.t : t,
@@ -541,7 +551,7 @@ void path_iterate(inout Path p) {
             to_one_channel(p);
             p.pending = true;  // one sphere step replaces the events inside the sphere
             p.r_step = r_step;
-            return;
+            return false;
         }
         // Too close to the boundary for a sphere: a cut sphere step where a plane
         // certifies the region between it and the boundary (PathTracer::run).
@@ -553,20 +563,20 @@ void path_iterate(inout Path p) {
             p.cut = true;
             p.cut_n = cut_n;
             p.r_step = cut_s;
-            return;
+            return false;
         }
 #endif
         p.r_at_o = r;
         // Real collision: scatter.
         if (max_bounces >= 0 && int(p.events) >= max_bounces) {
             p.done = true;
-            return;
+            return false;
         }
         ++p.events;
         p.beta *= s.albedo.xyz;
         if (is_black(p.beta)) {
             p.done = true;
-            return;
+            return false;
         }
         if (NEE)
             p.L += path_weight(p) * direct_light(p.o, p.r_shrunk ? -1.0 : r, p.d, p.shape,
@@ -579,10 +589,22 @@ void path_iterate(inout Path p) {
         }
         p.d = d_new;
         if (!path_survives_roulette(p)) p.done = true;
-        return;
+        return false;
     }
 
-    meet_boundary(p, hit);
+    return true;
+}
+
+void path_iterate(inout Path p) {
+    Hit hit;
+    bool meet;
+    if (p.gap != 0u) {
+        hit = p.gap == 1u ? p.gap_on : p.gap_face;
+        meet = true;
+    } else {
+        meet = fly(p, hit);
+    }
+    if (meet) meet_boundary(p, hit);
 }
 
 #if SSS_ST
@@ -693,6 +715,7 @@ Path start_path(uint i) {
     p.r_step = 0.0;
     p.cut = false;
     p.cut_n = vec3(0.0);
+    p.gap = 0u;
     return p;
 }
 
