@@ -456,7 +456,8 @@ def _lit_pixels(scene, backend, **options) -> int:
     return int(np.count_nonzero(sssphere.render(scene, backend=backend, **options)))
 
 
-def test_a_medium_resting_on_a_floor_is_exact():
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_a_medium_resting_on_a_floor_is_exact(backend):
     """A cube resting exactly on a floor: which of the cube's bottom and the floor a ray meets
     first is rounding's choice, and a ray leaving the cube started past the floor. An outside
     sweep saw the lit cube from under the floor (500-650 of 2304 pixels, where all must be 0)
@@ -469,12 +470,14 @@ def test_a_medium_resting_on_a_floor_is_exact():
         scene, said = _scene_warnings(cube_on_floor(0.0, turn, floor_y))
         assert said == [], said
         for integrator in ("pt", "st"):
-            lit = _lit_pixels(scene, "cpu", integrator=integrator)
+            lit = _lit_pixels(scene, backend, integrator=integrator)
             assert lit == 0, f"{integrator}, floor at {floor_y}: {lit} pixels see through"
         # the same cube seen from above is lit: the camera below sees 0 because the floor
         # is opaque, not because nothing is lit
         scene.camera.origin = (turn @ [0.3, floor_y + 4, 0.4]).tolist()
-        assert sssphere.render(scene, spp=4, seed=1).mean() > 0.01
+        assert sssphere.render(scene, spp=4, seed=1, backend=backend).mean() > 0.01
+    if backend != "cpu":
+        return
     for what, above, floor_x in (("from above", True, (-2.0, 2.0)),
                                  ("floor ending under it", False, (-2.0, 0.1))):
         renders = []
@@ -487,7 +490,8 @@ def test_a_medium_resting_on_a_floor_is_exact():
         assert_same_image(renders[1], renders[0], f"resting against lifted, {what}")
 
 
-def test_a_floor_near_a_medium_stays_opaque_from_any_distance():
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_a_floor_near_a_medium_stays_opaque_from_any_distance(backend):
     """Off by less than the rays' offsets (lifted, or sunk, by 1e-7 ... 1e-5 of the scene),
     with a bottom of four triangles around an extra vertex, and seen from 300 times the
     scene's size (hit distances then round at 1e-5 of the scene): a review and a sweep saw
@@ -500,14 +504,14 @@ def test_a_floor_near_a_medium_stays_opaque_from_any_distance():
         camera = scene["camera"]
         eye, target = np.array(camera["origin"]), np.array(camera["target"])
         camera.update(origin=(target + far * (eye - target)).tolist(), fov=camera["fov"] / far)
-        lit = _lit_pixels(scene, "cpu")
+        lit = _lit_pixels(scene, backend)
         assert lit == 0, f"{far} times as far, lifted by {lift}: {lit} pixels see through"
     scene = cube_on_floor(0.0, turn, -0.37)
     cube = scene["shapes"][0]
     cube["vertices"].append((turn @ [0.1, -0.37, 0.2]).tolist())  # the bottom as a fan of 4
     assert cube["faces"][2] == [0, 4, 5, 1]  # the bottom
     cube["faces"][2:3] = [[0, 4, 8], [4, 5, 8], [5, 1, 8], [1, 0, 8]]
-    lit = _lit_pixels(scene, "cpu", spp=64)
+    lit = _lit_pixels(scene, backend, spp=64)
     assert lit == 0, f"a fan of four at the bottom: {lit} pixels see through"
 
 

@@ -34,7 +34,7 @@ struct FlatTriangle {
     float v2[3];
     float pad0 = 0.f;
     float n[3];
-    float pad1 = 0.f;
+    float touching = 0.f;  // 1: Scene::touches_surface (set by the GPU scene's bake)
 };
 static_assert(sizeof(FlatTriangle) == 64);
 

@@ -160,7 +160,7 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
     const Vec3 up = cross(right, forward);
     put3(h.cam_origin, c.origin, std::tan(0.5f * c.fov * 0.017453292519943295f));
     put3(h.cam_forward, forward, float(c.width) / float(c.height));
-    put3(h.cam_right, right, 0.f);
+    put3(h.cam_right, right, scene.camera_ray_start());
     put3(h.cam_up, up, 0.f);
 
     // Lights, for NEE in the shaders; area lights are also the meshes after the shapes
@@ -249,6 +249,10 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
     FlatBvh bvh = build_flat_bvh(meshes);
     out.nodes = std::move(bvh.nodes);
     out.triangles = std::move(bvh.triangles);
+    for (FlatTriangle& t : out.triangles)
+        if (int(t.mesh) < scene.num_shapes() &&
+            scene.touches_surface(int(t.mesh), t.prim))
+            t.touching = 1.f;
 
     h.params[0] = 0.f;  // unused (rays are offset by error bounds: shared/ray_offset.h)
     h.params[1] = INFINITY;  // no sphere steps ("pt")

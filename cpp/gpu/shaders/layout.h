@@ -84,7 +84,7 @@ struct GpuLight {
 #define SSS_GPU_SCENE_HEADER_FIELDS                                                      \
     vec4 cam_origin;                /* w: tan(fov / 2) */                               \
     vec4 cam_forward;               /* w: aspect */                                     \
-    vec4 cam_right;                                                                     \
+    vec4 cam_right;                 /* w: Scene::camera_ray_start */                    \
     vec4 cam_up;                                                                        \
     vec4 environment;               /* x: its index in lights; w: 1 if there is one */  \
     uvec4 counts;                   /* shapes, emitter meshes, width, height */         \

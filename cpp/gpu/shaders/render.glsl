@@ -84,6 +84,13 @@ SurfaceData surface_data(GpuShape s) {
 
 bool is_surface(uint mesh) { return mesh < counts.x && shapes[mesh].surface.x >= 0.0; }
 
+// What else the ray from o along d meets where it hits `hit`, to rounding
+// (PathTracer::other_at).
+bool other_at(vec3 o, vec3 d, Hit hit, out Hit other) {
+    return intersect_skipping(o, d, 0.0, tie_reach(o, d, hit.t, hit.p_error, hit.normal),
+                              hit.mesh, other);
+}
+
 // A GpuLight unpacked (gpu/shaders/layout.h).
 LightData light_data(GpuLight g) {
     LightData l;
@@ -245,6 +252,12 @@ struct Path {
     float r_step;   //   (a cut step: the certificate's plane distance s)
     bool cut;       //   a cut sphere step, its plane's normal cut_n
     vec3 cut_n;
+    // A face of a dielectric medium met where an opaque surface lies on it, as across a
+    // gap too thin to see (PathTracer::run's across_gap), one round per iteration: 1, the
+    // path is in the gap and meets the surface gap_on next; 2, it crosses the face
+    // gap_face next; 0, not in a gap.
+    uint gap;
+    Hit gap_face, gap_on;
 };
 
 // The throughput a vertex's light is weighted by, and the path's Russian roulette on it
@@ -388,9 +401,68 @@ float path_grid_query(inout Path p, vec3 x) {
 // One iteration of PathTracer::run's loop: a flight in vacuum to the next surface, or a
 // free flight in a medium and what ends it (a collision or the boundary). A collision
 // deep enough for a sphere step only marks the path as pending ("st").
-void path_iterate(inout Path p) {
+// The boundary or surface `hit` that the path's ray reaches (from vacuum: a surface, or a
+// shape's face from outside; from inside a medium: anything), or the gap's next round, as
+// PathTracer::run. Where a surface and a face meet to rounding, the ray is traced once
+// more (other_at) and the two are met as across a gap too thin to see, one round per
+// iteration (Path::gap). Each of other_at, reflect_off and cross appears once, and this
+// function is called once: lavapipe gives an invocation 65535 loop iterations in all, and
+// code its lanes skip evidently uses them too (every copy of reflect_off or cross carries
+// sample_light's shadow ray), so each inlined copy shortens the longest path it finishes.
+void meet_boundary(inout Path p, Hit hit) {
+    bool in_gap = p.gap != 0u;
+    bool surface = is_surface(hit.mesh);
+    bool dielectric = p.shape >= 0 && !boundary_passes_shadow_rays(boundary_data(shapes[p.shape]));
+    // An unexpected face from inside passes straight through, into the shape whose front
+    // face it crosses.
+    if (!in_gap && p.shape >= 0 && !surface &&
+        (int(hit.mesh) != p.shape || dot(p.d, hit.normal) <= 0.0)) {
+        if (dot(p.d, hit.normal) < 0.0 && hit.mesh < counts.x) p.shape = int(hit.mesh);
+        p.o = leave(hit, p.d);
+        return;
+    }
+    // Whether something else may lie here: a surface on a face marked touching (entered
+    // from outside or left from inside), or the face of the dielectric medium the path is
+    // in, under a surface met from inside it.
+    bool probe = !in_gap && (surface ? dielectric : hit.touching);
+    Hit other;
+    bool found = probe && other_at(p.o, p.d, hit, other);
+    Hit target = hit;
+    bool reflect = surface;
+    if (found && surface && other.mesh == uint(p.shape) && other.touching &&
+        dot(p.d, other.normal) > 0.0) {
+        p.gap = 2u;  // the face under the surface first
+        p.gap_face = other;
+        p.gap_on = hit;
+        target = other;
+        reflect = false;
+    } else if (found && !surface && is_surface(other.mesh)) {
+        if (dielectric) {  // leaving a dielectric: its face first
+            p.gap = 2u;
+            p.gap_face = hit;
+            p.gap_on = other;
+        } else {  // entering, or leaving an index-matched face: the surface
+            target = other;
+            reflect = true;
+        }
+    }
+    if (reflect)
+        reflect_off(p, target);
+    else
+        cross(p, target);
+    // The gap's next round: out of the face into the gap, the surface; sent back from
+    // the surface towards the face, the face.
+    if (p.gap != 0u) {
+        bool again = !p.done && (reflect ? dot(p.d, p.gap_face.normal) < 0.0 : p.shape < 0);
+        p.gap = again ? (reflect ? 2u : 1u) : 0u;
+    }
+}
+
+
+// One flight of the path (PathTracer::run's loop body): true when it ends on a boundary
+// or surface `hit` for meet_boundary.
+bool fly(inout Path p, out Hit hit) {
     uint num_shapes = counts.x;
-    Hit hit;
     if (p.shape < 0) {
         // Vacuum: fly to the next surface.
         if (!intersect(p.o, p.d, kInf, hit)) {
@@ -403,7 +475,7 @@ void path_iterate(inout Path p) {
                 p.L += path_weight(p) * e.L * w;
             }
             p.done = true;
-            return;
+            return false;
         }
         vec3 x = hit.p;
         if (hit.mesh >= num_shapes) {  // an emitter's quad: absorbs
@@ -414,19 +486,13 @@ void path_iterate(inout Path p) {
                                          : 1.0;
             p.L += path_weight(p) * e.L * w;
             p.done = true;
-            return;
+            return false;
         }
-        if (is_surface(hit.mesh)) {
-            reflect_off(p, hit);
-            return;
-        }
-        GpuShape s = shapes[hit.mesh];
-        if (dot(p.d, hit.normal) >= 0.0) {
+        if (!is_surface(hit.mesh) && dot(p.d, hit.normal) >= 0.0) {
             p.o = leave(hit, p.d);
-            return;
+            return false;
         }
-        cross(p, hit);
-        return;
+        return true;
     }
 
     // Inside a medium: a free flight; the grid tells when it cannot reach the boundary.
@@ -450,7 +516,7 @@ void path_iterate(inout Path p) {
         // A numerical leak out of the mesh (pt.cpp): on along d from where it is.
         if (t < kInf) p.o = end;
         p.shape = -1;
-        return;
+        return false;
     }
     if (p.spectral) {
         vec3 f = hero_flight_ratio(s.sigma_t.xyz, p.channel, at_boundary ? hit.t : t,
@@ -485,7 +551,7 @@ void path_iterate(inout Path p) {
             to_one_channel(p);
             p.pending = true;  // one sphere step replaces the events inside the sphere
             p.r_step = r_step;
-            return;
+            return false;
         }
         // Too close to the boundary for a sphere: a cut sphere step where a plane
         // certifies the region between it and the boundary (PathTracer::run).
@@ -497,20 +563,20 @@ void path_iterate(inout Path p) {
             p.cut = true;
             p.cut_n = cut_n;
             p.r_step = cut_s;
-            return;
+            return false;
         }
 #endif
         p.r_at_o = r;
         // Real collision: scatter.
         if (max_bounces >= 0 && int(p.events) >= max_bounces) {
             p.done = true;
-            return;
+            return false;
         }
         ++p.events;
         p.beta *= s.albedo.xyz;
         if (is_black(p.beta)) {
             p.done = true;
-            return;
+            return false;
         }
         if (NEE)
             p.L += path_weight(p) * direct_light(p.o, p.r_shrunk ? -1.0 : r, p.d, p.shape,
@@ -523,22 +589,22 @@ void path_iterate(inout Path p) {
         }
         p.d = d_new;
         if (!path_survives_roulette(p)) p.done = true;
-        return;
+        return false;
     }
 
-    // Reached a boundary from inside; the crossing decides where the photon is after it
-    // (as PathTracer::run): an unexpected one passes straight through, into the shape
-    // whose front face it crosses.
-    if (is_surface(hit.mesh)) {  // a surface touching the medium
-        reflect_off(p, hit);
-        return;
+    return true;
+}
+
+void path_iterate(inout Path p) {
+    Hit hit;
+    bool meet;
+    if (p.gap != 0u) {
+        hit = p.gap == 1u ? p.gap_on : p.gap_face;
+        meet = true;
+    } else {
+        meet = fly(p, hit);
     }
-    if (int(hit.mesh) != p.shape || dot(p.d, hit.normal) <= 0.0) {
-        if (dot(p.d, hit.normal) < 0.0 && hit.mesh < num_shapes) p.shape = int(hit.mesh);
-        p.o = leave(hit, p.d);
-        return;
-    }
-    cross(p, hit);
+    if (meet) meet_boundary(p, hit);
 }
 
 #if SSS_ST
@@ -622,8 +688,8 @@ Path start_path(uint i) {
     float fx = float(x) + rng_uniform(p.rng), fy = float(y) + rng_uniform(p.rng);
     float u = (2.0 * fx / float(width) - 1.0) * cam_origin.w * cam_forward.w;
     float v = (1.0 - 2.0 * fy / float(height)) * cam_origin.w;
-    p.o = cam_origin.xyz;
     p.d = normalize(cam_forward.xyz + cam_right.xyz * u + cam_up.xyz * v);
+    p.o = cam_origin.xyz + p.d * cam_right.w;
     p.L = vec3(0.0);
     p.beta = vec3(1.0);
     p.channel = -1;
@@ -649,6 +715,7 @@ Path start_path(uint i) {
     p.r_step = 0.0;
     p.cut = false;
     p.cut_n = vec3(0.0);
+    p.gap = 0u;
     return p;
 }
 

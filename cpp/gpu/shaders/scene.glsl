@@ -15,6 +15,9 @@ struct Hit {
     // The hit point rebuilt from the triangle and a bound on its rounding error, as
     // RayTracer::intersect (shared/ray_offset.h).
     vec3 p, p_error;
+    // An opaque surface lies within the rays' offsets of the triangle
+    // (Scene::touches_surface).
+    bool touching;
 };
 
 // Slab test of the box [lo, hi] against the ray; the entry distance, or kInf for a miss.
@@ -71,8 +74,10 @@ bool hit_triangle(vec3 o, ShearedRay r, vec3 v0, vec3 v1, vec3 v2, out float t,
     return true;
 }
 
-// Closest hit with t in (tnear, tfar) (the watertight test per triangle); false if none.
-bool intersect_between(vec3 o, vec3 d, float tnear, float tfar, out Hit hit) {
+// Closest hit with t in (tnear, tfar) (the watertight test per triangle), passing
+// through mesh `skip` (RayTracer::intersect_skipping; none: kNoMesh); false if none.
+const uint kNoMesh = 0xffffffffu;
+bool intersect_skipping(vec3 o, vec3 d, float tnear, float tfar, uint skip, out Hit hit) {
     // Avoid 0 * inf = NaN in the slabs: a zero component gets a huge inverse.
     vec3 inv_d = vec3(1.0) / mix(d, vec3(1e-30), equal(d, vec3(0.0)));
     ShearedRay sheared = shear_ray(d);
@@ -91,7 +96,7 @@ bool intersect_between(vec3 o, vec3 d, float tnear, float tfar, out Hit hit) {
                 if (!hit_triangle(o, sheared, triangles[4 * i].xyz, triangles[4 * i + 1].xyz,
                                   triangles[4 * i + 2].xyz, t, uv))
                     continue;
-                if (t > tnear && t < best_t) {
+                if (t > tnear && t < best_t && floatBitsToUint(triangles[4 * i].w) != skip) {
                     best_t = t;
                     best = int(i);
                     best_uv = uv;
@@ -127,15 +132,21 @@ bool intersect_between(vec3 o, vec3 d, float tnear, float tfar, out Hit hit) {
     hit.t = best_t;
     hit.mesh = floatBitsToUint(triangles[4 * best].w);
     hit.normal = triangles[4 * best + 3].xyz;
+    hit.touching = triangles[4 * best + 3].w != 0.0;
     vec3 v0 = triangles[4 * best].xyz;
     hit.p = triangle_point(v0, triangles[4 * best + 1].xyz - v0,
                            triangles[4 * best + 2].xyz - v0, best_uv.x, best_uv.y, hit.p_error);
     return true;
 }
 
+// Closest hit with t in (tnear, tfar); false if none.
+bool intersect_between(vec3 o, vec3 d, float tnear, float tfar, out Hit hit) {
+    return intersect_skipping(o, d, tnear, tfar, kNoMesh, hit);
+}
+
 // Closest hit with t in (0, tfar).
 bool intersect(vec3 o, vec3 d, float tfar, out Hit hit) {
-    return intersect_between(o, d, 0.0, tfar, hit);
+    return intersect_skipping(o, d, 0.0, tfar, kNoMesh, hit);
 }
 
 // DistanceGrid::locate: p's cell c in shape's grid and its coordinates in cells g; false
