@@ -238,26 +238,39 @@ TEST(DistanceGrid, SideIsExactWhereItAnswers) {
 
 // Obstacles (opaque surfaces meeting the medium) bound the distances too: a floor through
 // the cube is never nearer than the grid says, where the cube's own grid says more; the
-// inside flags stay the cube's.
+// inside flags stay the cube's. Also for a grid refined twice from coarser ones, whose
+// deep nodes keep the coarse bound, which must have seen the floor as well (there a
+// node near the floor gets its exact distance where, without the floor, it kept a
+// looser coarse one: the grids' bounds are then not ordered, only both valid).
 TEST(DistanceGrid, KeepsClearOfObstacles) {
     const TriangleMesh cube = test::cube_mesh(), floor = test::floor_mesh(0.05);
-    const DistanceGrid with = DistanceGrid::build(cube, 16, 2, 16, {}, floor);
-    const DistanceGrid without = DistanceGrid::build(cube, 16, 2);
     Rng rng(7);
-    int beyond_floor = 0;
-    for (int i = 0; i < 20000; ++i) {
-        const Vec3 p(rng.uniform() * 2.2f - 1.1f, rng.uniform() * 2.2f - 1.1f,
-                     rng.uniform() * 2.2f - 1.1f);
-        const float to_floor = std::abs(p.y - 0.05f);
-        ASSERT_LE(with.query(p), to_floor) << p.x << " " << p.y << " " << p.z;
-        ASSERT_LE(with.query(p), without.query(p));
-        beyond_floor += without.query(p) > to_floor;
+    std::vector<Vec3> pts(20000);
+    for (Vec3& p : pts)
+        p = Vec3(rng.uniform() * 2.2f - 1.1f, rng.uniform() * 2.2f - 1.1f,
+                 rng.uniform() * 2.2f - 1.1f);
+    const std::vector<double> to_cube = exact_distances(cube, pts);
+    for (int exact_up_to : {16, 4}) {
+        const int res = exact_up_to == 16 ? 16 : 32;
+        const DistanceGrid with =
+            DistanceGrid::build(cube, res, 2, exact_up_to, {}, floor);
+        const DistanceGrid without = DistanceGrid::build(cube, res, 2, exact_up_to);
+        int beyond_floor = 0;
+        for (size_t i = 0; i < pts.size(); ++i) {
+            const Vec3 p = pts[i];
+            const float to_floor = std::abs(p.y - 0.05f);
+            ASSERT_LE(with.query(p), to_floor)
+                << p.x << " " << p.y << " " << p.z << ", resolution " << res;
+            ASSERT_LE(with.query(p), to_cube[i]) << ", resolution " << res;
+            if (exact_up_to >= res) ASSERT_LE(with.query(p), without.query(p));
+            beyond_floor += without.query(p) > to_floor;
+        }
+        EXPECT_GT(beyond_floor, 1000) << "resolution " << res;
+        for (int k = 0; k < with.nz(); ++k)
+            for (int j = 0; j < with.ny(); ++j)
+                for (int i = 0; i < with.nx(); ++i)
+                    ASSERT_EQ(with.node_inside(i, j, k), without.node_inside(i, j, k));
     }
-    EXPECT_GT(beyond_floor, 1000);
-    for (int k = 0; k < with.nz(); ++k)
-        for (int j = 0; j < with.ny(); ++j)
-            for (int i = 0; i < with.nx(); ++i)
-                ASSERT_EQ(with.node_inside(i, j, k), without.node_inside(i, j, k));
 }
 
 // What surface_contact finds: the triangles a floor touches (the cube resting on it, or
