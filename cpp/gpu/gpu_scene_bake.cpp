@@ -208,7 +208,8 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
         put3(h.shapes[i].sigma_t, s.medium.sigma_t, 0.f);
         put3(h.shapes[i].phase,
              Vec3(float(s.medium.phase.type), s.medium.phase.x, s.medium.phase.y), 0.f);
-        put3(h.shapes[i].albedo, s.medium.albedo, 0.f);
+        put3(h.shapes[i].albedo, s.medium.albedo,
+             s.is_surface() || !scene.touches_surfaces(i) ? 0.f : 1.f);
         put3(h.shapes[i].boundary,
              Vec3(float(s.boundary.type), s.boundary.x, s.boundary.y), s.boundary.z);
         const DistanceGrid& g = scene.grid(i);

@@ -109,8 +109,7 @@ Vec3 PathTracer::transmittance(const Vec3& p, const Vec3& w, float dist, int sha
 // before a floor a little in front of it. So a ray from o that hits one of them where the
 // other may lie (Scene::touches_surface) is traced again, passing through the mesh it
 // hit, to tie_reach past the hit: what it finds there it met at the same place, to
-// rounding. The path then meets both (run). render.glsl does not do this yet
-// (docs/robustness.md).
+// rounding. The path then meets both (run); render.glsl's meet_boundary does the same.
 bool PathTracer::other_at(const Vec3& o, const Vec3& d, const Hit& hit,
                           Hit* other) const {
     return scene_.tracer().intersect_skipping(
@@ -181,12 +180,17 @@ struct SurfaceScatter {
 
 // A vertex on a rough (or regularized) boundary, for sample_light: its BSDF (reflection
 // or transmission), and shadow rays start off the surface on their side, inside the shape
-// or outside.
+// or outside. `covered`: an opaque surface lies on the face here (across_gap), and no
+// light reaches the vertex from outside; a shadow ray started off the face on that side
+// may start past the surface (a cube resting on a floor was lit by a lamp under the
+// floor).
 struct BoundaryScatter {
     const Boundary& boundary;
     const Hit& hit;
     Vec3 d;
+    bool covered;
     SurfaceEval eval(const Vec3& w) const {
+        if (covered && dot(w, hit.normal) >= 0.f) return SurfaceEval{Vec3(0.f), 0.f};
         const BoundaryEval b = boundary_eval(boundary, d, w, hit.normal);
         return SurfaceEval{Vec3(b.f), b.pdf};
     }
@@ -485,10 +489,12 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
     // on a rough interface the meeting point is a path vertex that samples lights first
     // (on a regularized smooth one, the point and directional lights);
     // then the boundary reflects or transmits it. False when the path ends there.
-    auto cross = [&](const Hit& hit, const Boundary& boundary) {
+    // `covered`: an opaque surface lies on the face there (across_gap).
+    auto cross = [&](const Hit& hit, const Boundary& boundary, bool covered = false) {
         if (nee_ && !desc.lights.empty() && boundary.samples_lights())
-            L += weight() * sample_light(hit.p, BoundaryScatter{boundary, hit, d}, rng,
-                                         true, boundary.samples_delta_lights_only());
+            L +=
+                weight() * sample_light(hit.p, BoundaryScatter{boundary, hit, d, covered},
+                                        rng, true, boundary.samples_delta_lights_only());
         const BoundaryEvent b = boundary_cross(boundary, d, hit.normal, rng.state());
         beta *= b.weight;
         if (is_black(beta)) return false;
@@ -514,11 +520,11 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
     // ends (false). Behind an index-matched face that is the surface as seen from inside,
     // which its shadow rays, starting in the medium, also see right: run takes that.
     auto across_gap = [&](const Hit& face, const Hit& on, const Boundary& boundary) {
-        if (!cross(face, boundary)) return false;
+        if (!cross(face, boundary, true)) return false;
         while (shape < 0) {
             if (!reflect(on, desc.shapes[on.mesh].surface)) return false;
             if (!(dot(d, face.normal) < 0.f)) return true;  // o: off the surface
-            if (!cross(face, boundary)) return false;
+            if (!cross(face, boundary, true)) return false;
         }
         return true;
     };

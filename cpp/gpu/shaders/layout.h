@@ -42,8 +42,10 @@ SSS_LAYOUT_CONST int kGpuMaxLights = 16;
 SSS_LAYOUT_CONST uint32_t kGpuWritten = 0x80000000u;
 
 struct GpuShape {
-    vec4 sigma_t;   // xyz: sigma_t per channel; w: "st"'s clearance (SphereTracing)
-    vec4 albedo;    // xyz: albedo
+    vec4 sigma_t;  // xyz: sigma_t per channel; w: "st"'s clearance (SphereTracing)
+    // xyz: albedo; w: 1 where some triangle of the medium's mesh touches an opaque
+    // surface (Scene::touches_surfaces), else 0
+    vec4 albedo;
     vec4 boundary;  // render/boundaries/boundary.h's BoundaryData: x its type, yzw xyz
     vec4 phase;     // render/phase/phase.h's PhaseData: x its type, y, z x, y
     // render/surfaces/surface.h's SurfaceData: surface.x its type (-1: the shape holds a

@@ -106,13 +106,32 @@ LightData light_data(GpuLight g) {
 // PathTracer::transmittance from p along w over dist, starting in `shape` (-1: vacuum):
 // Beer's law through the media it crosses at index-matched boundaries; 0 when a dielectric
 // boundary, an opaque surface or an emitter is in the way, or after kMaxShadowCrossings
-// boundaries.
+// searches. The CPU gathers every crossing of the ray at once, so a surface lying on a face
+// is among them whichever rounding puts first; here each search starts past the last
+// crossing, so a face marked touching is crossed only after a search around it (from the
+// last crossing to tie_reach past it, passing through its mesh, as other_at) finds no
+// surface there (a lamp under a floor lit an index-matched cube resting on it). One
+// traversal per iteration, for lavapipe's loop budget (meet_boundary).
 vec3 transmittance(vec3 p, vec3 w, float dist, int shape) {
     vec3 tr = vec3(1.0);
     float t_prev = 0.0;
+    bool around = false;  // the last search found `face`, marked touching: search around it
+    Hit face;
     for (int i = 0; i < kMaxShadowCrossings; ++i) {
         Hit h;
-        bool hit = intersect_between(p, w, t_prev, dist, h);
+        float reach = around ? min(dist, tie_reach(p, w, face.t, face.p_error, face.normal))
+                             : dist;
+        bool hit = intersect_skipping(p, w, t_prev, reach, around ? face.mesh : kNoMesh, h);
+        if (around) {
+            if (hit && is_surface(h.mesh) && h.t < kShadowRayEnd * dist) return vec3(0.0);
+            around = false;
+            h = face;
+            hit = true;
+        } else if (hit && h.touching) {
+            around = true;
+            face = h;
+            continue;
+        }
         if (shape >= 0) tr *= beer(shapes[shape].sigma_t.xyz, (hit ? h.t : dist) - t_prev);
         if (!hit || is_black(tr)) return tr;
         if (is_surface(h.mesh) && h.t >= kShadowRayEnd * dist) return tr;  // at the light
@@ -130,6 +149,9 @@ vec3 transmittance(vec3 p, vec3 w, float dist, int shape) {
 const int kMediumVertex = 0;
 const int kSurfaceVertex = 1;
 const int kBoundaryVertex = 2;
+// A boundary vertex whose outside an opaque surface covers (the gap's face: Path::gap 2),
+// which no light reaches from outside (PathTracer's BoundaryScatter::covered).
+const int kCoveredBoundaryVertex = 3;
 // sample_light's `march` for vertices off a medium: no second shadow-ray roulette.
 const vec3 kNoMarch = vec3(0.0, 0.0, 1.0);
 
@@ -151,10 +173,10 @@ float shadow_march_keep(int shape, vec3 p, vec3 w, float dist, vec3 march) {
 // PathTracer::sample_light with MIS at a vertex at p, the photon arriving along d: a
 // scattering event in medium `shape` with phase function ph (kMediumVertex), a point of
 // an opaque surface sf found by `hit` (in medium `shape`, -1: vacuum; kSurfaceVertex), or
-// a point of a rough boundary, the shape of `hit`'s (kBoundaryVertex). One light chosen
-// uniformly, weighted by the number of lights; with delta_only, one of the point and
-// directional lights (the first lighting.z of lights[]). march: shadow_march_keep's for a
-// medium vertex, kNoMarch for the others.
+// a point of a rough boundary, the shape of `hit`'s (kBoundaryVertex, or
+// kCoveredBoundaryVertex). One light chosen uniformly, weighted by the number of lights;
+// with delta_only, one of the point and directional lights (the first lighting.z of
+// lights[]). march: shadow_march_keep's for a medium vertex, kNoMarch for the others.
 vec3 sample_light(vec3 p, vec3 d, int shape, PhaseData ph, int vertex, SurfaceData sf,
                   Hit hit, bool delta_only, vec3 march, inout RngState rng) {
     uint count = delta_only ? lighting.z : lighting.x;
@@ -170,10 +192,11 @@ vec3 sample_light(vec3 p, vec3 d, int shape, PhaseData ph, int vertex, SurfaceDa
         SurfaceEval e = surface_eval(sf, -d, ls.w, hit.normal);
         f = e.f;
         pdf = e.pdf;
-    } else if (vertex == kBoundaryVertex) {
+    } else if (vertex >= kBoundaryVertex) {
         BoundaryEval e = boundary_eval(boundary_data(shapes[hit.mesh]), d, ls.w, hit.normal);
-        f = vec3(e.f);
-        pdf = e.pdf;
+        bool covered = vertex == kCoveredBoundaryVertex && dot(ls.w, hit.normal) >= 0.0;
+        f = covered ? vec3(0.0) : vec3(e.f);
+        pdf = covered ? 0.0 : e.pdf;
         shape = dot(ls.w, hit.normal) < 0.0 ? int(hit.mesh) : -1;
     } else {
         pdf = phase_eval(ph, dot(d, ls.w));
@@ -315,9 +338,10 @@ void cross(inout Path p, Hit hit) {
     if (NEE && lights != kSamplesNoLights) {
         PhaseData none;
         SurfaceData no_surface;
-        p.L += path_weight(p) * sample_light(hit.p, p.d, p.shape, none, kBoundaryVertex,
-                                             no_surface, hit, lights == kSamplesDeltaLights,
-                                             kNoMarch, p.rng);
+        int vertex = p.gap == 2u ? kCoveredBoundaryVertex : kBoundaryVertex;
+        p.L += path_weight(p) * sample_light(hit.p, p.d, p.shape, none, vertex, no_surface,
+                                             hit, lights == kSamplesDeltaLights, kNoMarch,
+                                             p.rng);
     }
     BoundaryEvent b = boundary_cross(bd, p.d, hit.normal, p.rng);
     p.beta *= b.weight;
@@ -423,8 +447,9 @@ void meet_boundary(inout Path p, Hit hit) {
     }
     // Whether something else may lie here: a surface on a face marked touching (entered
     // from outside or left from inside), or the face of the dielectric medium the path is
-    // in, under a surface met from inside it.
-    bool probe = !in_gap && (surface ? dielectric : hit.touching);
+    // in, under a surface met from inside it (where some face of it touches a surface).
+    bool probe = !in_gap && (surface ? dielectric && shapes[p.shape].albedo.w > 0.0
+                                     : hit.touching);
     Hit other;
     bool found = probe && other_at(p.o, p.d, hit, other);
     Hit target = hit;
