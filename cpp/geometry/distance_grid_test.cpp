@@ -238,7 +238,7 @@ TEST(DistanceGrid, SideIsExactWhereItAnswers) {
 
 // Obstacles (opaque surfaces meeting the medium) bound the distances too: a floor through
 // the cube is never nearer than the grid says, where the cube's own grid says more; the
-// inside flags stay the cube's. Also for a grid refined twice from coarser ones, whose
+// inside flags stay the cube's. Also for a grid refined 3 times (32 cells from 4), whose
 // deep nodes keep the coarse bound, which must have seen the floor as well (there a
 // node near the floor gets its exact distance where, without the floor, it kept a
 // looser coarse one: the grids' bounds are then not ordered, only both valid).
