@@ -16,6 +16,7 @@ after a shader change (the same seeds give the same paths while nothing fails).
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 from pathlib import Path
@@ -30,7 +31,8 @@ ALBEDOS = [(0.99, 0.99, 0.99), (0.995, 0.99, 0.98), (0.997, 0.994, 0.99), (0.998
 SEEDS = (1, 2)
 
 
-def main() -> None:
+def main(argv=None) -> None:
+    argparse.ArgumentParser(description=__doc__.split("\n\n")[0]).parse_args(argv)
     inside = {"type": "point", "position": [0.45, 0, 0], "intensity": [2, 2, 2]}
     rows = []
     for albedo in ALBEDOS:
