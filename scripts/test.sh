@@ -18,4 +18,5 @@ ctest=$(dirname "$py")/ctest
 "$py" -m ruff check python tests bench scenes
 clang-format --dry-run --Werror $(git ls-files 'cpp/*.cpp' 'cpp/*.h')
 "$ctest" --test-dir build/dev --output-on-failure -j "$(nproc)"
-"$py" -m pytest tests "$@"
+# --durations: the slowest tests in the log, to see what makes the suite longer.
+"$py" -m pytest tests --durations=25 "$@"

@@ -517,6 +517,30 @@ def test_a_floor_near_a_medium_stays_opaque_from_any_distance(backend):
     assert lit == 0, f"a fan of four at the bottom: {lit} pixels see through"
 
 
+def test_first_hit_aovs_see_the_floor_a_medium_rests_on():
+    """The denoiser's guides (first_hit_aovs) meet what the render meets: from under a floor
+    the camera sees the floor, never the cube resting on it or lifted by less than the
+    rays' offsets, also from 300 times as far. They traced from the camera itself and took
+    the cube's bottom wherever rounding put it first: 3-71 of 1024 pixels on the turned
+    cube, resting or lifted (a review of the open items). The depth counts from the
+    camera."""
+    turn = _turned()
+    for far, lift in ((1, 0.0), (1, 4e-7), (30, 1e-6), (300, 4e-5), (300, 0.0)):
+        scene = cube_on_floor(lift, turn, -0.37)
+        camera = scene["camera"]
+        eye, target = np.array(camera["origin"]), np.array(camera["target"])
+        camera.update(origin=(target + far * (eye - target)).tolist(), fov=camera["fov"] / far)
+        a = sssphere.first_hit_aovs(scene, seed=1, samples=16)
+        cube = int(np.count_nonzero(a["shape"] == 0))
+        assert cube == 0, f"{far} times as far, lifted by {lift}: {cube} pixels see the cube"
+        assert np.all(np.abs(a["albedo"] - 0.8) < 1e-6), f"{far}, {lift}: not the floor's albedo"
+        corners = np.array(scene["shapes"][1]["vertices"])
+        to_floor = np.linalg.norm(corners - camera["origin"], axis=1)
+        near = np.dot(turn @ [0, 1, 0], np.array(camera["origin"]) - corners[0])
+        assert np.all((a["depth"] >= abs(near) * (1 - 1e-5)) &
+                      (a["depth"] <= to_floor.max() * (1 + 1e-5))), f"{far}, {lift}: depth"
+
+
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_a_dielectric_resting_on_a_floor_renders_as_lifted_off_it(backend):
     """A dielectric medium meets a floor it rests on as across a gap too thin to see: its

@@ -42,6 +42,7 @@ FirstHitAovs first_hit_aovs(const Scene& scene, uint64_t seed, int samples, int 
                                               : medium_aov_albedo(s.medium));
 
     const float inv = 1.f / float(samples);
+    const float start = scene.camera_ray_start();
     parallel_chunks(threads, int64_t(pixels), 256, [&](int64_t begin, int64_t end) {
         for (int64_t p = begin; p < end; ++p) {
             const int x = int(p % cam.width), y = int(p / cam.width);
@@ -49,18 +50,22 @@ FirstHitAovs first_hit_aovs(const Scene& scene, uint64_t seed, int samples, int 
             float depth = 0.f;
             for (int s = 0; s < samples; ++s) {
                 if (s % 4096 == 0) throw_if_stopped(stop);
-                // The render's camera ray of sample s (integrators/integrator.cpp).
+                // The render's camera ray of sample s (integrators/integrator.cpp), from
+                // where it starts, and what it meets first: the surface lying on a
+                // medium's face where it hits the face (Scene::surface_at, as the
+                // render).
                 Rng rng(seed, uint64_t(p), uint64_t(s));
                 const float jx = rng.uniform(), jy = rng.uniform();
                 const Vec3 d = camera.direction(x + jx, y + jy);
+                const Vec3 o = camera.origin() + d * start;
                 Hit hit;
-                if (!scene.tracer().intersect(camera.origin(), d, 0.f, kInf, &hit))
-                    continue;
+                if (!scene.tracer().intersect(o, d, 0.f, kInf, &hit)) continue;
+                if (Hit on; scene.surface_at(o, d, hit, &on)) hit = on;
                 const int shape = int(hit.mesh) < scene.num_shapes() ? int(hit.mesh) : -1;
                 if (s == 0) aovs.shape[p] = shape;
                 albedo += shape >= 0 ? shape_albedo[shape] : Vec3(1.f);
                 normal += dot(hit.normal, d) > 0.f ? -hit.normal : hit.normal;
-                depth += hit.t;
+                depth += start + hit.t;
             }
             for (int c = 0; c < 3; ++c) {
                 aovs.albedo[3 * p + c] = albedo[c] * inv;

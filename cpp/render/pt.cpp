@@ -103,29 +103,9 @@ Vec3 PathTracer::transmittance(const Vec3& p, const Vec3& w, float dist, int sha
     return tr;
 }
 
-// Which of a medium's face and a surface lying on it a ray meets first is rounding's
-// choice: a ray leaving the face started past the floor (an outside sweep saw a lit cube
-// through the floor it rests on), and a ray from a camera far away may find the face
-// before a floor a little in front of it. So a ray from o that hits one of them where the
-// other may lie (Scene::touches_surface) is traced again, passing through the mesh it
-// hit, to tie_reach past the hit: what it finds there it met at the same place, to
-// rounding. The path then meets both (run); render.glsl's meet_boundary does the same.
-bool PathTracer::other_at(const Vec3& o, const Vec3& d, const Hit& hit,
-                          Hit* other) const {
-    return scene_.tracer().intersect_skipping(
-        o, d, 0.f, tie_reach(o, d, hit.t, hit.p_error, hit.normal), hit.mesh, other);
-}
-
-bool PathTracer::surface_at(const Vec3& o, const Vec3& d, const Hit& face,
-                            Hit* surface) const {
-    return scene_.touches_surface(int(face.mesh), face.prim) &&
-           other_at(o, d, face, surface) && int(surface->mesh) < scene_.num_shapes() &&
-           scene_.desc().shapes[surface->mesh].is_surface();
-}
-
 bool PathTracer::face_at(const Vec3& o, const Vec3& d, const Hit& surface, int shape,
                          Hit* face) const {
-    return scene_.touches_surfaces(shape) && other_at(o, d, surface, face) &&
+    return scene_.touches_surfaces(shape) && scene_.other_at(o, d, surface, face) &&
            int(face->mesh) == shape && scene_.touches_surface(shape, face->prim) &&
            dot(d, face->normal) > 0.f;
 }
@@ -577,7 +557,7 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
                 o = leave(hit, d);
                 continue;
             }
-            if (Hit on; surface_at(o, d, hit, &on)) {
+            if (Hit on; scene_.surface_at(o, d, hit, &on)) {
                 if (!reflect(on, desc.shapes[on.mesh].surface)) break;
                 continue;
             }
@@ -745,7 +725,7 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             o = leave(hit, d);
             continue;
         }
-        if (Hit on; surface_at(o, d, hit, &on)) {
+        if (Hit on; scene_.surface_at(o, d, hit, &on)) {
             if (s.boundary.passes_shadow_rays()
                     ? !reflect(on, desc.shapes[on.mesh].surface)
                     : !across_gap(hit, on, s.boundary))

@@ -84,12 +84,8 @@ private:
     // step.
     template <bool kSphereTracing>
     bool run(PathState& state, const WorldSphereStep* step) const;
-    // What else the ray from o along d meets where it hits `hit`, to rounding (a cube
-    // resting on a floor: its face and the floor): false where nothing.
-    bool other_at(const Vec3& o, const Vec3& d, const Hit& hit, Hit* other) const;
-    // The opaque surface lying on a medium's face where the ray hits the face, and the
-    // face of medium `shape` under a surface where the ray, inside it, hits the surface.
-    bool surface_at(const Vec3& o, const Vec3& d, const Hit& face, Hit* surface) const;
+    // The face of medium `shape` under a surface where the ray, inside it, hits the
+    // surface (Scene::other_at; Scene::surface_at is the converse).
     bool face_at(const Vec3& o, const Vec3& d, const Hit& surface, int shape,
                  Hit* face) const;
     // "st": applies the sphere step the path waited for (weights, NEE from its

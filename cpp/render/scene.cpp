@@ -14,6 +14,7 @@
 #include "core/files.h"
 #include "io/json_fields.h"
 #include "render/medium_presets.h"
+#include "shared/ray_offset.h"
 
 namespace sss {
 
@@ -931,6 +932,18 @@ float Scene::camera_ray_start() const {
     // The margin: a hundredth of the ball's radius, and the float rounding of o + d t.
     const double start = to_eye - 1.01 * radius - 1e-6 * to_eye;
     return start > 0 ? float(start) * (1.f - 1e-6f) : 0.f;
+}
+
+bool Scene::other_at(const Vec3& o, const Vec3& d, const Hit& hit, Hit* other) const {
+    return tracer_->intersect_skipping(
+        o, d, 0.f, tie_reach(o, d, hit.t, hit.p_error, hit.normal), hit.mesh, other);
+}
+
+bool Scene::surface_at(const Vec3& o, const Vec3& d, const Hit& face,
+                       Hit* surface) const {
+    return int(face.mesh) < num_shapes() && touches_surface(int(face.mesh), face.prim) &&
+           other_at(o, d, face, surface) && int(surface->mesh) < num_shapes() &&
+           desc_.shapes[surface->mesh].is_surface();
 }
 
 std::vector<int> Scene::surfaces_meeting(int shape) const {

@@ -196,6 +196,19 @@ public:
     }
     // Whether any triangle of it does.
     bool touches_surfaces(int shape) const { return !touching_[size_t(shape)].empty(); }
+    // Which of a medium's face and a surface lying on it a ray meets first is rounding's
+    // choice: a ray leaving the face started past the floor (an outside sweep saw a lit
+    // cube through the floor it rests on), and a ray from a camera far away may find the
+    // face before a floor a little in front of it. So a ray from o that hits one of them
+    // where the other may lie (touches_surface) is traced again, passing through the
+    // mesh it hit, to tie_reach past the hit: what it finds there (`other`) it met at the
+    // same place, to rounding; false where nothing. The path tracer then meets both;
+    // render.glsl's meet_boundary does the same.
+    bool other_at(const Vec3& o, const Vec3& d, const Hit& hit, Hit* other) const;
+    // The opaque surface lying on a medium's face where the ray hits the face (what the
+    // path tracer, and a camera, meet there first); false also where `face` is not a
+    // medium's.
+    bool surface_at(const Vec3& o, const Vec3& d, const Hit& face, Hit* surface) const;
     // The lights' table of floats, for light_sample and light_eval.
     const float* light_floats() const { return desc_.light_floats.data(); }
     int num_shapes() const { return int(desc_.shapes.size()); }
