@@ -525,6 +525,16 @@ def test_both_command_lines_reject_a_bad_option_value_alike(tmp_path, small_scen
             assert r.returncode == 1 and message in r.stderr, (args, r.stderr)
 
 
+def test_an_option_given_twice_takes_its_last_value_in_both(tmp_path, small_scene):
+    """`--spp 2 --spp 3`: 3 samples in both command lines (argparse takes the last value;
+    sssphere-render refused it with CLI11's "At Most 1 required but received 2", a review).
+    The summary line says how many samples each pixel has."""
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    for r in _render_with_both(tmp_path, ["--spp", "2", "--spp", "3"]):
+        assert r.returncode == 0, r.stderr
+        assert re.search(r"\b3 spp\b", r.stderr), r.stderr
+
+
 def test_a_bad_option_value_is_refused_before_the_scene_is_read(tmp_path, small_scene):
     """Each option's value is checked before the scene is read (building it can take
     seconds): with a scene that cannot be read, the option is what the error names."""
@@ -679,6 +689,17 @@ def test_export_mitsuba_says_scene_warnings_as_render_does(tmp_path, small_scene
     assert r.returncode == 0, r.stderr
     assert "sssphere: warning: " in r.stderr and "lights[0]" in r.stderr, r.stderr
     assert "SceneWarning" not in r.stderr and "mitsuba.py" not in r.stderr, r.stderr
+
+
+def test_export_mitsuba_says_it_leaves_max_bounces_out(tmp_path, small_scene):
+    """A scene rendered with max_bounces (single scattering) exported as full multiple
+    scattering without a word (a review); Mitsuba's max_depth counts other things."""
+    small_scene.setdefault("render", {})["max_bounces"] = 1
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    r = run_cli("export-mitsuba", tmp_path / "s.json", tmp_path / "m.xml")
+    assert r.returncode == 0, r.stderr
+    assert "sssphere: warning: " in r.stderr and "max_bounces 1 is not exported" in r.stderr, \
+        r.stderr
 
 
 def test_a_reader_that_leaves_early_ends_the_command_quietly():

@@ -551,16 +551,20 @@ def test_gpu_render_agrees_with_cpu(case, integrator, model_dir):
     assert_renders_agree(cpu, gpu, f"{case} {integrator}")
 
 
-def test_gpu_point_light_inside_a_medium_agrees_with_cpu():
+@pytest.mark.parametrize("boundary", [INDEX_MATCHED, DIELECTRIC], ids=["index_matched",
+                                                                    "dielectric"])
+def test_gpu_point_light_inside_a_medium_agrees_with_cpu(boundary):
     """A point light inside the medium, the only light: the shadow-ray roulette's bound is
     the distance to it where that is nearer than the grid's bound (direct_light on both
-    backends; without it almost no shadow ray reached the light)."""
+    backends; without it almost no shadow ray reached the light). Behind glass the events
+    sample it too (Scene::medium_samples_lights: the baked shape's surface.z), at 1 / 1.5^2
+    of its intensity (Scene::light_scale: the baked light's value)."""
     scene = sssphere.load_scene(sphere_scene(
-        res=(32, 32), sigma_t=15.0, albedo=(0.95, 0.9, 0.85), g=0.0, boundary=INDEX_MATCHED,
+        res=(32, 32), sigma_t=15.0, albedo=(0.95, 0.9, 0.85), g=0.0, boundary=boundary,
         lights=[{"type": "point", "position": [0.2, 0.1, 0.0], "intensity": [4, 4, 4]}]))
     cpu, gpu = _render_pair(scene, integrator="pt", nee=True)
     assert cpu.image.mean() > 1e-3, cpu.image.mean()  # the light is seen
-    assert_renders_agree(cpu, gpu, "point light inside")
+    assert_renders_agree(cpu, gpu, f"point light inside, {boundary['type']}")
 
 
 CUT_RENDER_CASES = {

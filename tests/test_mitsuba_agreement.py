@@ -22,7 +22,8 @@ area light + environment (next-event estimation and phase sampling both reach th
 the MIS weights are exercised); (e)-(g) an opaque diffuse floor (an open mesh): alone under
 three kinds of light, under an index-matched medium, under a dielectric one; (h) an environment
 map; (i) a rough dielectric medium under three kinds of light; (j) a rough dielectric on a floor
-under an environment map and a directional light; (k) a point light inside a medium.
+under an environment map and a directional light; (k) a point light inside a medium; (l) the
+same behind glass (a dielectric boundary).
 
 Known Mitsuba-side bias (measured, see mitsuba_util.py): Mitsuba re-spawns rays at every null
 (index-matched) interface with an offset of (1 + max|p|) * 8.9e-5 along the normal, which skips a
@@ -95,6 +96,16 @@ def scene_point_light_inside_sphere() -> dict:
         }],
         "lights": [{"type": "point", "position": [0.1, 0.05, 0.0], "intensity": [1, 1, 1]}],
     }
+
+
+def scene_point_light_inside_dielectric_sphere() -> dict:
+    """(l) (k) behind glass: a point light inside a dielectric sphere (ior 1.5). Shadow rays
+    never leave a dielectric, so its scattering events sampled no light and the sphere
+    rendered 120x too dark (a review); they sample the light inside, and its radiance
+    counts 1 / 1.5^2 on the camera's side (docs/notation.md, "No η² radiance scaling")."""
+    scene = scene_point_light_inside_sphere()
+    scene["shapes"][0]["boundary"] = {"type": "dielectric", "ior": 1.5}
+    return scene
 
 
 def scene_bunny_directional() -> dict:
@@ -348,6 +359,11 @@ def test_thin_sphere_point_light_matches_mitsuba():
 @pytest.mark.slow
 def test_point_light_inside_a_medium_matches_mitsuba():
     _check(scene_point_light_inside_sphere())
+
+
+@pytest.mark.slow
+def test_point_light_inside_a_dielectric_medium_matches_mitsuba():
+    _check(scene_point_light_inside_dielectric_sphere())
 
 
 @pytest.mark.slow

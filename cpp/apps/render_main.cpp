@@ -120,6 +120,9 @@ int main(int argc, char** argv) {
         "Render a scene file (docs/scene-format.md) to an image: .exr (linear) or "
         ".png (sRGB). The C++ twin of `sssphere render`.",
         "sssphere-render"};
+    // An option given twice takes its last value, as `sssphere render` (argparse) does;
+    // --set is repeatable (take_all below).
+    app.option_defaults()->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
     sss::install_image_reader();  // environment maps
     std::string scene_path, out_path;
     bool quiet = false, aovs = false;

@@ -185,7 +185,7 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
         put3(gl.a, l.a, float(l.type));
         put3(gl.b, l.b, l.scalar);
         put3(gl.c, l.c, 0.f);
-        put3(gl.value, l.value, 0.f);
+        put3(gl.value, l.value * scene.light_scale(int(order[i])), 0.f);
         if (l.kind().quad) put3(h.emitters[emitters++], l.value, float(i));
         if (l.kind().environment) put3(h.environment, Vec3(float(i), 0.f, 0.f), 1.f);
         num_delta += l.is_delta() ? 1u : 0u;
@@ -203,7 +203,10 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
                                           : s.boundary.samples_lights();
         shadow_rays_pass = shadow_rays_pass || s.is_surface() ||
                            s.boundary.passes_shadow_rays() || boundary_samples;
-        put3(h.shapes[i].surface, Vec3(float(s.surface.type), s.surface.x, 0.f), 0.f);
+        put3(h.shapes[i].surface,
+             Vec3(float(s.surface.type), s.surface.x,
+                  !s.is_surface() && scene.medium_samples_lights(int(i)) ? 1.f : 0.f),
+             0.f);
         put3(h.shapes[i].surface_color, s.surface.color, 0.f);
         put3(h.shapes[i].sigma_t, s.medium.sigma_t, 0.f);
         put3(h.shapes[i].phase,

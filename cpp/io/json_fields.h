@@ -131,7 +131,20 @@ inline json parse_json(const std::string& text, const std::string& source,
     try {
         return json::parse(text, cb);
     } catch (const json::exception& e) {
-        fail(source, ": malformed JSON: ", e.what(), hint ? hint() : std::string());
+        // nlohmann's message, without the name of its exception class
+        // ("[json.exception.parse_error.101] "), after the field it was reading (an
+        // overflowing number has no line and column).
+        std::string what = e.what();
+        if (what.rfind("[json.exception.", 0) == 0 &&
+            what.find("] ") != std::string::npos)
+            what = what.substr(what.find("] ") + 2);
+        const std::string at = levels.empty() ? std::string() : " at " + where();
+        if (text.find("NaN") != std::string::npos ||
+            text.find("Infinity") != std::string::npos)
+            what +=
+                " (NaN and Infinity are not JSON numbers: Python's json.dump writes "
+                "them unless allow_nan=False)";
+        fail(source, ": malformed JSON", at, ": ", what, hint ? hint() : std::string());
     }
 }
 

@@ -187,9 +187,10 @@ struct BoundaryScatter {
 Vec3 PathTracer::direct_light(const Vec3& p, float r, const Vec3& d, int shape,
                               int channel, Rng& rng, bool mis) const {
     const Shape& s = scene_.desc().shapes[shape];
-    // A straight shadow ray never leaves a smooth dielectric boundary (docs/notation.md,
-    // "Next-event estimation").
-    if (!s.boundary.passes_shadow_rays()) return Vec3(0.f);
+    // A straight shadow ray never leaves a dielectric boundary (docs/notation.md,
+    // "Next-event estimation"); inside one only a point light there is reached (the
+    // others' shadow rays end at the boundary: transmittance).
+    if (!scene_.medium_samples_lights(shape)) return Vec3(0.f);
     // Every shadow ray first travels at least r through this medium.
     float sigma_min =
         channel < 0 ? min_component(s.medium.sigma_t) : s.medium.sigma_t[channel];
@@ -228,8 +229,9 @@ Vec3 PathTracer::sample_light(const Vec3& p, const Scatter& scatter, Rng& rng, b
     if (delta_only) i = size_t(delta_lights_[i]);
     const Light& l = lights[i];
     const float u1 = rng.uniform(), u2 = rng.uniform();
-    const LightSample ls =
+    LightSample ls =
         light_sample(l, p, u1, u2, scene_.light_floats());  // render/lights/registry.h
+    ls.L *= scene_.light_scale(int(i));  // a point light inside a dielectric medium
     Vec3 sum(0.f);
     const SurfaceEval f = scatter.eval(ls.w);
     // A second shadow-ray roulette, on the bound along the light's direction.

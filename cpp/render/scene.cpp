@@ -865,6 +865,23 @@ void Scene::build(int threads, const Scene* previous, const StopFn& stop) {
         for (uint32_t t : contact.touching) touching[t] = true;
     }
 
+    // The media point lights lie inside (medium_samples_lights, light_scale).
+    lit_inside_.assign(size_t(num_shapes()), false);
+    light_scale_.assign(desc_.lights.size(), 1.f);
+    for (int i = 0; i < num_shapes(); ++i) {
+        const Shape& s = desc_.shapes[size_t(i)];
+        if (s.is_surface()) continue;
+        for (size_t k = 0; k < desc_.lights.size(); ++k) {
+            const Light& l = desc_.lights[k];
+            if (l.is_delta() && l.kind().position_key && s.mesh.bounds().contains(l.a) &&
+                point_inside_mesh(s.mesh, l.a)) {
+                lit_inside_[size_t(i)] = true;
+                const float n = boundary_index(s.boundary);
+                light_scale_[k] = 1.f / (n * n);
+            }
+        }
+    }
+
     // A distance grid per medium: kept when its shape's mesh and resolution and the
     // surfaces meeting it are the same.
     for (int i = 0; i < num_shapes(); ++i) {

@@ -196,6 +196,20 @@ public:
     }
     // Whether any triangle of it does.
     bool touches_surfaces(int shape) const { return !touching_[size_t(shape)].empty(); }
+    // Whether light sampling at a scattering event in medium `shape` can reach a light:
+    // where its boundary passes shadow rays (index-matched), or where a point light lies
+    // inside it, which a shadow ray reaches without meeting the boundary (a candle
+    // behind glass). A straight shadow ray never leaves a smooth or rough dielectric
+    // (docs/notation.md, "Next-event estimation"), so elsewhere such events sample none.
+    bool medium_samples_lights(int shape) const {
+        return desc_.shapes[size_t(shape)].boundary.passes_shadow_rays() ||
+               lit_inside_[size_t(shape)];
+    }
+    // The factor on light `i`'s radiance: 1 / n^2 for a point light inside a medium of
+    // index n (its boundary's), else 1. The tracers apply no radiance scaling at
+    // crossings; a path's scalings telescope to (1 / n at its light end)^2
+    // (docs/notation.md, "No η² radiance scaling").
+    float light_scale(int i) const { return light_scale_[size_t(i)]; }
     // Which of a medium's face and a surface lying on it a ray meets first is rounding's
     // choice: a ray leaving the face started past the floor (an outside sweep saw a lit
     // cube through the floor it rests on), and a ray from a camera far away may find the
@@ -259,7 +273,9 @@ private:
     // Per shape, from contacts_.
     std::vector<TriangleMesh> obstacles_;
     std::vector<std::vector<bool>> touching_;
-    Bounds3 bounds_;  // of every mesh the BVH holds
+    std::vector<bool> lit_inside_;    // per shape: a point light lies inside its medium
+    std::vector<float> light_scale_;  // per light (light_scale)
+    Bounds3 bounds_;                  // of every mesh the BVH holds
     int environment_ = -1;
     bool grey_ = true;
     bool has_surfaces_ = false;

@@ -53,7 +53,7 @@ SphereTracing::SphereTracing(const Scene& scene, float threshold, SphereSampler 
         const Shape& s = scene_.desc().shapes[i];
         if (s.is_surface()) continue;
         if (step_nee_ == StepNee::Hits && nee_ && delta_lights &&
-            s.boundary.passes_shadow_rays())
+            scene_.medium_samples_lights(i))
             clearance_[size_t(i)] = kDeltaLightClearance;
     }
     if (!std::isinf(threshold))
@@ -251,7 +251,7 @@ bool SphereTracing::can_step(int shape) const {
 
 bool SphereTracing::wants_event(int shape) const {
     return step_nee_ == StepNee::Event && nee_ && !scene_.desc().lights.empty() &&
-           scene_.desc().shapes[shape].boundary.passes_shadow_rays();
+           scene_.medium_samples_lights(shape);
 }
 
 float SphereTracing::cleared_radius(Vec3 p, float r, float sigma, float clearance) const {

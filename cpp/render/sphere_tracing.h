@@ -96,13 +96,14 @@ public:
     float sigma_max() const { return sigma_max_; }
     StepNee step_nee() const { return step_nee_; }
     // Whether a step in `shape` samples its representative event: StepNee::Event, NEE on,
-    // an index-matched boundary (a dielectric-bounded medium gets no NEE, as in pt) and
-    // any light.
+    // events that sample lights (Scene::medium_samples_lights: an index-matched boundary
+    // or a point light inside; elsewhere a dielectric-bounded medium gets no NEE, as in
+    // pt) and any light.
     bool wants_event(int shape) const;
     // The mean free paths a step's ball in `shape` keeps from the boundary and from the
     // point lights: kDeltaLightClearance where its events would need light sampling that
-    // the exit flight cannot replace (StepNee::Hits, NEE on, an index-matched boundary,
-    // a point or directional light), else 0.
+    // the exit flight cannot replace (StepNee::Hits, NEE on, events that sample lights:
+    // Scene::medium_samples_lights, a point or directional light), else 0.
     float clearance(int shape) const { return clearance_[size_t(shape)]; }
     // The radius of the ball a step at collision p in `shape` may take, given the grid's
     // bound r at p and the extinction sigma that measures the clearance (the smallest of

@@ -261,11 +261,21 @@ def export_mitsuba(scene_path: str | os.PathLike, xml_path: str | os.PathLike, s
     ``integrator``: ``"volpath"`` or ``"volpathmis"``; by default ``volpathmis`` where a
     medium's sigma_t differs between channels (volpath samples distances with one channel
     and weights the others by ratios: its estimate there is heavy-tailed, far from converged
-    at thousands of samples), else ``volpath``. Returns the files written."""
-    from sssphere.scene import load_scene
+    at thousands of samples), else ``volpath``. A scene's ``render.max_bounces`` is not
+    exported (a SceneWarning says so): Mitsuba's max_depth counts every interaction, ours
+    scattering events. Returns the files written."""
+    import warnings
+
+    from sssphere.scene import SceneWarning, load_scene
 
     scene_path, xml_path = os.fspath(scene_path), os.fspath(xml_path)
     ours = load_scene(scene_path)  # a bad file gets the parser's SceneError
+    bounces = ours.to_dict().get("render", {}).get("max_bounces", -1)
+    if bounces >= 0:
+        warnings.warn(f"{scene_path}: render.max_bounces {bounces} is not exported: Mitsuba's "
+                      "max_depth counts every interaction (surfaces, refractions, index-matched "
+                      "crossings), ours the scattering events; the XML renders every bounce "
+                      "(max_depth -1)", SceneWarning, stacklevel=2)
     if integrator is None:
         integrator = "volpathmis" if chromatic_extinction(ours) else "volpath"
     scene_dict = ours.to_dict()

@@ -49,7 +49,8 @@ struct GpuShape {
     vec4 boundary;  // render/boundaries/boundary.h's BoundaryData: x its type, yzw xyz
     vec4 phase;     // render/phase/phase.h's PhaseData: x its type, y, z x, y
     // render/surfaces/surface.h's SurfaceData: surface.x its type (-1: the shape holds a
-    // medium), surface.y its x; surface_color.xyz its colour
+    // medium), surface.y its x; surface_color.xyz its colour. surface.z: 1 where light
+    // sampling at the medium's events can reach a light (Scene::medium_samples_lights)
     vec4 surface;
     vec4 surface_color;
 };

@@ -225,7 +225,7 @@ vec3 sample_light(vec3 p, vec3 d, int shape, PhaseData ph, int vertex, SurfaceDa
 // bound / kShadowRoulette and reweighted.
 vec3 direct_light(vec3 p, float r, vec3 d, int shape, int channel, inout RngState rng) {
     GpuShape s = shapes[shape];
-    if (!boundary_passes_shadow_rays(boundary_data(s))) return vec3(0.0);
+    if (s.surface.z == 0.0) return vec3(0.0);  // Scene::medium_samples_lights
     float sigma_min =
         channel < 0 ? min(s.sigma_t.x, min(s.sigma_t.y, s.sigma_t.z)) : s.sigma_t[channel];
     if (r < 0.0) r = grid_query(shape, p);

@@ -138,6 +138,9 @@ SSS_FN BoundaryEval dielectric_boundary_eval(BoundaryData b, Vec3 d, Vec3 wo, Ve
 
 SSS_FN bool dielectric_boundary_passes_shadow_rays(BoundaryData b) { return false; }
 
+// The medium's index of refraction over the outside's: `ior`.
+SSS_FN float dielectric_boundary_index(BoundaryData b) { return b.x; }
+
 // Which lights its vertices sample: a rough interface every light, a regularized smooth
 // one the point and directional lights (area and environment lights reach it along the
 // smooth interface's own directions, weighted 1).

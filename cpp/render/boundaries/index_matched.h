@@ -28,6 +28,9 @@ SSS_FN BoundaryEval index_matched_boundary_eval(BoundaryData b, Vec3 d, Vec3 wo,
 // Whether a straight shadow ray may pass through it.
 SSS_FN bool index_matched_boundary_passes_shadow_rays(BoundaryData b) { return true; }
 
+// The medium's index of refraction over the outside's: 1.
+SSS_FN float index_matched_boundary_index(BoundaryData b) { return 1.f; }
+
 // Which lights its vertices sample: none (it has no vertices: the medium's events do).
 SSS_FN int index_matched_boundary_light_sampling(BoundaryData b) {
     return kSamplesNoLights;

@@ -60,6 +60,17 @@ SSS_FN bool boundary_passes_shadow_rays(BoundaryData b) {
     return false;
 }
 
+// The index of refraction of the medium inside boundary b over that of the outside
+// (vacuum): a light inside the medium shines with 1 / index^2 of its radiance on the
+// scale of the camera's (docs/notation.md, "No η² radiance scaling").
+SSS_FN float boundary_index(BoundaryData b) {
+#define SSS_BOUNDARY_CASE(name, type_id) \
+    if (b.type == type_id) return name##_boundary_index(b);
+    SSS_BOUNDARY_TYPES(SSS_BOUNDARY_CASE)
+#undef SSS_BOUNDARY_CASE
+    return 1.f;
+}
+
 #ifdef __cplusplus
 // The C++ side of every type, indexed by id.
 inline const std::vector<BoundaryKind>& boundary_kinds() {
