@@ -14,9 +14,10 @@
 //   sides. A visible normal is sampled, then reflection or refraction about it with the
 //   Fresnel reflectance as probability: the weight is G1 of the outgoing direction. The
 //   meeting point is a path vertex that samples lights (boundary_eval).
-// Both leave out the radiance scaling by (eta_out / eta_in)^2 on transmission: camera
-// and lights are outside every medium, so a path's scalings multiply to 1
-// (docs/notation.md, "Boundaries").
+// Both leave out the radiance scaling by (eta_out / eta_in)^2 on transmission: the camera
+// is outside every medium, so a path's scalings multiply to 1 / n^2 for its light's
+// medium, which Scene::light_scale applies to a point light inside one (docs/notation.md,
+// "No η² radiance scaling").
 #ifndef SSS_RENDER_BOUNDARIES_DIELECTRIC_H
 #define SSS_RENDER_BOUNDARIES_DIELECTRIC_H
 
