@@ -2,6 +2,7 @@
 against a ring radius of 0.4), the "thin features" case where spheres inside the medium
 stay small. Run: python3 scenes/make_thin_torus.py"""
 
+import argparse
 import math
 from pathlib import Path
 
@@ -10,6 +11,11 @@ NU, NV = 128, 24  # segments around the ring and around the tube
 
 
 def main() -> None:
+    default = Path(__file__).parent / "meshes" / "thin_torus.obj"
+    parser = argparse.ArgumentParser(description=__doc__.split("Run:")[0].strip())
+    parser.add_argument("-o", "--output", type=Path, default=default,
+                        help=f"the OBJ file to write (default: {default})")
+    out = parser.parse_args().output
     lines = ["# thin torus: R = 0.4, r = 0.035 (written by scenes/make_thin_torus.py)"]
     for i in range(NU):
         u = 2 * math.pi * i / NU
@@ -26,8 +32,7 @@ def main() -> None:
             c = ((i + 1) % NU) * NV + (j + 1) % NV
             d = i * NV + (j + 1) % NV
             lines.append(f"f {a + 1} {b + 1} {c + 1} {d + 1}")
-    out = Path(__file__).parent / "meshes" / "thin_torus.obj"
-    out.parent.mkdir(exist_ok=True)
+    out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text("\n".join(lines) + "\n")
     print(f"wrote {out}")
 

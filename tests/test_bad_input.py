@@ -550,6 +550,12 @@ def test_bad_image_paths(tmp_path):
         sssphere.write_image(tmp_path / "no" / "a.exr", img)
     with pytest.raises(SceneError, match="shape"):
         sssphere.write_image(tmp_path / "a.exr", np.zeros((2, 2, 2), np.float32))
+    # 8-bit pixels would be taken as radiance 0-255, a white image: refused
+    for dtype in (np.uint8, np.int64, bool):
+        with pytest.raises(SceneError, match=f"a.png: image of dtype {np.dtype(dtype)} is "
+                                             "not allowed"):
+            sssphere.write_image(tmp_path / "a.png", np.zeros((2, 2, 3), dtype))
+    assert not (tmp_path / "a.png").exists()
 
 
 # ---------------------------------------------------------------------------------------------

@@ -20,6 +20,18 @@ def test_bench_module_runs_as_part_of_the_package(module):
     assert "usage:" in r.stdout
 
 
+@pytest.mark.parametrize("script", sorted(p.name for p in (REPO / "scenes").glob("*.py")))
+def test_scene_scripts_answer_help_without_writing(script):
+    """scenes/make_thin_torus.py had no argument parser: --help rewrote the tracked mesh."""
+    before = {p: p.stat().st_mtime_ns for p in (REPO / "scenes").rglob("*") if p.is_file()}
+    r = subprocess.run([sys.executable, f"scenes/{script}", "--help"], cwd=REPO,
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert "usage:" in r.stdout
+    after = {p: p.stat().st_mtime_ns for p in (REPO / "scenes").rglob("*") if p.is_file()}
+    assert after == before
+
+
 def test_bench_holds_no_machine_paths():
     for path in (REPO / "bench").glob("*.py"):
         text = path.read_text()

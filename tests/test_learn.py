@@ -702,6 +702,15 @@ def test_eval_finds_the_shipped_models_from_anywhere(tmp_path, capsys, monkeypat
     # the results go here, not into the shipped (in a wheel: the installed) models
     assert json.loads((tmp_path / "eval.json").read_text())["models"] == str(DEFAULT_MODELS)
     assert sorted(p.name for p in DEFAULT_MODELS.iterdir()) == before
+    # --out is made if missing, as train's --output is; a file there is refused
+    code = cli_main(["eval", "--samples", "30", "--quiet", "--no-plots",
+                     "--out", str(tmp_path / "runs" / "a")])
+    assert code == 0, capsys.readouterr().err
+    assert (tmp_path / "runs" / "a" / "eval.json").is_file()
+    code = cli_main(["eval", "--quiet", "--no-plots", "--out", "eval.json"])
+    assert code == 1
+    assert "eval.json: output directory does not exist (it is a file)" in \
+        capsys.readouterr().err
 
 
 def test_bad_outputs_are_told_before_any_work(tiny_data, trained, tmp_path, capsys,

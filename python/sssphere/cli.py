@@ -358,8 +358,15 @@ def _cmd_eval(args: argparse.Namespace) -> int:
                          "with lengthgen.json, pathgen.json and eventgen.json)")
     # Beside the models named, else here: never into the installed package's models
     out = Path(args.out) if args.out else models if args.models is not None else Path(".")
+    if args.out and not out.exists():  # as train's --output
+        try:
+            out.mkdir(parents=True)
+        except OSError as e:
+            raise SceneError(f"{out}: cannot create the output directory: "
+                             f"{e.strerror}") from None
     if not out.is_dir():
-        raise SceneError(f"{out}: output directory does not exist")
+        raise SceneError(f"{out}: output directory does not exist (it is a file)"
+                         if out.exists() else f"{out}: output directory does not exist")
     if not os.access(out, os.W_OK):
         raise SceneError(f"{out}: output directory is not writable (--out chooses another)")
     if args.update_card:  # told now, not after minutes of evaluation

@@ -12,6 +12,7 @@ from typing import Any, Callable, Optional, Union
 import numpy as np
 
 from sssphere import _core
+from sssphere._core import SceneError
 from sssphere.model import DEFAULT_MODELS
 from sssphere.scene import Scene, SceneWarning, load_scene
 
@@ -582,6 +583,10 @@ def read_layers(path: Union[str, os.PathLike]) -> dict[str, np.ndarray]:
 
 def write_image(path: Union[str, os.PathLike], image: np.ndarray) -> None:
     """Write (height, width, 3) linear radiance: .exr as float, .png as 8-bit sRGB."""
+    dtype = np.asarray(image).dtype
+    if dtype.kind != "f":  # 8-bit pixels (0-255) would be taken as radiance 0-255
+        raise SceneError(f"{path}: image of dtype {dtype} is not allowed (allowed: floating "
+                         "point, linear radiance; 8-bit sRGB values must be decoded first)")
     image = np.asarray(image, dtype=np.float32)
     if image.ndim == 2:
         image = image[:, :, None]
