@@ -414,6 +414,18 @@ def _cpp_cli() -> str:
     return exe
 
 
+def test_both_command_lines_default_to_the_same_models():
+    """sssphere-render's default models are the Python package's (its --help names them).
+    In an editable install the package uses the repository's models/ while sssphere-render
+    took a copy installed into site-packages, which `sssphere train -o models/` left stale."""
+    from sssphere.model import DEFAULT_MODELS
+
+    out = subprocess.run([_cpp_cli(), "--help"], capture_output=True, text=True).stdout
+    default = re.search(r"--models DIR=(\S+)", out)
+    assert default, out
+    assert Path(default.group(1)).resolve() == DEFAULT_MODELS.resolve()
+
+
 def assert_reports_step_cost(stderr: str):
     """The summary line gives the steps per path and the time one took."""
     m = re.search(r"\+ ([0-9.]+) sphere steps \(([0-9]+) ns each\) per path", stderr)

@@ -47,7 +47,8 @@ void on_signal(int sig) {
 // The shipped decoders when neither --models nor the scene names any: those installed
 // with the Python package beside this program (a wheel puts the program in <env>/bin and
 // the models in <env>/lib/pythonX.Y/site-packages/sssphere/models), else those of the
-// source tree it was built from; empty if neither exists.
+// source tree it was built from (a build tree, or an editable install, whose Python
+// package uses them too: cpp/CMakeLists.txt); empty if neither exists.
 std::string shipped_models() {
     namespace fs = std::filesystem;
     std::error_code ec;
@@ -140,11 +141,15 @@ int main(int argc, char** argv) {
             app.add_flag_callback(
                 "--no-" + flag_of(name), [&given, name] { given[name] = "false"; },
                 std::string("turn off ") + spec.help);
-        else
-            app.add_option_function<std::string>(
-                   "--" + flag_of(name),
-                   [&given, name](const std::string& v) { given[name] = v; }, spec.help)
-                ->type_name(spec.metavar);
+        else {
+            CLI::Option* o =
+                app.add_option_function<std::string>(
+                       "--" + flag_of(name),
+                       [&given, name](const std::string& v) { given[name] = v; },
+                       spec.help)
+                    ->type_name(spec.metavar);
+            if (name == "models") o->default_str(shipped_models());  // said in --help
+        }
     }
     app.add_flag(
         "--aovs", aovs,
