@@ -44,6 +44,13 @@ def test_render_scene_file_to_exr_and_png(tmp_path, small_scene):
         r = cli("render", tmp_path / "s.json", "-o", tmp_path / name, "--spp", 3, "--aovs",
                 "--quiet")
         assert r.returncode == 0, r.stderr
+        assert "no estimate of the variance" not in r.stderr
+        # at 1 spp the variance layer is 0: not "no noise", and both say so
+        one = cli("render", tmp_path / "s.json", "-o", tmp_path / f"one_{name}", "--spp", 1,
+                  "--aovs", "--quiet")
+        assert one.returncode == 0, one.stderr
+        assert ("warning: variance: one sample per pixel gives no estimate of the variance"
+                in one.stderr), one.stderr
         layers = sssphere.read_layers(tmp_path / name)
         assert sorted(layers) == ["", "albedo", "depth", "events", "normal", "variance"]
         np.testing.assert_array_equal(layers[""], expected.image)

@@ -85,6 +85,10 @@ static std::string aov_file(const std::string& out_path, const std::string& name
 }
 
 // Returns the AOV files written beside a .png (none for an .exr).
+static const char* const kOneSampleVariance =
+    "variance: one sample per pixel gives no estimate of the variance: its layer is 0, "
+    "which does not mean 'no noise' (render 2 or more samples per pixel)";
+
 static std::vector<std::string> write_with_aovs(const std::string& out_path,
                                                 const sss::Scene& scene,
                                                 const sss::RenderOptions& opt,
@@ -265,9 +269,11 @@ int main(int argc, char** argv) {
             return interrupted();
         }
         std::vector<std::string> aov_files;
-        if (aovs)
+        if (aovs) {
+            if (r.spp < 2)  // the same words as RenderResult.save (rendering.py)
+                std::cerr << "sssphere-render: warning: " << kOneSampleVariance << "\n";
             aov_files = write_with_aovs(out_path, scene, opt, r);
-        else
+        } else
             sss::write_image(out_path, r.image, r.width, r.height);
         // The summary line, word for word that of `sssphere render` (cli.py).
         const double paths = double(r.total_paths);

@@ -131,7 +131,8 @@ def _cmd_render(args: argparse.Namespace) -> int:
                   file=sys.stderr)
             return _interrupted_status()
         result = rendering.with_aovs(scene, result, args.aovs, args.denoise)
-        written = result.save(out, aovs=args.aovs)
+        with _said_warnings():
+            written = result.save(out, aovs=args.aovs)
     what = ("interrupted: wrote the partial image" if result.interrupted
             else "interrupted once the render had finished: wrote" if signals.count
             else "time limit reached: wrote" if result.time_limit_reached else "wrote")

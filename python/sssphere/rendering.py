@@ -25,6 +25,9 @@ STEP_NEE = tuple(_SPECS["step_nee"]["choices"])
 BACKENDS = tuple(_SPECS["backend"]["choices"])
 DEFAULT_SPHERE_THRESHOLD = float(_core.DEFAULT_SPHERE_THRESHOLD)
 # Every name RenderResult.layers() may give, in its order.
+ONE_SAMPLE_VARIANCE = ("variance: one sample per pixel gives no estimate of the variance: its "
+                       "layer is 0, which does not mean 'no noise' (render 2 or more samples "
+                       "per pixel)")
 AOV_LAYERS = ("noisy", "variance", "events", "sphere_steps", "albedo", "normal", "depth")
 DEFAULT_AOV_SAMPLES = int(_core.DEFAULT_AOV_SAMPLES)
 
@@ -163,6 +166,9 @@ class RenderResult:
         if not aovs:
             write_image(path, self.picture)
             return [path]
+        if self.spp < 2:  # the same words as sssphere-render's
+            warnings.warn(ONE_SAMPLE_VARIANCE, SceneWarning,
+                          stacklevel=_caller_outside_sssphere())
         if path.lower().endswith(".exr"):
             write_layers(path, [("", ("R", "G", "B"), self.picture)] + self.layers())
             return [path]
