@@ -123,7 +123,7 @@ struct MediumScatter {
     // already kept this vertex's NEE with.
     const DistanceGrid& grid;
     float r, sigma, kept;
-    SurfaceEval eval(const Vec3& w) const {
+    SurfaceEval eval(const Vec3& w, bool /*delta_light*/) const {
         SurfaceEval e;
         e.pdf = phase_eval(phase, dot(d, w));
         e.f = Vec3(e.pdf);
@@ -149,7 +149,7 @@ struct SurfaceScatter {
     const Hit& hit;
     Vec3 d;
     int shape;  // the medium the surface touches there, -1: vacuum
-    SurfaceEval eval(const Vec3& w) const {
+    SurfaceEval eval(const Vec3& w, bool /*delta_light*/) const {
         return surface_eval(surface, -d, w, hit.normal);
     }
     Vec3 origin(const Vec3& w) const { return leave(hit, w); }
@@ -169,9 +169,9 @@ struct BoundaryScatter {
     const Hit& hit;
     Vec3 d;
     bool covered;
-    SurfaceEval eval(const Vec3& w) const {
+    SurfaceEval eval(const Vec3& w, bool delta_light) const {
         if (covered && dot(w, hit.normal) >= 0.f) return SurfaceEval{Vec3(0.f), 0.f};
-        const BoundaryEval b = boundary_eval(boundary, d, w, hit.normal);
+        const BoundaryEval b = boundary_eval(boundary, d, w, hit.normal, delta_light);
         return SurfaceEval{Vec3(b.f), b.pdf};
     }
     Vec3 origin(const Vec3& w) const { return leave(hit, w); }
@@ -233,7 +233,7 @@ Vec3 PathTracer::sample_light(const Vec3& p, const Scatter& scatter, Rng& rng, b
         light_sample(l, p, u1, u2, scene_.light_floats());  // render/lights/registry.h
     ls.L *= scene_.light_scale(int(i));  // a point light inside a dielectric medium
     Vec3 sum(0.f);
-    const SurfaceEval f = scatter.eval(ls.w);
+    const SurfaceEval f = scatter.eval(ls.w, l.is_delta());
     // A second shadow-ray roulette, on the bound along the light's direction.
     float shadow_weight = 1.f;
     if (!is_black(ls.L) && !is_black(f.f)) {

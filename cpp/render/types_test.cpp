@@ -395,7 +395,9 @@ TEST(Registries, BoundariesObeyFresnelAndSnell) {
 // A smooth dielectric's regularization: its vertices sample the point and directional
 // lights only, through the rough BSDF of alpha = regularization (the same value and pdf
 // as that rough boundary's, from both sides), while crossing it stays a delta; with
-// regularization 0 they sample nothing. A rough boundary ignores the key.
+// regularization 0 they sample nothing. A rough boundary takes the larger of its alpha
+// and the regularization for the point and directional lights, its own alpha for the
+// rest.
 TEST(Registries, RegularizedSmoothDielectricSamplesDeltaLightsThroughARoughLobe) {
     const Boundary smooth = parse_boundary(R"({"type": "dielectric", "ior": 1.4})");
     EXPECT_EQ(boundary_light_sampling(smooth), kSamplesDeltaLights);
@@ -409,6 +411,12 @@ TEST(Registries, RegularizedSmoothDielectricSamplesDeltaLightsThroughARoughLobe)
         parse_boundary(R"({"type": "dielectric", "ior": 1.4, "regularization": 0})");
     const Boundary rough_reg = parse_boundary(
         R"({"type": "dielectric", "ior": 1.4, "roughness": 0.2, "regularization": 0.7})");
+    const Boundary reg7 =
+        parse_boundary(R"({"type": "dielectric", "ior": 1.4, "regularization": 0.7})");
+    const Boundary faint = parse_boundary(
+        R"({"type": "dielectric", "ior": 1.4, "roughness": 0.01, "regularization": 0.2})");
+    const Boundary faint_only = parse_boundary(
+        R"({"type": "dielectric", "ior": 1.4, "roughness": 0.01, "regularization": 0})");
     EXPECT_EQ(boundary_light_sampling(off), kSamplesNoLights);
     EXPECT_EQ(boundary_light_sampling(rough_reg), kSamplesAllLights);
     const Vec3 n = normalize(Vec3(0.2f, -0.1f, 1.f));
@@ -417,12 +425,23 @@ TEST(Registries, RegularizedSmoothDielectricSamplesDeltaLightsThroughARoughLobe)
     for (int i = 0; i < 2000; ++i) {
         const Vec3 d = sample_uniform_sphere(rng.uniform(), rng.uniform());
         const Vec3 wo = sample_uniform_sphere(rng.uniform(), rng.uniform());
-        const BoundaryEval a = boundary_eval(reg, d, wo, n),
-                           b = boundary_eval(rough, d, wo, n);
+        const BoundaryEval a = boundary_eval(reg, d, wo, n, true),
+                           b = boundary_eval(rough, d, wo, n, true);
         EXPECT_EQ(a.f, b.f);
         EXPECT_EQ(a.pdf, b.pdf);
-        EXPECT_EQ(boundary_eval(rough_reg, d, wo, n).f, b.f);
-        EXPECT_EQ(boundary_eval(off, d, wo, n).f, 0.f);
+        // a rough boundary's own alpha for the lights it samples with MIS, and for the
+        // point and directional ones where it is the larger
+        EXPECT_EQ(boundary_eval(rough_reg, d, wo, n, false).f, b.f);
+        EXPECT_EQ(boundary_eval(rough, d, wo, n, false).f, b.f);
+        EXPECT_EQ(boundary_eval(off, d, wo, n, true).f, 0.f);
+        // less rough than its regularization: point and directional lights through the
+        // regularization's lobe, as the smooth interface (alpha -> 0) has them
+        EXPECT_EQ(boundary_eval(rough_reg, d, wo, n, true).f,
+                  boundary_eval(reg7, d, wo, n, true).f);
+        EXPECT_EQ(boundary_eval(faint, d, wo, n, true).f, a.f);
+        EXPECT_EQ(boundary_eval(faint, d, wo, n, true).pdf, a.pdf);
+        EXPECT_EQ(boundary_eval(faint, d, wo, n, false).f,
+                  boundary_eval(faint_only, d, wo, n, false).f);
         nonzero += a.f > 0.f;
         RngState s = rng_make(1, uint64_t(i), 0);
         EXPECT_TRUE(boundary_cross(reg, d, n, s).specular);
@@ -463,7 +482,7 @@ TEST(Registries, RoughDielectricSamplesItsBsdf) {
                 if (!(e.weight > 0.f)) continue;
                 observed[sphere_bin(frame, e.d)] += 1;
                 ASSERT_EQ(e.crossed, dot(e.d, n) * dot(d, n) > 0.f) << what;
-                const BoundaryEval ev = boundary_eval(b, d, e.d, n);
+                const BoundaryEval ev = boundary_eval(b, d, e.d, n, false);
                 ASSERT_NEAR(ev.pdf, e.pdf, 1e-3f * e.pdf + 1e-5f) << what;
                 ASSERT_NEAR(e.weight, ev.f / ev.pdf, 1e-3f) << what;
                 ASSERT_LE(e.weight, 1.f);
@@ -471,7 +490,7 @@ TEST(Registries, RoughDielectricSamplesItsBsdf) {
             const ChiSquare x = chi_square(
                 observed,
                 expected_bin_counts(
-                    frame, [&](Vec3 w) { return boundary_eval(b, d, w, n).pdf; },
+                    frame, [&](Vec3 w) { return boundary_eval(b, d, w, n, false).pdf; },
                     n_samples, 16));
             ASSERT_GT(x.dof, 30) << what;
             EXPECT_LT(x.value, chi2_limit(x.dof)) << what;
@@ -483,13 +502,13 @@ TEST(Registries, RoughDielectricSamplesItsBsdf) {
             const float eta_d = dot(d, n) < 0.f ? 1.f : b.x;  // the index on d's side
             for (int i = 0; i < n_dirs; ++i) {
                 const Vec3 wo = sample_uniform_sphere(rng_uniform(rng), rng_uniform(rng));
-                const BoundaryEval e = boundary_eval(b, d, wo, n);
+                const BoundaryEval e = boundary_eval(b, d, wo, n, false);
                 const double v = e.f / uniform_sphere_pdf();
                 sum += v;
                 sum2 += v * v;
                 if (!(e.f > 0.f)) continue;
                 const float eta_o = dot(wo, n) > 0.f ? 1.f : b.x;
-                const BoundaryEval back = boundary_eval(b, -wo, -d, n);
+                const BoundaryEval back = boundary_eval(b, -wo, -d, n, false);
                 const double f = e.f / std::abs(dot(wo, n)) / (eta_o * eta_o),
                              f_back = back.f / std::abs(dot(d, n)) / (eta_d * eta_d);
                 ++nonzero;

@@ -193,7 +193,8 @@ vec3 sample_light(vec3 p, vec3 d, int shape, PhaseData ph, int vertex, SurfaceDa
         f = e.f;
         pdf = e.pdf;
     } else if (vertex >= kBoundaryVertex) {
-        BoundaryEval e = boundary_eval(boundary_data(shapes[hit.mesh]), d, ls.w, hit.normal);
+        BoundaryEval e =
+            boundary_eval(boundary_data(shapes[hit.mesh]), d, ls.w, hit.normal, ls.pdf == 0.0);
         bool covered = vertex == kCoveredBoundaryVertex && dot(ls.w, hit.normal) >= 0.0;
         f = covered ? vec3(0.0) : vec3(e.f);
         pdf = covered ? 0.0 : e.pdf;

@@ -13,7 +13,8 @@
 //   Smith's separable masking (shared/ggx.h), reflection and transmission from both
 //   sides. A visible normal is sampled, then reflection or refraction about it with the
 //   Fresnel reflectance as probability: the weight is G1 of the outgoing direction. The
-//   meeting point is a path vertex that samples lights (boundary_eval).
+//   meeting point is a path vertex that samples lights (boundary_eval); point and
+//   directional lights through a lobe of alpha z where alpha < z, as the smooth one's.
 // Both leave out the radiance scaling by (eta_out / eta_in)^2 on transmission: the camera
 // is outside every medium, so a path's scalings multiply to 1 / n^2 for its light's
 // medium, which Scene::light_scale applies to a point light inside one (docs/notation.md,
@@ -125,11 +126,17 @@ SSS_FN BoundaryEvent dielectric_boundary_cross(BoundaryData b, Vec3 d, Vec3 n,
     return e;
 }
 
-// The photon arrived along d; wo leaves the hit point. 0 for the smooth interface (its
-// lobes are deltas).
-SSS_FN BoundaryEval dielectric_boundary_eval(BoundaryData b, Vec3 d, Vec3 wo, Vec3 n) {
-    // the rough interface's alpha, else the smooth one's regularization (0: none)
-    float alpha = b.y > 0.f ? b.y : b.z;
+// The photon arrived along d; wo leaves the hit point, towards a point or directional
+// light if delta_light. 0 for the smooth interface (its lobes are deltas) unless
+// regularized.
+SSS_FN BoundaryEval dielectric_boundary_eval(BoundaryData b, Vec3 d, Vec3 wo, Vec3 n,
+                                             bool delta_light) {
+    // The rough interface's alpha, else the smooth one's regularization (0: none). A
+    // delta light is reached through a lobe at least the regularization's wide: its
+    // variance grows as 1 / alpha^2, and a rough interface of alpha 0.001 rendered 10x
+    // too dark at practical spp (heavy tails) where the smooth one (alpha -> 0) renders
+    // as alpha_r.
+    float alpha = b.y > 0.f ? (delta_light ? max(b.y, b.z) : b.y) : b.z;
     if (!(alpha > 0.f)) return no_boundary_eval();
     float eta;
     Frame f = dielectric_side_frame(b, d, n, eta);

@@ -21,7 +21,8 @@ SSS_FN BoundaryEvent index_matched_boundary_cross(BoundaryData b, Vec3 d, Vec3 n
     return e;
 }
 
-SSS_FN BoundaryEval index_matched_boundary_eval(BoundaryData b, Vec3 d, Vec3 wo, Vec3 n) {
+SSS_FN BoundaryEval index_matched_boundary_eval(BoundaryData b, Vec3 d, Vec3 wo, Vec3 n,
+                                                bool delta_light) {
     return no_boundary_eval();
 }
 

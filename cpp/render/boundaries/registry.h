@@ -31,11 +31,13 @@ SSS_FN BoundaryEvent boundary_cross(BoundaryData b, Vec3 d, Vec3 n,
 }
 
 // A rough (or regularized smooth) boundary b's BSDF times |cos| and sampling pdf, for a
-// photon that arrived along d and leaves along wo (outward normal n); 0 where
-// boundary_light_sampling is kSamplesNoLights.
-SSS_FN BoundaryEval boundary_eval(BoundaryData b, Vec3 d, Vec3 wo, Vec3 n) {
+// photon that arrived along d and leaves along wo (outward normal n) towards a light,
+// a point or directional one if delta_light; 0 where boundary_light_sampling is
+// kSamplesNoLights.
+SSS_FN BoundaryEval boundary_eval(BoundaryData b, Vec3 d, Vec3 wo, Vec3 n,
+                                  bool delta_light) {
 #define SSS_BOUNDARY_CASE(name, type_id) \
-    if (b.type == type_id) return name##_boundary_eval(b, d, wo, n);
+    if (b.type == type_id) return name##_boundary_eval(b, d, wo, n, delta_light);
     SSS_BOUNDARY_TYPES(SSS_BOUNDARY_CASE)
 #undef SSS_BOUNDARY_CASE
     return no_boundary_eval();
