@@ -72,7 +72,11 @@ def main(argv=None) -> None:
 
     variants = [(f"smooth, regularization {r:g}", "pt", {"regularization": r})
                 for r in REGULARIZATIONS]
-    variants += [(f"rough {r:g}", "pt", {"roughness": r}) for r in ROUGHNESSES]
+    # regularization 0: the rough interface's own lobe for the sun too (since 2026-11-30 a
+    # rough interface below the regularization takes its lobe for point and directional
+    # lights, which would make these rows the regularized ones)
+    variants += [(f"rough {r:g}", "pt", {"roughness": r, "regularization": 0})
+                 for r in ROUGHNESSES]
     variants += [(f"smooth, regularization {DEFAULT:g}, st", "st", {"regularization": DEFAULT})]
     renders, rows = {}, {}
     mask = None
