@@ -87,8 +87,9 @@ struct Light : LightData {
 };
 
 // Positions in a SceneDesc (meshes, camera, lights) are in the *render frame*: the scene
-// file's coordinates less `origin` (the centre of the shapes' bounds, kept in double), so
-// that float precision follows the shapes' size, not where they sit (docs/robustness.md).
+// file's coordinates less `origin` (the centre of the media's bounds, else of the
+// shapes', kept in double), so that float precision follows the shapes' size, not where
+// they sit (docs/robustness.md).
 struct SceneDesc {
     std::string source;          // file name (or "<dict>") used in error messages
     std::string base_dir = ".";  // where relative file names (meshes, maps) start
