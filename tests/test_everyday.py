@@ -221,6 +221,8 @@ def test_geometry_edits_rebuild_the_bvh_and_grid_and_say_so(small_scene):
 
 def test_a_density_change_that_changes_the_grid_resolution_rebuilds_that_grid(small_scene):
     scene = sssphere.load_scene(small_scene)
+    assert scene.grid_resolutions == [16]  # 10 mean free paths across: one per cell
+    scene.shapes[0].medium.sigma_t = 20  # 40 across
     assert scene.grid_resolutions == [64]
     scene.shapes[0].medium.sigma_t = 600  # a 64th of the side is now 10-30 mean free paths
     assert scene.grid_resolutions == [128]
@@ -427,7 +429,7 @@ def test_info_command_describes_the_scene(small_scene, tmp_path):
                         "--json"], capture_output=True, text=True, timeout=300)
     info = json.loads(r.stdout)
     ball = info["shapes"][0]
-    assert ball["triangles"] == 1280 and ball["grid_resolution"] == 64
+    assert ball["triangles"] == 1280 and ball["grid_resolution"] == 16  # sigma_t 5: 10 mfp across
     assert ball["mean_path_length"] == pytest.approx(4 * ball["volume"] / ball["area"])
     assert 0 < ball["coverage"] < 1 and info["lights"] == ["point", "environment"]
 

@@ -1006,9 +1006,13 @@ std::vector<int> Scene::surfaces_meeting(int shape) const {
 
 int Scene::auto_grid_resolution(const Shape& shape) {
     const float side = max_component(shape.mesh.bounds().extent());
-    const float mean_free_paths = max_component(shape.medium.sigma_t) * side / 64.f;
+    const float across = max_component(shape.medium.sigma_t) * side;
+    const float mean_free_paths = across / 64.f;  // in one of 64 cells
     if (mean_free_paths > kFineGridCellMeanFreePaths) return 256;
-    return mean_free_paths > kGridCellMeanFreePaths ? 128 : 64;
+    if (mean_free_paths > kGridCellMeanFreePaths) return 128;
+    for (int cells : {16, 32})
+        if (across <= float(cells) * kCoarseGridCellMeanFreePaths) return cells;
+    return 64;
 }
 
 TriangleMesh Light::quad_mesh() const {

@@ -101,17 +101,25 @@ TEST(SceneBuild, RefusesCameraInsideShape) {
 
 // Without grid_resolution each shape's grid has 64 cells along its largest side, 128
 // when such a cell is more than kGridCellMeanFreePaths mean free paths thick, and 256
-// past kFineGridCellMeanFreePaths.
+// past kFineGridCellMeanFreePaths; 16 or 32 when so few cover it at a mean free path
+// each.
 TEST(Scene, GridResolutionFollowsTheDensestChannelWhenUnset) {
     const float side = 2.f;  // the unit sphere's diameter (the icosphere spans it)
     const float dense = Scene::kGridCellMeanFreePaths * 64.f / side * 1.5f;
     const float denser = Scene::kFineGridCellMeanFreePaths * 64.f / side * 1.5f;
-    for (float sigma_max : {dense / 3.f, dense, denser}) {
+    // optically small: one cell per mean free path is enough (16 or 32 cells)
+    const float thin16 = 16.f / side * Scene::kCoarseGridCellMeanFreePaths,
+                thin32 = 32.f / side * Scene::kCoarseGridCellMeanFreePaths;
+    for (float sigma_max : {thin16, thin32, thin32 * 1.01f, dense / 3.f, dense, denser}) {
         SceneDesc d = test::sphere_in_environment(Vec3(1.f, sigma_max, 2.f), Vec3(0.9f),
                                                   0.f, BoundaryType::IndexMatched);
         d.render.grid_resolution = 0;
         Scene scene(d, 2);
-        const int cells = sigma_max == denser ? 256 : sigma_max == dense ? 128 : 64;
+        const int cells = sigma_max == denser   ? 256
+                          : sigma_max == dense  ? 128
+                          : sigma_max == thin16 ? 16
+                          : sigma_max == thin32 ? 32
+                                                : 64;
         EXPECT_NEAR(scene.grid(0).cell_size(), side / float(cells), 1e-4f)
             << "sigma_t " << sigma_max;
     }
