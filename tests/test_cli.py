@@ -218,12 +218,14 @@ def test_interrupted_before_the_first_pass_writes_nothing_and_says_so(tmp_path, 
 
 @pytest.fixture
 def cli_in_process():
-    """sssphere.cli.main run in this process, its SIGTERM handler undone afterwards."""
+    """sssphere.cli.main run in this process, its SIGTERM and SIGHUP handlers undone
+    afterwards."""
     from sssphere import cli
 
-    previous = signal.getsignal(signal.SIGTERM)
+    previous = {s: signal.getsignal(s) for s in (signal.SIGTERM, signal.SIGHUP)}
     yield cli.main
-    signal.signal(signal.SIGTERM, previous)
+    for s, handler in previous.items():
+        signal.signal(s, handler)
 
 
 def test_ctrl_c_once_the_render_has_finished_still_writes_it(tmp_path, small_scene, monkeypatch,
@@ -580,16 +582,19 @@ def test_the_options_page_lists_every_option():
 
 
 @pytest.mark.parametrize("cli", ["python", "cpp"])
-def test_sigterm_writes_the_partial_image_and_exits_143(tmp_path, slow_scene, cli):
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP])
+def test_sigterm_writes_the_partial_image_and_exits_143(tmp_path, slow_scene, cli, sig):
     """SIGTERM (kill, batch schedulers) stops a render as Ctrl-C does, within a second, and
-    says so by its exit status 143 (128 + 15)."""
+    says so by its exit status 143 (128 + 15). So does SIGHUP (a closed terminal, a dropped
+    ssh session: it killed the render and wrote nothing, a review), exit status 129, saying
+    nothing: the terminal is gone."""
     out = tmp_path / "partial.exr"
     cmd = ([sys.executable, "-m", "sssphere.cli", "render"] if cli == "python" else [_cpp_cli()])
     start = time.monotonic()
-    code, err = _interrupt_after_start([*cmd, str(slow_scene), "-o", str(out)], tmp_path, signal.SIGTERM)
-    assert code == 143, err
+    code, err = _interrupt_after_start([*cmd, str(slow_scene), "-o", str(out)], tmp_path, sig)
+    assert code == 128 + sig, err
     assert time.monotonic() - start < 30  # not the 2^16 spp the scene asks for
-    assert "wrote the partial image" in err
+    assert ("wrote the partial image" in err) == (sig == signal.SIGTERM), err
     img = sssphere.read_image(out)
     assert np.all(np.isfinite(img)) and img.max() > 0
 

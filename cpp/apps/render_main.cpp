@@ -2,6 +2,7 @@
 // scene loader, the same options (one table, render/options.h, which both command lines
 // are built from) and the same renderers. Ctrl-C stops early and writes the image
 // rendered so far.
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -13,6 +14,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <iterator>
 #include <map>
 #include <optional>
 #include <string>
@@ -27,8 +29,10 @@
 
 namespace {
 
-// Ctrl-C and SIGTERM (kill, batch schedulers) stop the render; the image so far is
-// written and the exit status says which: 130 or 143.
+// Ctrl-C, SIGTERM (kill, batch schedulers) and SIGHUP (a closed terminal, a dropped ssh
+// session) stop the render; the image so far is written and the exit status says which:
+// 130, 143 or 129. After SIGHUP stdout and stderr go to /dev/null (the terminal is gone:
+// writes to it fail).
 // While the scene loads, the first signal stops the distance grids' build (the parts of
 // the load before it run to their end) and the next one ends the process at once.
 // g_signal is read by the grid build's threads too: an atomic (lock-free, so the handler
@@ -36,12 +40,19 @@ namespace {
 std::atomic<int> g_signal{0};
 static_assert(std::atomic<int>::is_always_lock_free);
 volatile std::sig_atomic_t g_loading = 0;
+constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP};
 void on_signal(int sig) {
     g_signal = sig;
-    if (g_loading) {
-        std::signal(SIGINT, SIG_DFL);
-        std::signal(SIGTERM, SIG_DFL);
+    if (sig == SIGHUP) {  // open and dup2 are async-signal-safe
+        const int devnull = open("/dev/null", O_WRONLY);
+        if (devnull >= 0) {
+            dup2(devnull, 1);
+            dup2(devnull, 2);
+            close(devnull);
+        }
     }
+    if (g_loading)
+        for (int s : kStopSignals) std::signal(s, SIG_DFL);
 }
 
 // The shipped decoders when neither --models nor the scene names any: those installed
@@ -195,10 +206,10 @@ int main(int argc, char** argv) {
             sss::set_override_from_text(overrides, name, text);
         sss::check_override_values(overrides);
         // A signal the process was started ignoring (a background job's SIGINT) stays so.
-        bool ignored[2] = {};
+        bool ignored[std::size(kStopSignals)] = {};  // nohup's SIGHUP stays ignored
         auto install = [&ignored] {
             int k = 0;
-            for (int sig : {SIGINT, SIGTERM}) {
+            for (int sig : kStopSignals) {
                 if (std::signal(sig, on_signal) == SIG_IGN) ignored[k] = true;
                 if (ignored[k++]) std::signal(sig, SIG_IGN);
             }

@@ -13,19 +13,21 @@ class _Terminated(BaseException):
 
 
 def _on_sigterm(signum, frame):
-    raise _Terminated
+    raise _Terminated(signum)
 
 
 def main() -> int:
-    # SIGTERM too (cli.main installs its own handler, which does the same later on)
-    if signal.getsignal(signal.SIGTERM) == signal.SIG_DFL:
-        signal.signal(signal.SIGTERM, _on_sigterm)
+    # SIGTERM and SIGHUP too (cli.main installs its own handlers, which do the same later on)
+    for s in (signal.SIGTERM, signal.SIGHUP):
+        if signal.getsignal(s) == signal.SIG_DFL:
+            signal.signal(s, _on_sigterm)
     try:
         from sssphere import cli
     except KeyboardInterrupt:
         print("sssphere: interrupted", file=sys.stderr)
         return 130
-    except _Terminated:
-        print("sssphere: interrupted", file=sys.stderr)
-        return 128 + signal.SIGTERM
+    except _Terminated as e:
+        if e.args[0] != signal.SIGHUP:  # no terminal to say it to
+            print("sssphere: interrupted", file=sys.stderr)
+        return 128 + e.args[0]
     return cli.main()

@@ -535,19 +535,31 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-# SIGTERM (kill, batch schedulers, container runtimes) stops a long command as Ctrl-C does:
-# the work done so far is written, and the exit status is 143 (128 + SIGTERM) instead of 130.
-_terminated = False
+# SIGTERM (kill, batch schedulers, container runtimes) and SIGHUP (a closed terminal, an ssh
+# session that dropped) stop a long command as Ctrl-C does: the work done so far is written,
+# and the exit status is 128 + the signal (143, 129) instead of 130.
+_STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+_stopped_by = 0  # the signal other than SIGINT that stopped the command, if any
+
+
+def _note_stop(signum: int) -> None:
+    global _stopped_by
+    if signum != signal.SIGINT:
+        _stopped_by = _stopped_by or signum
+    if signum == signal.SIGHUP:  # no terminal to write to: writes to it would fail (EIO)
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        for fd in (1, 2):
+            os.dup2(devnull, fd)
+        os.close(devnull)
 
 
 def _on_sigterm(signum, frame):
-    global _terminated
-    _terminated = True
+    _note_stop(signum)
     raise KeyboardInterrupt
 
 
 class _Signals:
-    """SIGINT and SIGTERM while a render runs and its image is written. The first stops the
+    """SIGINT, SIGTERM and SIGHUP while a render runs and its image is written. The first stops the
     render at its next progress check (about ten times a second), as Ctrl-C does in the
     API; neither raises, so the image rendered so far is still written whole, however late
     the signal comes (a render that had finished, its AOVs, the denoiser, the write) and if
@@ -560,8 +572,8 @@ class _Signals:
 
     def __enter__(self) -> "_Signals":
         self._previous = {}
-        for s in (signal.SIGINT, signal.SIGTERM):
-            if signal.getsignal(s) is not signal.SIG_IGN:
+        for s in _STOP_SIGNALS:
+            if signal.getsignal(s) is not signal.SIG_IGN:  # nohup's SIGHUP stays ignored
                 self._previous[s] = signal.signal(s, self._on_signal)
         return self
 
@@ -570,8 +582,7 @@ class _Signals:
             signal.signal(s, handler)
 
     def _on_signal(self, signum, frame) -> None:
-        global _terminated
-        _terminated = _terminated or signum == signal.SIGTERM
+        _note_stop(signum)
         self.count += 1
         if self.count == 2:
             for s in self._previous:
@@ -597,12 +608,14 @@ def _stdout_reader_gone() -> bool:
 
 
 def _interrupted_status() -> int:
-    return 128 + signal.SIGTERM if _terminated else 130
+    return 128 + _stopped_by if _stopped_by else 130
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    signal.signal(signal.SIGTERM, _on_sigterm)
+    for s in (signal.SIGTERM, signal.SIGHUP):
+        if signal.getsignal(s) is not signal.SIG_IGN:
+            signal.signal(s, _on_sigterm)
     try:
         status = args.func(args)
         sys.stdout.flush()  # here, where a closed pipe is caught below, not at exit
