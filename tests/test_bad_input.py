@@ -767,6 +767,18 @@ def test_an_output_that_is_a_pipe_or_device_is_refused(tmp_path):
     assert (tmp_path / "pipe.exr").is_fifo() and os.path.exists(os.devnull)
 
 
+def test_a_read_only_image_is_refused_even_for_root(tmp_path):
+    """A file made read-only is refused, not replaced (docs/reliability.md); access(W_OK)
+    passes every file for root, which replaced it (a review, as root)."""
+    out = tmp_path / "kept.png"
+    sssphere.write_image(out, np.zeros((2, 2, 3)))
+    before = out.read_bytes()
+    out.chmod(0o444)
+    with pytest.raises(SceneError, match="kept.png: is read-only"):
+        sssphere.write_image(out, np.ones((2, 2, 3)))
+    assert out.read_bytes() == before and out.stat().st_mode & 0o777 == 0o444
+
+
 def test_an_image_written_over_another_keeps_its_permissions_and_any_name_fits(tmp_path):
     out = tmp_path / "private.exr"
     sssphere.write_image(out, np.zeros((2, 2, 3)))
