@@ -351,6 +351,11 @@ def test_bad_environment_maps_are_refused_with_file_and_field_named(tmp_path, sm
     scene["lights"] = [{"type": "environment", "map": "ok.exr", "scale": 2}]
     img = sssphere.render(sssphere.load_scene(scene, base_dir=tmp_path), spp=2)
     assert np.isfinite(img).all() and img.max() > 0
+    # the largest radiance allowed, from the largest scale allowed: loads (it was refused,
+    # the double 1e30 below the float one, by a message saying 1e+30 is above 1e30)
+    sssphere.write_image(tmp_path / "ones.exr", np.ones((4, 8, 3), np.float32))
+    scene["lights"] = [{"type": "environment", "map": "ones.exr", "scale": 1e30}]
+    sssphere.load_scene(scene, base_dir=tmp_path)
 
 
 def _write_binary_stl(path, count_in_header=None, name=b"binary cube"):

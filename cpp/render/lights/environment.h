@@ -277,7 +277,9 @@ inline LightType environment_light_type() {
                                 ? float(number_in(j["scale"], f.at("scale"), 0.0, 1e30,
                                                   "a number in [0, 1e30]"))
                                 : 1.f;
-        if (double(brightest) * scale > kMaxRadiance)
+        // against 1e30 as a float, as scale and the pixels are: 1e30 times a pixel of 1,
+        // both allowed, is allowed (the double 1e30 is below the float's 1e30)
+        if (double(brightest) * scale > double(float(kMaxRadiance)))
             f.at("scale").error(scale, " times the map's brightest pixel, ", brightest,
                                 " at (", brightest_px % img.width, ", ",
                                 brightest_px / img.width, ") of '", path.string(),
