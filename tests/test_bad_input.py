@@ -675,6 +675,20 @@ def test_a_key_given_twice_is_refused(tmp_path, small_scene):
         sssphere.load_scene(tmp_path / "dup.json")
 
 
+def test_a_scene_file_not_in_utf8_is_placed_as_the_cpp_parser_places_it(tmp_path, small_scene):
+    """A Latin-1 scene file: Python's codec said only a byte position ('utf-8' codec can't
+    decode byte 0xe8 in position 146); the parser names the line, column and field, in both
+    command lines and with --set (a review)."""
+    small_scene["shapes"][0]["name"] = "caf\xe9"
+    (tmp_path / "latin.json").write_bytes(json.dumps(small_scene, ensure_ascii=False)
+                                          .encode("latin-1"))
+    expected = r"latin.json: malformed JSON at shapes\[0\]\.name: parse error at line 1, column \d+"
+    with pytest.raises(SceneError, match=expected):
+        sssphere.load_scene(tmp_path / "latin.json")
+    with pytest.raises(SceneError, match=expected):
+        load_scene_with(tmp_path / "latin.json", ["render.seed=5"])
+
+
 def test_a_byte_order_mark_is_read_as_the_cpp_parser_reads_it(tmp_path, small_scene):
     """A scene file saved with a UTF-8 BOM (Windows editors write one) loads as it does in
     `sssphere-render`: one leading BOM is skipped (Python's json refused it, with a

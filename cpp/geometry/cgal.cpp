@@ -112,6 +112,8 @@ TriangleMesh load_mesh(const std::string& path, MeshKind kind) {
     namespace fs = std::filesystem;
     std::string ext = fs::path(path).extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+    std::error_code ec;  // a directory is said to be one, not a format '' (or '.d')
+    if (fs::is_directory(path, ec)) check_input_file(path, "mesh file");
     if (ext != ".obj" && ext != ".ply" && ext != ".off" && ext != ".stl")
         fail(path, ": unsupported mesh format '", ext,
              "' (allowed: .obj, .ply, .off, .stl)");

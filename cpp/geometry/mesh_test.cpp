@@ -1,5 +1,6 @@
 #include "geometry/mesh.h"
 
+#include <filesystem>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -98,6 +99,11 @@ TEST(Mesh, RefusesMissingMalformedAndUnknownFiles) {
     TempFile unknown("mesh.xyz", "1 2 3\n");
     EXPECT_NE(error_of(unknown.path()).find("unsupported mesh format"),
               std::string::npos);
+    // a directory is said to be one (it was "unsupported mesh format ''")
+    const std::string dir = std::filesystem::path(unknown.path()).parent_path().string();
+    EXPECT_NE(error_of(dir).find(dir + ": is a directory, not a mesh file"),
+              std::string::npos)
+        << error_of(dir);
 }
 
 TEST(Mesh, ObjQuadsAreTriangulatedAndStlVerticesMerged) {

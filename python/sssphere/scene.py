@@ -370,13 +370,23 @@ def load_scene(
         raise SceneError(f"{path}: is not a regular file (a FIFO, device or socket?); a scene file "
                          "must be a regular file")
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
+        text = _scene_text(path)
+    except OSError as e:
         raise SceneError(f"{path}: scene file cannot be read: {e}") from None
     except MemoryError:
         raise SceneError(f"{path}: scene file of {path.stat().st_size} bytes does not fit in "
                          "memory") from None
     return _warned(Scene(text, str(path.parent), str(path), threads))
+
+
+def _scene_text(path: Path) -> Union[str, bytes]:
+    """A scene file's text; its bytes where they are not UTF-8, for the parser to say where
+    (line, column and field, as sssphere-render does), not Python's codec."""
+    data = path.read_bytes()
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        return data
 
 
 def load_mesh(path: Union[str, os.PathLike]) -> tuple[np.ndarray, np.ndarray]:
@@ -419,8 +429,8 @@ def load_scene_with(path: Union[str, os.PathLike], assignments: list[str] | None
     if not path.is_file():
         return load_scene(path, threads=threads)  # says what is wrong with the path
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError, MemoryError):
+        text = _scene_text(path)
+    except (OSError, MemoryError):
         return load_scene(path, threads=threads)  # says what is wrong with the file
     text = _core.edit_scene_json(text, str(path), list(assignments or []), width or 0,
                                  height or 0)
