@@ -78,6 +78,8 @@ def test_render_scene_file_to_exr_and_png(tmp_path, small_scene):
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--set", "shapes[0].medium.albedo=[1,2,3]"],
          "s.json: shapes[0].medium.albedo: value [1,2,3] is not allowed"),
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--set", "spp"], "expected PATH=VALUE"),
+        (["render", "{scene}", "-o", "{tmp}/x.exr", "--set", "camera.lens.f=1"],
+         "camera.lens: unknown key 'lens'"),  # made on the way, then checked
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--set", " =3"], "--set  =3: no PATH before '='"),
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--integrator", "pt", "--step-nee", "event"],
          "step_nee 'event' is an option of integrator 'st' (the integrator is 'pt')"),
@@ -630,7 +632,10 @@ def test_time_limit_option_stops_the_render_and_reports_the_spp(tmp_path, slow_s
 def test_set_and_image_size_change_the_scene(tmp_path, small_scene, cli):
     """--set PATH=VALUE (JSON, or a bare string) and --width (the height follows the aspect
     ratio, 24x16 -> 36x24) render what the edited scene renders, bit for bit, in both command
-    lines (one implementation: render/scene.h, edit_scene_json)."""
+    lines (one implementation: render/scene.h, edit_scene_json). The scene has no `render`
+    block: --set render.integrator makes it (it was "render is not in the scene", though the
+    docs gave that very example)."""
+    del small_scene["render"]
     (tmp_path / "s.json").write_text(json.dumps(small_scene))
     args = [tmp_path / "s.json", "-o", tmp_path / "x.exr", "--spp", 2, "--quiet",
             "--set", "shapes[0].medium.sigma_t=[3, 4, 5]", "--set", "render.integrator=pt",

@@ -689,8 +689,14 @@ std::string set_scene_field(json& root, const std::string& assignment) {
                 fail("--set ", path, ": ", where.empty() ? "the scene" : where,
                      " is not an object");
             const std::string name = where.empty() ? key : where + "." + key;
-            if (!last && !node->contains(key))
-                fail("--set ", path, ": ", name, " is not in the scene");
+            // An object on the way that is not there is made (an optional block: the
+            // scene's `render`, a medium's `transform`); the parser then checks its keys.
+            // A list is not: its entries' positions would be guesses.
+            if (!last && !node->contains(key)) {
+                if (!std::holds_alternative<std::string>(tokens[k + 1]))
+                    fail("--set ", path, ": ", name, " is not in the scene");
+                (*node)[key] = json::object();
+            }
             node = &(*node)[key];
             where = name;
         }
