@@ -537,12 +537,24 @@ def test_interrupted_train_leaves_the_output_directory_unchanged(tiny_data, tmp_
     code = cli_main(["train", str(tiny_data), "-o", str(tmp_path / "m"), "--epochs", "1",
                      "--quiet"])
     assert code == 130
-    assert f"interrupted: wrote nothing to {tmp_path / 'm'}" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert f"interrupted: wrote nothing to {tmp_path / 'm'}" in err
     assert {p.name: p.read_bytes() for p in (tmp_path / "m").iterdir()} == before
+    # The finished LengthGen is kept beside it (Ctrl-C lost minutes of training: a review),
+    # and the command that completes that set is said; it does.
+    partial = tmp_path / "m.partial"
+    assert sorted(p.name for p in partial.iterdir()) == ["cvae_checkpoint.pt", "lengthgen.json",
+                                                        "lengthgen.onnx"]
+    hint = f"'sssphere train {tiny_data} -o {partial} --models PathGen,EventGen'"
+    assert f"kept the finished LengthGen in {partial}; {hint}" in err, err
     # A directory the run created is gone again.
     assert cli_main(["train", str(tiny_data), "-o", str(tmp_path / "new"), "--epochs", "1",
                      "--quiet"]) == 130
     assert not (tmp_path / "new").exists()
+    ctrl_c_while_training("none")  # train the rest into the partial set: a whole set
+    assert cli_main(["train", str(tiny_data), "-o", str(partial), "--epochs", "1", "--quiet",
+                     "--models", "PathGen,EventGen"]) == 0
+    sssphere.ScatteringModel.load(partial)
 
 
 def test_export_of_non_finite_weights_names_the_layer_and_writes_nothing(trained, tmp_path,

@@ -267,6 +267,10 @@ def _cmd_train(args: argparse.Namespace) -> int:
     except KeyboardInterrupt as e:  # train() moves the files into place only when all are done
         print(_interrupted_write(e, export, args.output, "the models there are unchanged"),
               file=sys.stderr)
+        if isinstance(e, train.InterruptedWithFinishedModels):
+            print(f"sssphere: kept the finished {', '.join(e.finished)} in {e.partial}; "
+                  f"'sssphere train {args.data} -o {e.partial} --models "
+                  f"{','.join(e.missing)}' trains the rest into it", file=sys.stderr)
         return _interrupted_status()
     if args.quiet:
         print(f"wrote the models to {args.output}", file=sys.stderr)

@@ -16,6 +16,7 @@ cuts training short (then the schedule follows the clock and the result depends 
 
 from __future__ import annotations
 
+import contextlib
 import math
 import sys
 import time
@@ -383,7 +384,7 @@ def train(data_path, out_dir, epochs: int | None = None, seed: int = 0,
     # interrupted or failed run leaves the models there as they were (not a mixed set).
     # staged_output checks the output directory first, before minutes of training.
     try:
-        with staged_output(out, names) as stage:
+        with staged_output(out, names) as stage, _keeping_finished(out, models, trained):
             share_sum = sum(TIME_SHARES[m] for m in models)
             for spec in SPECS:
                 if spec.name not in models:
@@ -428,6 +429,40 @@ def train(data_path, out_dir, epochs: int | None = None, seed: int = 0,
     if progress:
         print(format_summary(results), file=sys.stderr)
     return results
+
+
+class InterruptedWithFinishedModels(KeyboardInterrupt):
+    """Ctrl-C or SIGTERM after some models had finished: the output directory is unchanged,
+    and the finished models are in ``partial`` (``finished``; ``missing`` are the rest)."""
+
+    def __init__(self, partial: Path, finished: list, missing: list):
+        super().__init__()
+        self.partial, self.finished, self.missing = partial, finished, missing
+
+
+@contextlib.contextmanager
+def _keeping_finished(out: Path, models, trained: dict):
+    """On an interrupt, the models `trained` so far go to OUT.partial (their files together,
+    as staged_output moves them), so that minutes of training are not lost: ``sssphere train
+    DATA -o OUT.partial --models REST`` completes that set. The output directory itself
+    stays as it was (never a mix of old and new models)."""
+    from sssphere.learn.export import save_checkpoint, staged_output, write_model
+
+    try:
+        yield
+    except KeyboardInterrupt as e:
+        finished = [s for s in SPECS if s.name in trained]
+        missing = [m for m in models if m not in trained]
+        if not finished or not missing or isinstance(e, InterruptedWithFinishedModels):
+            raise
+        partial = out.with_name(out.name + ".partial")
+        names = [f"{s.file_stem}.{ext}" for s in finished for ext in ("json", "onnx")]
+        with staged_output(partial, names + ["cvae_checkpoint.pt"]) as stage:
+            for spec in finished:
+                write_model(stage, spec, *trained[spec.name])
+            save_checkpoint(stage / "cvae_checkpoint.pt", trained)
+        raise InterruptedWithFinishedModels(partial, [s.name for s in finished],
+                                            missing) from None
 
 
 def format_summary(results: dict) -> str:
