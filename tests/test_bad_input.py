@@ -868,3 +868,19 @@ def test_a_loop_of_symbolic_links_is_named(tmp_path, small_scene):
     os.symlink(tmp_path / "c.json", tmp_path / "d.json")
     with pytest.raises(SceneError, match="c.json: is a loop of symbolic links, not a scene file"):
         sssphere.load_scene(tmp_path / "c.json")
+
+
+def test_a_tiny_direction_is_a_direction(small_scene):
+    """A directional light's direction (or the camera's up) is refused only when zero: one
+    of [1e-30, 0, 0] was refused as "not a non-zero vector" (its float length underflows; a
+    review). It is the direction [1, 0, 0]."""
+    def with_direction(d):
+        scene = json.loads(json.dumps(small_scene))
+        scene["lights"] = [{"type": "directional", "direction": d, "irradiance": 2}]
+        scene["camera"]["up"] = [0, 1e-30, 0]
+        return sssphere.render(sssphere.load_scene(scene), spp=2)
+
+    np.testing.assert_array_equal(with_direction([-1e-30, -1e-31, 0]), with_direction([-1, -0.1, 0]))
+    assert error_of({**small_scene, "lights": [{"type": "directional", "direction": [0, 0, 0],
+                                                "irradiance": 1}]}).endswith(
+        "lights[0].direction: value [0,0,0] is not allowed (allowed: a non-zero vector)")

@@ -57,11 +57,20 @@ inline Vec3 rgb_in(const json& j, const Field& f, double lo, double hi,
     return v;
 }
 
+// A direction (its length does not matter). One too short for float's length (|v|^2
+// underflows: [1e-30, 0, 0]) is scaled to a largest component of 1 in double: it was
+// refused as "not a non-zero vector".
 inline Vec3 nonzero_vec3(const json& j, const Field& f) {
-    Vec3 v = vec3(j, f);
-    if (!(length(v) > 0.f))
+    const Vec3 v = vec3(j, f);
+    if (length(v) > 0.f) return v;
+    double c[3], largest = 0.0;
+    for (int i = 0; i < 3; ++i) {
+        c[i] = j[i].get<double>();
+        largest = std::max(largest, std::abs(c[i]));
+    }
+    if (!(largest > 0.0))
         f.error("value ", show(j), " is not allowed (allowed: a non-zero vector)");
-    return v;
+    return Vec3(float(c[0] / largest), float(c[1] / largest), float(c[2] / largest));
 }
 
 inline std::string string_in(const json& j, const Field& f,
