@@ -561,6 +561,13 @@ def test_bad_image_paths(tmp_path):
                                              "not allowed"):
             sssphere.write_image(tmp_path / "a.png", np.zeros((2, 2, 3), dtype))
     assert not (tmp_path / "a.png").exists()
+    # NaN came out black in a PNG, silently (a review); an EXR keeps it
+    nan = np.zeros((2, 3, 3), np.float32)
+    nan[1, 2, 0] = np.nan
+    with pytest.raises(SceneError, match=r"a.png: image holds 1 non-finite value\(s\) \(first "
+                                         r"nan at pixel \(2, 1\)\)"):
+        sssphere.write_image(tmp_path / "a.png", nan)
+    sssphere.write_image(tmp_path / "a.exr", nan)
 
 
 # ---------------------------------------------------------------------------------------------

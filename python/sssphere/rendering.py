@@ -596,6 +596,11 @@ def write_image(path: Union[str, os.PathLike], image: np.ndarray) -> None:
     image = np.asarray(image, dtype=np.float32)
     if image.ndim == 2:
         image = image[:, :, None]
+    if str(path).lower().endswith(".png") and not np.isfinite(image).all():
+        bad = np.argwhere(~np.isfinite(image))[0]  # a PNG would show them black
+        raise SceneError(f"{path}: image holds {int((~np.isfinite(image)).sum())} non-finite "
+                         f"value(s) (first {image[tuple(bad)]} at pixel ({bad[1]}, {bad[0]})), "
+                         "which a PNG cannot show (write an .exr)")
     from sssphere import _image
 
     _image.write_image(str(path), image)
