@@ -283,9 +283,10 @@ def test_every_simd_target_can_be_pinned_and_samples_alike(models):
         (dict(g=-0.97), "outside the training range [-0.95, 0.95]"),
         (dict(albedo=1.5), "albedo[0] = 1.5 is not allowed"),
         (dict(albedo=-0.1), "albedo[0]"),
-        (dict(n=0), "n must be an integer >= 1"),
-        (dict(n=2.5), "n must be an integer >= 1"),
-        (dict(n=True), "n must be an integer >= 1"),
+        (dict(n=0), "n must be an integer from 1 to 2**31 - 1, got 0"),
+        (dict(n=2.5), "n must be an integer from 1"),
+        (dict(n=True), "n must be an integer from 1"),
+        (dict(n=10**13), "n must be an integer from 1 to 2**31 - 1, got 10000000000000"),
         (dict(sigma_t=[1.0, 2.0]), "sigma_t must be a number or an array of shape (4,)"),
         (dict(g=np.zeros((4, 1))), "g must be a number or an array of shape (4,)"),
         (dict(albedo="dark"), "albedo must be a number or a 1-D array"),
@@ -344,3 +345,7 @@ def test_evaluate_errors(models):
         model.evaluate("SizeGen", np.zeros((3, 4), np.float32))
     with pytest.raises(ValueError, match="impl 'gpu' is not allowed"):
         model.evaluate("LengthGen", np.zeros((3, 4), np.float32), impl="gpu")
+    x = np.zeros((4, 8), np.float32)
+    x[2, 5] = np.nan  # gave finite means and log-variances (a review)
+    with pytest.raises(ValueError, match=r"x\[2, 5\] = nan is not allowed \(allowed: finite inputs\)"):
+        model.evaluate("PathGen", x)

@@ -112,8 +112,10 @@ class ScatteringModel:
         dict of numpy arrays: ``N`` (n,) int64, ``cos_theta``, ``alpha``, ``beta`` (n,)
         float32, ``X`` (n, 3) and ``W`` (n, 3) float32, in the exit frame.
         """
-        if isinstance(n, bool) or not isinstance(n, numbers.Integral) or n < 1:
-            raise ValueError(f"n must be an integer >= 1, got {n!r}")
+        if isinstance(n, bool) or not isinstance(n, numbers.Integral) or not 1 <= n < 2**31:
+            # the cap of sphere_walks: a sample's results take 40 bytes, 2^31 of them 80 GiB
+            # (10^13 raised numpy's MemoryError "72.8 TiB", naming nothing)
+            raise ValueError(f"n must be an integer from 1 to 2**31 - 1, got {n!r}")
         n = int(n)
         if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or not 0 <= seed < 2**64:
             raise ValueError(f"seed must be an integer in [0, 2**64), got {seed!r}")
@@ -145,6 +147,10 @@ class ScatteringModel:
         exist for parity tests.
         """
         x = np.ascontiguousarray(x, dtype=np.float32)
+        if not np.isfinite(x).all():  # NaN in gave finite numbers out (a review)
+            bad = np.argwhere(~np.isfinite(x))[0]
+            raise ValueError(f"x[{bad[0]}, {bad[1]}] = {x[tuple(bad)]} is not allowed "
+                             "(allowed: finite inputs)")
         return self._core.evaluate(model_name, x, impl)
 
     def input_width(self, model_name: str) -> int:
