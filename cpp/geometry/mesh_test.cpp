@@ -1,9 +1,9 @@
 #include "geometry/mesh.h"
 
-#include <filesystem>
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 
 #include "core/check.h"
 #include "testing/temp_file.h"

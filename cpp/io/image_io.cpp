@@ -97,8 +97,8 @@ void check_output_image(const std::string& path) {
             fail(path,
                  ": is a device, pipe or socket, not a file (an output image is a "
                  "new file or replaces a regular one)");
-        // access() alone passes everything for root (containers often run as root): a file
-        // with no write permission for anyone is read-only too
+        // access() alone passes everything for root (containers often run as root): a
+        // file with no write permission for anyone is read-only too
         if ((::access(target.c_str(), W_OK) != 0 && errno == EACCES) ||
             (st.st_mode & (S_IWUSR | S_IWGRP | S_IWOTH)) == 0)
             fail(path, ": is read-only (make it writable or choose another output)");

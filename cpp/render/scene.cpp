@@ -429,9 +429,10 @@ RenderSettings parse_render(const json& j, const Field& f, const std::string& ba
 }
 
 // Warnings (not errors) where a scene goes past what float precision renders within 1 %
-// (docs/robustness.md, "Limits"): a shape whose mean thickness (mean chord 4 V / A, twice
-// the thickness of a slab) is below kMinThickness of the shapes' extent, or a camera or
-// light farther than kMaxDistance extents from them.
+// (docs/robustness.md, "Limits"): a medium whose mean thickness (mean chord 4 V / A,
+// twice the thickness of a slab) is below kMinThickness of twice its largest coordinate
+// in the render frame, a dense one whose crossings skip more than kMaxCrossingDepth mean
+// free paths, or a camera or light farther than kMaxDistance extents from the shapes.
 constexpr double kMinThickness = 1.5e-4, kMaxDistance = 1e5;
 // A boundary crossing's skip relative to the coordinates, and the optical depth past
 // which a medium is warned of.
@@ -482,7 +483,7 @@ void warn_past_limits(SceneDesc& d, double extent) {
                 "dense media far apart render best as scenes of their own");
     }
     auto check_distance = [&](Vec3 p, const std::string& what) {
-        const double r = length(p);  // from the shapes' centre, the render frame's origin
+        const double r = length(p);  // from the media's centre, the render frame's origin
         if (r > kMaxDistance * extent)
             d.warnings.push_back(
                 d.source + ": " + what + " lies " + fmt(r / extent) +
