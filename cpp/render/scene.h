@@ -250,7 +250,8 @@ public:
     // cells) and build time (DistanceGrid::build refines only near the surface). A medium
     // at most 16 (32) mean free paths across gets 16 (32) cells, none over
     // kCoarseGridCellMeanFreePaths thick: a finer grid there saved no time (sphere.json,
-    // 20 mean free paths across: pt and st within 1 % at 16, 32 and 64 cells) and took
+    // 20 mean free paths across: pt and st within 3 %, the noise, at 16, 32 and 64 cells;
+    // bench/small_media.py) and took
     // 1.9 s to build instead of 0.3 s.
     static int auto_grid_resolution(const Shape& shape);
     static constexpr float kCoarseGridCellMeanFreePaths = 1.f;
