@@ -85,6 +85,11 @@ def error_of(scene, **kwargs):
         (lambda s: s["lights"].append({"type": "area", "corner": [0, 0, 0], "edge1": [1, 0, 0],
                                        "edge2": [2, 0, 0], "radiance": 1}),
          ["lights[2]", "no area"]),
+        # an area single precision cannot resolve (its squares underflow) is not "no area"
+        (lambda s: s["lights"].append({"type": "area", "corner": [0, 0, 0],
+                                       "edge1": [1e-12, 0, 0], "edge2": [0, 1e-12, 0],
+                                       "radiance": 1}),
+         ["lights[2]", "span an area of 1e-24", "at least 1e-18"]),
         (lambda s: s["shapes"][0]["medium"].update(g=math.nan), ["shapes[0].medium.g", "finite"]),
         (lambda s: s["camera"].update(origin=[0, 0, math.inf]), ["camera.origin[2]", "finite"]),
         (lambda s: s.update(shapes=[]), ["shapes", "non-empty"]),

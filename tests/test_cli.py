@@ -81,6 +81,9 @@ def test_render_scene_file_to_exr_and_png(tmp_path, small_scene):
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--set", "camera.lens.f=1"],
          "camera.lens: unknown key 'lens'"),  # made on the way, then checked
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--set", " =3"], "--set  =3: no PATH before '='"),
+        # a number JSON cannot hold is an error, not the string "1e400"
+        (["render", "{scene}", "-o", "{tmp}/x.exr", "--set", "camera.width=1e400"],
+         "--set camera.width: malformed JSON: number overflow parsing '1e400'"),
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--integrator", "pt", "--step-nee", "event"],
          "step_nee 'event' is an option of integrator 'st' (the integrator is 'pt')"),
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--width", "0"], "--width: must be 1 to 16384"),
@@ -807,6 +810,21 @@ def test_a_turntable_holds_one_frame_at_a_time(tmp_path, small_scene, monkeypatc
     assert len(frames) == 5 and sorted(p.name for p in tmp_path.glob("f*.exr")) == [
         f"f{k:02d}.exr" for k in range(5)]
     assert max(most_alive) == 0, most_alive
+
+
+def test_a_turntable_pattern_may_hold_a_percent_sign(tmp_path, small_scene, cli_in_process,
+                                                    capsys):
+    """%% in the frame pattern is a literal %, as in printf: 'f100%%_%d.png' was refused as
+    holding more than one conversion. A pattern with two frame numbers still is."""
+    small_scene["render"]["spp"] = 1
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    status = cli_in_process(["render", str(tmp_path / "s.json"), "-o",
+                             str(tmp_path / "f100%%_%d.png"), "--turntable", "2", "--quiet"])
+    assert status == 0
+    assert sorted(p.name for p in tmp_path.glob("f*.png")) == ["f100%_0.png", "f100%_1.png"]
+    status = cli_in_process(["render", str(tmp_path / "s.json"), "-o",
+                             str(tmp_path / "g%d_%d.png"), "--turntable", "2", "--quiet"])
+    assert status == 1 and "one %d or %03d (and %% for a %)" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("cli", ["python", "cpp"])

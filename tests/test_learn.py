@@ -187,8 +187,15 @@ def test_training_data_missing_or_corrupt_file(tmp_path):
     with pytest.raises(DataError, match="none.npz: training-data file does not exist"):
         load_training_data(tmp_path / "none.npz")
     (tmp_path / "junk.npz").write_bytes(b"not a zip file at all")
-    with pytest.raises(DataError, match="junk.npz: not a readable .npz file"):
+    with pytest.raises(DataError, match="junk.npz: not a .npz file \\(not a zip archive") as e:
         load_training_data(tmp_path / "junk.npz")
+    assert "pickle" not in str(e.value)  # np.load's word for it
+    np.save(tmp_path / "one.npy", np.zeros(3))
+    with pytest.raises(DataError, match="one.npy: not a .npz file \\(a single .npy array"):
+        load_training_data(tmp_path / "one.npy")
+    (tmp_path / "cut.npz").write_bytes(b"PK\x03\x04 and then nothing")
+    with pytest.raises(DataError, match="cut.npz: not a readable .npz file"):
+        load_training_data(tmp_path / "cut.npz")
 
 
 @pytest.mark.parametrize("enc", [Encoding("affine", a=2.0, b=-1.0),

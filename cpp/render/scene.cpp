@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <regex>
 #include <set>
 #include <sstream>
 #include <variant>
@@ -641,9 +642,13 @@ std::string set_scene_field(json& root, const std::string& assignment) {
         fail("--set ", assignment,
              ": no PATH before '='; expected PATH=VALUE, e.g. "
              "shapes[0].medium.sigma_t=1000");
-    // JSON (checked as a scene file is: a key given twice is refused), else a string
-    const json value =
-        json::accept(text) ? parse_json(text, "--set " + path) : json(text);
+    // JSON (checked as a scene file is: a key given twice is refused), else a string. A
+    // number JSON cannot hold (1e400) is an error, not the string "1e400".
+    static const std::regex json_number(
+        R"(-?(0|[1-9][0-9]*)(\.[0-9]+)?([eE][-+]?[0-9]+)?)");
+    const json value = json::accept(text) || std::regex_match(text, json_number)
+                           ? parse_json(text, "--set " + path)
+                           : json(text);
     // Tokens: names, and [index] after a name.
     std::vector<std::variant<std::string, size_t>> tokens;
     size_t i = 0;

@@ -167,10 +167,12 @@ _FRAME_NUMBER = re.compile(r"%0?\d*d")
 
 
 def _frame_pattern(output: str, frames: int) -> str:
-    """The -o of --turntable: one printf-style frame number (%d, %03d)."""
-    if len(_FRAME_NUMBER.findall(output)) != 1 or output.count("%") != 1:
+    """The -o of --turntable: one printf-style frame number (%d, %03d); %% is a %."""
+    rest = output.replace("%%", "")
+    if len(_FRAME_NUMBER.findall(rest)) != 1 or rest.count("%") != 1:
         raise SceneError(f"{output}: --turntable {frames} writes one image per frame: give -o "
-                         "a frame number pattern with one %d or %03d, e.g. frames/%03d.png")
+                         "a frame number pattern with one %d or %03d (and %% for a %), e.g. "
+                         "frames/%03d.png")
     return output
 
 

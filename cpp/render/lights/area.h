@@ -38,6 +38,10 @@ SSS_FN LightEval area_light_eval(LightData l, Vec3 p, Vec3 w, float t,
 }
 
 #ifdef __cplusplus
+// The smallest quad area a scene may give: below it the squares in length(cross(b, c))
+// underflow single precision (about 1.2e-38) and the area reads as 0.
+constexpr double kMinAreaLightArea = 1e-18;
+
 inline LightType area_light_type() {
     using namespace json_fields;
     LightType t;
@@ -50,11 +54,24 @@ inline LightType area_light_type() {
         l.a = (point3(require(j, "corner", f), f.at("corner")) - ctx.frame).to_float();
         l.b = vec3(require(j, "edge1", f), f.at("edge1"));
         l.c = vec3(require(j, "edge2", f), f.at("edge2"));
-        l.scalar = length(cross(l.b, l.c));
-        if (!(l.scalar > 0.f))
+        // The area in double, so that the message can tell parallel edges from edges
+        // too small for single precision (whose squares underflow in length()).
+        const json &e1 = j["edge1"], &e2 = j["edge2"];
+        double n[3];
+        for (int i = 0; i < 3; ++i) {
+            const int a = (i + 1) % 3, b = (i + 2) % 3;
+            n[i] = e1[a].get<double>() * e2[b].get<double>() -
+                   e1[b].get<double>() * e2[a].get<double>();
+        }
+        const double area = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        if (!(area > 0.0))
             f.error(
                 "edge1 and edge2 span no area (allowed: two non-parallel, non-zero "
                 "edges)");
+        if (area < kMinAreaLightArea)
+            f.error("edge1 and edge2 span an area of ", area, " (allowed: at least ",
+                    kMinAreaLightArea, ", which single precision resolves)");
+        l.scalar = length(cross(l.b, l.c));
         l.value = light_fields::radiometric(j, f, "radiance");
         return l;
     };

@@ -206,7 +206,17 @@ def load_training_data(path) -> TrainingData:
     if not path.is_file():
         _fail(path, "training-data file does not exist")
     try:
-        with np.load(path, allow_pickle=False) as npz:
+        with open(path, "rb") as f:
+            head = f.read(6)
+    except OSError as e:
+        _fail(path, f"cannot read the training-data file ({e.strerror or e})")
+    if not head.startswith((b"PK\x03\x04", b"PK\x05\x06")):  # np.load would speak of pickles
+        what = "a single .npy array" if head.startswith(b"\x93NUMPY") else "not a zip archive"
+        _fail(path, f"not a .npz file ({what}; expected the .npz archive of arrays that "
+                    "`sssphere datagen` writes)")
+    try:
+        # np.load given the path leaves it open when the archive is broken (a ResourceWarning)
+        with open(path, "rb") as f, np.load(f, allow_pickle=False) as npz:
             arrays = {k: npz[k] for k in npz.files}
     except (zipfile.BadZipFile, OSError, ValueError, EOFError) as e:
         _fail(path, f"not a readable .npz file ({type(e).__name__}: {e})")
