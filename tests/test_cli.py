@@ -66,13 +66,13 @@ def test_render_scene_file_to_exr_and_png(tmp_path, small_scene):
     [
         (["render", "{scene}", "-o", "{tmp}/x.jpg"], "unsupported image format '.jpg'"),
         (["render", "{tmp}/none.json", "-o", "{tmp}/x.exr"], "none.json: scene file does not exist"),
-        (["render", "{scene}", "-o", "{tmp}/x.exr", "--spp", "0"], "spp must be an integer >= 1"),
+        (["render", "{scene}", "-o", "{tmp}/x.exr", "--spp", "0"], "--spp must be an integer >= 1"),
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--integrator", "mc"], "integrator 'mc' is not allowed"),
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--integrator", "st", "--models", "{tmp}/none"],
          "none: not a directory"),
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--sphere-threshold", "-1"], "must be a number >= 0"),
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--step-nee", "paper"],
-         "step_nee 'paper' is not allowed (allowed: 'hits', 'event')"),
+         "--step-nee 'paper' is not allowed (allowed: 'hits', 'event')"),
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--set", "shapes[2].medium.sigma_t=1"],
          "--set shapes[2].medium.sigma_t: shapes has 1 entries, no [2]"),
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--set", "shapes[0].medium.albedo=[1,2,3]"],
@@ -467,7 +467,7 @@ def test_step_nee_option_of_both_clis(tmp_path, small_scene):
     r = subprocess.run([exe, str(tmp_path / "s.json"), "-o", str(tmp_path / "cpp.exr"), "--step-nee", "paper"],
                        capture_output=True, text=True)
     assert r.returncode != 0
-    assert "step_nee 'paper' is not allowed (allowed: 'hits', 'event')" in r.stderr, r.stderr
+    assert "--step-nee 'paper' is not allowed (allowed: 'hits', 'event')" in r.stderr, r.stderr
 
 
 def test_ctrl_c_writes_partial_image_cpp_cli(tmp_path, slow_scene):
@@ -543,12 +543,21 @@ def _render_with_both(tmp_path: Path, args: list[str]) -> list:
 
 
 def test_both_command_lines_reject_a_bad_option_value_alike(tmp_path, small_scene):
+    """A value out of range is a usage error naming the flag, status 2, as --width 0 is
+    (it was status 1 and named the option as the scene's render block does)."""
     (tmp_path / "s.json").write_text(json.dumps(small_scene))
-    for args, message in ((["--spp", "0"], "spp must be an integer >= 1"),
+    for args, message in ((["--spp", "0"], "--spp must be an integer >= 1"),
                           (["--spp", "x"], "--spp: expected an integer >= 1"),
-                          (["--integrator", "mc"], "integrator 'mc' is not allowed (allowed: 'pt', 'st')")):
+                          (["--integrator", "mc"],
+                           "--integrator 'mc' is not allowed (allowed: 'pt', 'st')"),
+                          (["--width", "0"], "--width")):
         for r in _render_with_both(tmp_path, args):
-            assert r.returncode == 1 and message in r.stderr, (args, r.stderr)
+            assert r.returncode == 2 and message in r.stderr, (args, r.stderr)
+    # The same values in the scene's render block are the scene's errors, status 1
+    small_scene["render"]["spp"] = 0
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    for r in _render_with_both(tmp_path, []):
+        assert r.returncode == 1 and "render.spp" in r.stderr, r.stderr
 
 
 def test_an_option_given_twice_takes_its_last_value_in_both(tmp_path, small_scene):
@@ -567,13 +576,13 @@ def test_a_bad_option_value_is_refused_before_the_scene_is_read(tmp_path, small_
     del small_scene["shapes"][0]["sphere"]
     small_scene["shapes"][0]["mesh"] = str(tmp_path / "missing.obj")
     (tmp_path / "s.json").write_text(json.dumps(small_scene))
-    for args, message in ((["--spp", "0"], "spp must be an integer >= 1"),
-                          (["--threads", "5000"], "threads must be an integer from 0 to 4096"),
-                          (["--time-limit", "-1"], "time_limit must be a number from 0 to 1e9"),
-                          (["--sphere-threshold", "-2"], "sphere_threshold must be a number >= 0"),
-                          (["--backend", "metal"], "backend 'metal' is not allowed")):
+    for args, message in ((["--spp", "0"], "--spp must be an integer >= 1"),
+                          (["--threads", "5000"], "--threads must be an integer from 0 to 4096"),
+                          (["--time-limit", "-1"], "--time-limit must be a number from 0 to 1e9"),
+                          (["--sphere-threshold", "-2"], "--sphere-threshold must be a number >= 0"),
+                          (["--backend", "metal"], "--backend 'metal' is not allowed")):
         for r in _render_with_both(tmp_path, args):
-            assert r.returncode == 1 and message in r.stderr, (args, r.stderr)
+            assert r.returncode == 2 and message in r.stderr, (args, r.stderr)
             assert "missing.obj" not in r.stderr, (args, r.stderr)
     with pytest.raises(sssphere.SceneError, match="spp must be an integer >= 1"):
         sssphere.render_full(tmp_path / "s.json", spp=0)

@@ -198,13 +198,20 @@ int main(int argc, char** argv) {
         return 2;
     }
 
+    // Each option's value before the scene is read (their combinations after it, with the
+    // scene's): a value out of range is a usage error, as --width 0 is
+    sss::RenderOverrides overrides;
     try {
-        sss::check_output_image(out_path);
-        // Each option's value before the scene is read (their combinations after it)
-        sss::RenderOverrides overrides;
         for (const auto& [name, text] : given)
             sss::set_override_from_text(overrides, name, text);
-        sss::check_override_values(overrides);
+    } catch (const sss::Error& e) {
+        std::cerr << "sssphere-render: error: " << e.what()
+                  << "\n(sssphere-render --help lists the options)\n";
+        return 2;
+    }
+
+    try {
+        sss::check_output_image(out_path);
         // A signal the process was started ignoring (a background job's SIGINT) stays so.
         bool ignored[std::size(kStopSignals)] = {};  // nohup's SIGHUP stays ignored
         auto install = [&ignored] {

@@ -20,29 +20,62 @@ std::string quoted_list(const std::vector<std::string>& choices) {
     return s;
 }
 
-int64_t checked_integer(const std::string& name, int64_t v) {
+// The checks of one value. `label` names the option in messages: its name (spp), or
+// its flag (--spp) where the command line gave it.
+int64_t checked_integer(const std::string& name, int64_t v,
+                        const std::string& label = "") {
     const OptionSpec& s = render_option_spec(name);
-    if (v < s.lo || v > s.hi) fail(name, " must be ", s.allowed, ", got ", v);
+    if (v < s.lo || v > s.hi)
+        fail(label.empty() ? name : label, " must be ", s.allowed, ", got ", v);
     return v;
 }
 
-std::string checked_choice(const std::string& name, const std::string& v) {
+std::string checked_choice(const std::string& name, const std::string& v,
+                           const std::string& label = "") {
     const OptionSpec& s = render_option_spec(name);
     for (const std::string& c : s.choices)
         if (v == c) return v;
-    fail(name, " '", v, "' is not allowed (allowed: ", quoted_list(s.choices), ")");
+    fail(label.empty() ? name : label, " '", v,
+         "' is not allowed (allowed: ", quoted_list(s.choices), ")");
 }
 
 // The scene file's render.time_limit has the same range (render/scene.cpp).
-void check_time_limit(double seconds) {
+void check_time_limit(double seconds, const std::string& label = "time_limit") {
     if (!(seconds >= 0.0 && seconds <= 1e9))
-        fail("time_limit must be a number from 0 to 1e9 (seconds; 0: no limit), got ",
+        fail(label, " must be a number from 0 to 1e9 (seconds; 0: no limit), got ",
              seconds);
 }
 
-void check_sphere_threshold(double tau) {
+void check_sphere_threshold(double tau, const std::string& label = "sphere_threshold") {
     if (!(tau >= 0.0))
-        fail("sphere_threshold must be a number >= 0 (inf: no sphere steps), got ", tau);
+        fail(label, " must be a number >= 0 (inf: no sphere steps), got ", tau);
+}
+
+// The command line's flag of option `name`: --sphere-threshold.
+std::string flag_of(const std::string& name) {
+    std::string flag = "--" + name;
+    for (char& c : flag)
+        if (c == '_') c = '-';
+    return flag;
+}
+
+// Checks each value `o` sets on its own; `as_flags`: messages name the flags.
+void check_values(const RenderOverrides& o, bool as_flags) {
+    auto label = [as_flags](const char* name) {
+        return as_flags ? flag_of(name) : std::string(name);
+    };
+    for (const auto& [name, v] :
+         {std::pair{"spp", o.spp}, std::pair{"seed", o.seed},
+          std::pair{"threads", o.threads}, std::pair{"max_bounces", o.max_bounces}})
+        if (v) checked_integer(name, *v, label(name));
+    for (const auto& [name, v] :
+         {std::pair{"integrator", o.integrator},
+          std::pair{"sphere_sampler", o.sphere_sampler},
+          std::pair{"step_nee", o.step_nee}, std::pair{"backend", o.backend}})
+        if (v) checked_choice(name, *v, label(name));
+    if (o.time_limit) check_time_limit(*o.time_limit, label("time_limit"));
+    if (o.sphere_threshold)
+        check_sphere_threshold(*o.sphere_threshold, label("sphere_threshold"));
 }
 
 }  // namespace
@@ -231,9 +264,8 @@ void set_override(RenderOverrides& o, const std::string& name, const OptionValue
 void set_override_from_text(RenderOverrides& o, const std::string& name,
                             const std::string& text) {
     const OptionSpec& s = render_option_spec(name);
-    std::string flag = "--" + name;
-    for (char& c : flag)
-        if (c == '_') c = '-';
+    const std::string flag = flag_of(name);
+    OptionValue value;
     switch (s.kind) {
         case Kind::Integer: {
             char* end = nullptr;
@@ -241,38 +273,35 @@ void set_override_from_text(RenderOverrides& o, const std::string& name,
             const long long v = std::strtoll(text.c_str(), &end, 10);
             if (text.empty() || *end || errno == ERANGE)
                 fail(flag, ": expected ", s.allowed, ", got '", text, "'");
-            return set_override(o, name, int64_t(v));
+            value = int64_t(v);
+            break;
         }
         case Kind::Number: {
             char* end = nullptr;
             const double v = std::strtod(text.c_str(), &end);
             if (text.empty() || *end || std::isnan(v))
                 fail(flag, ": expected ", s.allowed, ", got '", text, "'");
-            return set_override(o, name, v);
+            value = v;
+            break;
         }
         case Kind::Text:
         case Kind::Choice:
-            return set_override(o, name, text);
+            value = text;
+            break;
         case Kind::Flag:
             if (text != "true" && text != "false")
                 fail(flag, ": expected true or false, got '", text, "'");
-            return set_override(o, name, text == "true");
+            value = text == "true";
+            break;
     }
+    // The value on its own, under the flag's name ("--spp must be ...")
+    RenderOverrides one;
+    set_override(one, name, value);
+    check_values(one, true);
+    set_override(o, name, value);
 }
 
-void check_override_values(const RenderOverrides& o) {
-    for (const auto& [name, v] :
-         {std::pair{"spp", o.spp}, std::pair{"seed", o.seed},
-          std::pair{"threads", o.threads}, std::pair{"max_bounces", o.max_bounces}})
-        if (v) checked_integer(name, *v);
-    for (const auto& [name, v] :
-         {std::pair{"integrator", o.integrator},
-          std::pair{"sphere_sampler", o.sphere_sampler},
-          std::pair{"step_nee", o.step_nee}, std::pair{"backend", o.backend}})
-        if (v) checked_choice(name, *v);
-    if (o.time_limit) check_time_limit(*o.time_limit);
-    if (o.sphere_threshold) check_sphere_threshold(*o.sphere_threshold);
-}
+void check_override_values(const RenderOverrides& o) { check_values(o, false); }
 
 RenderOptions resolve_render_options(const RenderSettings& scene,
                                      const std::string& source, const RenderOverrides& o,

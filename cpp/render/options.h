@@ -114,8 +114,10 @@ using OptionValue = std::variant<int64_t, double, std::string, bool>;
 // Sets override `name` (checked when resolved). Throws sss::Error for an unknown name.
 void set_override(RenderOverrides& o, const std::string& name, const OptionValue& value);
 
-// Sets override `name` from its command-line text, checked ("--spp: expected an integer
-// >= 1, got 'x'"). Flags take "true" or "false". Throws sss::Error.
+// Sets override `name` from its command-line text, checked: its form ("--spp: expected an
+// integer >= 1, got 'x'") and its value on its own ("--spp must be an integer >= 1 ...,
+// got 0"), the command lines' usage errors. Flags take "true" or "false". Throws
+// sss::Error.
 void set_override_from_text(RenderOverrides& o, const std::string& name,
                             const std::string& text);
 

@@ -96,8 +96,14 @@ def _cmd_render(args: argparse.Namespace) -> int:
     # for both command lines and the API: render/options.h)
     text = {spec["name"]: getattr(args, spec["name"]) for spec in RENDER_OPTIONS
             if spec["command_line"] and getattr(args, spec["name"]) is not None}
-    # Each value before the scene is read (their combinations after it, with the scene's)
-    _core.check_option_values(text)
+    # Each value before the scene is read (their combinations after it, with the scene's):
+    # a value out of range is a usage error, as --width 0 is
+    try:
+        _core.check_option_values(text)
+    except SceneError as e:
+        print(f"sssphere: error: {e}\n(sssphere render --help lists the options)",
+              file=sys.stderr)
+        return 2
     threads = int(text.get("threads", "0"))  # for the build
     t0 = time.monotonic()
     try:
