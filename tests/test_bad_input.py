@@ -90,6 +90,11 @@ def error_of(scene, **kwargs):
                                        "edge1": [1e-12, 0, 0], "edge2": [0, 1e-12, 0],
                                        "radiance": 1}),
          ["lights[2]", "span an area of 1e-24", "at least 1e-18"]),
+        # ... nor one whose power overflows it (it rendered black)
+        (lambda s: s["lights"].append({"type": "area", "corner": [0, 5, 0],
+                                       "edge1": [5e18, 0, 0], "edge2": [0, 0, 5e18],
+                                       "radiance": 1}),
+         ["lights[2]", "span an area of 2.5e+37", "at most 1e+30"]),
         (lambda s: s["shapes"][0]["medium"].update(g=math.nan), ["shapes[0].medium.g", "finite"]),
         (lambda s: s["camera"].update(origin=[0, 0, math.inf]), ["camera.origin[2]", "finite"]),
         (lambda s: s.update(shapes=[]), ["shapes", "non-empty"]),
@@ -900,3 +905,116 @@ def test_a_tiny_direction_is_a_direction(small_scene):
     assert error_of({**small_scene, "lights": [{"type": "directional", "direction": [0, 0, 0],
                                                 "irradiance": 1}]}).endswith(
         "lights[0].direction: value [0,0,0] is not allowed (allowed: a non-zero vector)")
+
+
+def _l_prism_obj(path, start: int) -> None:
+    """An L-shaped prism (the unit square's [0, 2]^2 less [1, 2]^2, 1 high) whose two
+    hexagon caps list their corners from corner `start`; the four side walls as quads."""
+    ring = [(0, 0), (2, 0), (2, 1), (1, 1), (1, 2), (0, 2)]
+    ring = ring[start:] + ring[:start]
+    v = [(x, y, 0) for x, y in ring] + [(x, y, 1) for x, y in ring]
+    n = len(ring)
+    faces = [list(range(n, 0, -1)), [n + 1 + i for i in range(n)]]  # bottom down, top up
+    faces += [[i + 1, (i + 1) % n + 1, (i + 1) % n + n + 1, i + n + 1] for i in range(n)]
+    path.write_text("".join(f"v {x} {y} {z}\n" for x, y, z in v) +
+                    "".join("f " + " ".join(map(str, f)) + "\n" for f in faces))
+
+
+@pytest.mark.parametrize("start", range(6))
+def test_a_concave_face_is_triangulated_inside_itself(tmp_path, start):
+    """A concave hexagon fanned from one of its convex corners folded triangles over the
+    notch it does not cover (medium rendered where there is none; a review). From every
+    starting corner its triangles now tile it: they lie in it and their areas add up to
+    its area."""
+    _l_prism_obj(tmp_path / "l.obj", start)
+    v, t = sssphere.load_mesh(tmp_path / "l.obj")
+    cap = t[np.all(v[t][:, :, 2] == 1, axis=1)]
+    assert len(cap) == 4, cap  # a hexagon in four triangles
+    p = v[cap][:, :, :2].astype(np.float64)
+    e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    assert area.sum() == pytest.approx(3.0), area
+    centroids = p.mean(axis=1)
+    assert not np.any((centroids[:, 0] > 1) & (centroids[:, 1] > 1)), centroids  # the notch
+
+
+def test_faces_with_a_corner_repeated_or_on_an_edge_are_read_and_bad_ones_named(tmp_path):
+    """Exporters write a triangle as the quad 'f 1 4 3 3', and a face may have a corner in
+    the middle of an edge (a T-junction): both were refused as a 'degenerate triangle N' of
+    the fan, numbered after triangulation. A face reversed and given twice is one face. A
+    face with no area is named by its number and corners."""
+    v = CUBE_V + [(0.5, 0, 0)]  # 8: the middle of the edge 0-1
+    faces = [f for f in CUBE_F if f not in ((0, 1, 5, 4), (0, 3, 2, 1), (0, 4, 7, 3))]
+    faces += [(0, 8, 1, 5, 4), (8, 0, 3, 2, 1)]  # 5 corners, one on a straight edge
+    faces += [(0, 4, 3), (4, 7, 3, 3)]  # the face 0-4-7-3 as two triangles, one a quad
+    _write_off(tmp_path / "t.off", v, faces + [(6, 7, 3, 2)])  # 2-3-7-6 again, reversed
+    vt, t = sssphere.load_mesh(tmp_path / "t.off")
+    a, b, c = vt[t[:, 0]], vt[t[:, 1]], vt[t[:, 2]]
+    assert np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6 == pytest.approx(1.0)
+    _write_off(tmp_path / "d.off", CUBE_V, CUBE_F[:-1] + [(0, 4, 7, 3), (0, 4, 4)])
+    with pytest.raises(SceneError, match=r"d\.off: face 6 \(corners \(0, 0, 0\), \(0, 0, 1\), "
+                                         r"\(0, 0, 1\)\) is degenerate"):
+        sssphere.load_mesh(tmp_path / "d.off")
+
+
+def test_a_vertex_no_face_uses_does_not_move_the_mesh(tmp_path):
+    """The mesh is kept relative to the centre of its vertices' bounds in float: an unused
+    vertex 3e7 away moved a cube by 0.15, one 1e10 away collapsed it to 'no volume'."""
+    shifted = [(x + 0.3, y + 0.3, z + 0.3) for x, y, z in CUBE_V]
+    for far in (3e7, 1e10, 1e30):
+        _write_off(tmp_path / "u.off", shifted + [(far, 0, 0)], CUBE_F)
+        v, _ = sssphere.load_mesh(tmp_path / "u.off")
+        np.testing.assert_array_equal(v.min(axis=0), np.float32(0.3))
+        np.testing.assert_array_equal(v.max(axis=0), np.float32(1.3))
+
+
+@pytest.mark.parametrize("fmt", ["off", "ply"])
+def test_a_byte_order_mark_before_an_off_or_ply_header_is_skipped(tmp_path, fmt):
+    _write_off(tmp_path / "c.off", CUBE_V, CUBE_F)
+    if fmt == "off":
+        text = (tmp_path / "c.off").read_text()
+    else:
+        text = ("ply\nformat ascii 1.0\nelement vertex 8\nproperty float x\nproperty float y\n"
+                "property float z\nelement face 6\nproperty list uchar int vertex_indices\n"
+                "end_header\n" + "".join(" ".join(map(str, p)) + "\n" for p in CUBE_V) +
+                "".join(f"4 {' '.join(map(str, f))}\n" for f in CUBE_F))
+    (tmp_path / f"bom.{fmt}").write_bytes(b"\xef\xbb\xbf" + text.encode())
+    v, t = sssphere.load_mesh(tmp_path / f"bom.{fmt}")
+    assert len(v) == 8 and len(t) == 12
+
+
+def test_a_medium_its_transform_or_float_rounding_flattens_is_refused(small_scene):
+    """The 'encloses no volume' check ran on the file's mesh only: a scale of 1e-50 on one
+    axis, or a plate 1e-8 thick that the render frame's float rounding flattens, made a
+    medium with no inside, and the grid's inside test looped for ever (a hang that Ctrl-C
+    could not stop; a review)."""
+    box = {"vertices": CUBE_V, "faces": CUBE_F, "medium": {"sigma_t": 1, "albedo": 0.5}}
+    for scale in ([1, 1, 1e-50], [1e-50, 1, 1]):
+        scene = copy.deepcopy(small_scene)
+        scene["shapes"] = [dict(box, transform={"scale": scale})]
+        msg = error_of(scene)
+        assert "shapes[0]" in msg and "after its transform" in msg and "volume 0" in msg, msg
+    scene = copy.deepcopy(small_scene)
+    scene["shapes"].append(dict(box, transform={"scale": [1, 1, 1e-8], "translate": [0, 0, 0.5]},
+                                name="plate"))
+    scene["shapes"][0]["sphere"]["center"] = [0, 0, -3]
+    msg = error_of(scene)
+    assert "shapes[1] ('plate'), after its transform" in msg, msg
+
+
+def test_a_far_camera_is_refused_not_an_embree_abort(small_scene):
+    """A camera ray that misses the shapes starts at the camera, and Embree aborts the
+    process on an origin past 1.8e18 (exit 134, the Python interpreter with it). A camera
+    1e20 away also read 'camera.up is parallel to the viewing direction' (its direction's
+    float length overflowed)."""
+    for origin, target in (([0, 0, 1e19], [0, 0, 2e19]), ([0, 0, 1e20], [0, 0, 0])):
+        scene = copy.deepcopy(small_scene)
+        scene["camera"].update(origin=origin, target=target)
+        msg = error_of(scene)
+        assert "camera.origin: lies 1e+" in msg and "at most 1e+17" in msg, msg
+    scene = copy.deepcopy(small_scene)
+    scene["camera"].update(origin=[0, 0, 1e16], target=[0, 0, 2e16])  # within: renders
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # far from the shapes, as said
+        image = sssphere.render(sssphere.load_scene(scene), spp=1)
+    assert np.all(np.isfinite(image))

@@ -111,6 +111,8 @@ struct Vec3d {
     constexpr Vec3 to_float() const { return {float(x), float(y), float(z)}; }
 };
 
+inline double length(Vec3d v) { return std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z); }
+
 // Axis-aligned bounding box.
 struct Bounds3 {
     Vec3 lo{INFINITY}, hi{-INFINITY};

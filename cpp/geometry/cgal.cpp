@@ -15,6 +15,7 @@
 #include <CGAL/Surface_mesh.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -23,6 +24,7 @@
 #include <memory>
 #include <set>
 #include <sstream>
+#include <unordered_map>
 #include <utility>
 
 #include "core/check.h"
@@ -168,7 +170,7 @@ TriangleMesh load_mesh(const std::string& path, MeshKind kind) {
         }
         polys.push_back(std::move(q));
     }
-    const Vec3d origin = center_of_bounds(pos);
+    const Vec3d origin = center_of_bounds(pos, polys);
     return kind == MeshKind::Closed
                ? make_closed_mesh(pos, std::move(polys), path, origin)
                : make_open_mesh(pos, std::move(polys), path, origin);
@@ -176,20 +178,126 @@ TriangleMesh load_mesh(const std::string& path, MeshKind kind) {
 
 namespace {
 
-// The soup both kinds of mesh start from: polygons fan-triangulated, coincident vertices
+// Ear clipping is O(n^3) at worst: faces with more corners are fanned.
+constexpr size_t kMaxEarClippedCorners = 128;
+
+// The triangles of one face (corners `poly`, indices into `pos`), appended to `tris`.
+// Corners repeated in a row (f 1 4 3 3, as some exporters write triangles) are one
+// corner. A convex face, every corner turning the same way about its Newell normal, is
+// fanned from its first corner; any other (a concave n-gon, a corner on a straight edge)
+// is ear-clipped in its plane, so that no triangle folds outside the face (a fan from a
+// convex corner of an L covered the notch) or has no area where the face has some.
+void triangulate_face(const std::vector<Vec3d>& pos, const std::vector<uint32_t>& face,
+                      std::vector<std::vector<std::size_t>>& tris) {
+    if (face.size() ==
+        3) {  // most faces: nothing to decide (no area: the caller's check)
+        tris.push_back({face[0], face[1], face[2]});
+        return;
+    }
+    std::vector<uint32_t> poly;
+    for (uint32_t i : face)
+        if (poly.empty() || length(pos[poly.back()] - pos[i]) > 0.0) poly.push_back(i);
+    while (poly.size() > 1 && (poly.back() == poly.front() ||
+                               length(pos[poly.back()] - pos[poly.front()]) == 0.0))
+        poly.pop_back();
+    const size_t m = poly.size();
+    if (m < 3) {  // no area: the caller's check names it
+        tris.push_back({face[0], face[1], face[2]});
+        return;
+    }
+    // Newell's normal; the face is projected on the plane of the other two axes, in
+    // which it turns counter-clockwise where the normal's largest component is positive.
+    Vec3d n;
+    for (size_t i = 0; i < m; ++i) {
+        const Vec3d a = pos[poly[i]], b = pos[poly[(i + 1) % m]];
+        n.x += (a.y - b.y) * (a.z + b.z);
+        n.y += (a.z - b.z) * (a.x + b.x);
+        n.z += (a.x - b.x) * (a.y + b.y);
+    }
+    const int ax = std::abs(n.x) >= std::abs(n.y) && std::abs(n.x) >= std::abs(n.z) ? 0
+                   : std::abs(n.y) >= std::abs(n.z)                                 ? 1
+                                                                                    : 2;
+    const int u = (ax + 1) % 3, v = (ax + 2) % 3;
+    const double sign = n[ax] >= 0.0 ? 1.0 : -1.0;
+    // > 0: a, b, c turn counter-clockwise about the normal
+    auto turn = [&](uint32_t a, uint32_t b, uint32_t c) {
+        const Vec3d p = pos[a], q = pos[b], r = pos[c];
+        return sign * ((q[u] - p[u]) * (r[v] - p[v]) - (q[v] - p[v]) * (r[u] - p[u]));
+    };
+    bool convex = true;
+    for (size_t i = 0; i < m && convex; ++i)
+        convex = turn(poly[(i + m - 1) % m], poly[i], poly[(i + 1) % m]) > 0.0;
+    std::vector<uint32_t> left = poly;
+    if (!convex && m <= kMaxEarClippedCorners) {
+        while (left.size() > 3) {
+            const size_t k = left.size();
+            bool clipped = false;
+            for (size_t e = 0; e < k && !clipped; ++e) {
+                const uint32_t a = left[(e + k - 1) % k], b = left[e],
+                               c = left[(e + 1) % k];
+                if (!(turn(a, b, c) > 0.0)) continue;  // reflex or straight: no ear
+                bool empty = true;  // no other corner in the ear or on its edges
+                for (uint32_t q : left) {
+                    if (q == a || q == b || q == c) continue;
+                    if (length(pos[q] - pos[a]) == 0.0 || length(pos[q] - pos[c]) == 0.0)
+                        continue;  // a corner the face visits twice
+                    if (turn(a, b, q) >= 0.0 && turn(b, c, q) >= 0.0 &&
+                        turn(c, a, q) >= 0.0) {
+                        empty = false;
+                        break;
+                    }
+                }
+                if (!empty) continue;
+                tris.push_back({a, b, c});
+                left.erase(left.begin() + std::ptrdiff_t(e));
+                clipped = true;
+            }
+            if (!clipped) break;  // a face that crosses itself: fanned, as before
+        }
+    }
+    for (size_t i = 1; i + 1 < left.size(); ++i)
+        tris.push_back({left[0], left[i], left[i + 1]});
+}
+
+// The soup both kinds of mesh start from: polygons triangulated, coincident vertices
 // merged, degenerate triangles refused, duplicate triangles and unused vertices dropped.
 void clean_soup(const std::vector<Vec3d>& positions,
                 const std::vector<std::vector<uint32_t>>& polygons,
                 const std::string& what, std::vector<Point>& points,
                 std::vector<std::vector<std::size_t>>& tris) {
-    // Fan-triangulate polygons (OBJ/PLY/OFF may hold quads or n-gons).
+    // Triangulate polygons (OBJ/PLY/OFF may hold quads or n-gons); face_of: each
+    // triangle's face, for messages.
+    // A polygon given twice, in either winding, is one face: its two triangulations may
+    // differ (a quad and its reverse split along different diagonals), which the merge
+    // of duplicate triangles below would not see. (Triangles are left to that merge.)
+    struct PositionHash {
+        size_t operator()(const std::array<double, 3>& p) const {
+            const std::hash<double> h;
+            return h(p[0]) ^ (h(p[1]) * 0x9E3779B97F4A7C15ull) ^
+                   (h(p[2]) * 0xC2B2AE3D27D4EB4Full);
+        }
+    };
+    std::unordered_map<std::array<double, 3>, uint32_t, PositionHash> first_at;
+    std::set<std::vector<uint32_t>> seen;
+    std::vector<size_t> face_of;
     for (size_t f = 0; f < polygons.size(); ++f) {
         const auto& poly = polygons[f];
         if (poly.size() < 3)
             fail(what, ": face ", f, " has ", poly.size(),
                  " vertices (at least 3 needed)");
-        for (size_t i = 1; i + 1 < poly.size(); ++i)
-            tris.push_back({poly[0], poly[i], poly[i + 1]});
+        if (poly.size() > 3) {
+            std::vector<uint32_t> key;  // the corners by their positions' first vertex
+            for (uint32_t i : poly) {
+                const Vec3d p = positions[i];
+                key.push_back(first_at.try_emplace({p.x, p.y, p.z}, i).first->second);
+            }
+            // The cycle from its least vertex, towards its lesser neighbour
+            std::rotate(key.begin(), std::min_element(key.begin(), key.end()), key.end());
+            if (key.back() < key[1]) std::reverse(key.begin() + 1, key.end());
+            if (!seen.insert(key).second) continue;
+        }
+        triangulate_face(positions, poly, tris);
+        face_of.resize(tris.size(), f);
     }
     points.reserve(positions.size());
     for (const Vec3d& p : positions) points.emplace_back(p.x, p.y, p.z);
@@ -199,9 +307,20 @@ void clean_soup(const std::vector<Vec3d>& positions,
     for (size_t f = 0; f < tris.size(); ++f) {
         const auto& t = tris[f];
         if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2] ||
-            CGAL::collinear(points[t[0]], points[t[1]], points[t[2]]))
-            fail(what, ": triangle ", f,
-                 " is degenerate (zero area); allowed: triangles of non-zero area");
+            CGAL::collinear(points[t[0]], points[t[1]], points[t[2]])) {
+            const auto& face = polygons[face_of[f]];
+            std::ostringstream corners;
+            corners.precision(9);
+            for (size_t k = 0; k < std::min<size_t>(face.size(), 8); ++k) {
+                const Vec3d p = positions[face[k]];
+                corners << (k ? ", " : "") << "(" << p.x << ", " << p.y << ", " << p.z
+                        << ")";
+            }
+            if (face.size() > 8) corners << ", ...";
+            fail(what, ": face ", face_of[f], " (corners ", corners.str(),
+                 ") is degenerate: it has a triangle of no area; allowed: faces of "
+                 "non-zero area");
+        }
     }
     PMP::merge_duplicate_polygons_in_polygon_soup(points, tris);
     // Vertices no face uses (OBJ and PLY may hold them) would be isolated vertices of the
@@ -376,13 +495,7 @@ TriangleMesh make_closed_mesh(const std::vector<Vec3d>& positions,
             t[i++] = remap[v.idx()];
         mesh.triangles.push_back(t);
     }
-    double vol = mesh.volume();
-    Vec3 ext = mesh.bounds().extent();
-    double scale = double(max_component(ext));
-    if (!(vol > 1e-9 * scale * scale * scale))
-        fail(what, ": mesh encloses no volume to speak of (flat or degenerate): volume ",
-             vol, ", not above 1e-9 L^3 = ", 1e-9 * scale * scale * scale,
-             " for the largest side L = ", scale, " of its bounding box");
+    check_encloses_volume(mesh, what);
     return mesh;
 }
 

@@ -214,4 +214,21 @@ Vec3d center_of_bounds(const std::vector<Vec3d>& points) {
     return (lo + hi) * 0.5;
 }
 
+Vec3d center_of_bounds(const std::vector<Vec3d>& points,
+                       const std::vector<std::vector<uint32_t>>& polygons) {
+    std::vector<Vec3d> used;
+    for (const auto& poly : polygons)
+        for (uint32_t i : poly) used.push_back(points.at(i));
+    return center_of_bounds(used);
+}
+
+void check_encloses_volume(const TriangleMesh& mesh, const std::string& what) {
+    const double vol = mesh.volume();
+    const double scale = double(max_component(mesh.bounds().extent()));
+    if (!(vol > 1e-9 * scale * scale * scale))
+        fail(what, ": mesh encloses no volume to speak of (flat or degenerate): volume ",
+             vol, ", not above 1e-9 L^3 = ", 1e-9 * scale * scale * scale,
+             " for the largest side L = ", scale, " of its bounding box");
+}
+
 }  // namespace sss

@@ -62,6 +62,16 @@ TriangleMesh make_open_mesh(const std::vector<Vec3d>& positions,
 
 // The centre of the points' bounding box: the origin a file's mesh is kept relative to.
 Vec3d center_of_bounds(const std::vector<Vec3d>& points);
+// ... of the points the polygons use: a vertex no face uses (dropped when the mesh is
+// made) must not move the origin, whose float rounding the mesh's positions take (one
+// 3e7 away moved a unit cube by 0.15, one 1e10 away collapsed it).
+Vec3d center_of_bounds(const std::vector<Vec3d>& points,
+                       const std::vector<std::vector<uint32_t>>& polygons);
+
+// Throws sss::Error (naming `what`) unless the closed mesh encloses a volume above 1e-9
+// of its bounding box's largest side cubed: flat meshes, or meshes made flat by float
+// rounding, have no inside (and hang CGAL's inside test).
+void check_encloses_volume(const TriangleMesh& mesh, const std::string& what);
 
 // Icosphere: the icosahedron subdivided `subdivisions` times, vertices on the sphere.
 TriangleMesh make_icosphere(Vec3 center, float radius, int subdivisions);

@@ -26,6 +26,12 @@ std::string read_all(const std::string& path) {
     return read_input_file(path, "mesh file");
 }
 
+// `data` without a UTF-8 byte order mark at its start (editors on Windows write one)
+std::string without_bom(std::string data) {
+    if (data.rfind("\xEF\xBB\xBF", 0) == 0) data.erase(0, 3);
+    return data;
+}
+
 std::vector<std::string> words_of(const std::string& line) {
     std::istringstream in(line);
     std::vector<std::string> words;
@@ -186,7 +192,7 @@ private:
 }  // namespace
 
 PolygonSoup read_ply(const std::string& path) {
-    const std::string data = read_all(path);
+    const std::string data = without_bom(read_all(path));
     // The header: "ply", a format line, then comment, obj_info, element and property
     // lines up to end_header.
     std::vector<Element> elements;
@@ -308,7 +314,7 @@ PolygonSoup read_ply(const std::string& path) {
 }
 
 PolygonSoup read_off(const std::string& path) {
-    const std::string data = read_all(path);
+    const std::string data = without_bom(read_all(path));
     // Lines without comments (from '#') and without blank lines, with their numbers.
     std::vector<std::pair<int, std::vector<std::string>>> lines;
     {
@@ -420,8 +426,7 @@ std::string quoted(const std::string& w) {
 }  // namespace
 
 PolygonSoup read_obj(const std::string& path) {
-    std::string data = read_all(path);
-    if (data.rfind("\xEF\xBB\xBF", 0) == 0) data.erase(0, 3);  // a UTF-8 byte order mark
+    const std::string data = without_bom(read_all(path));
     PolygonSoup soup;
     std::istringstream in(data);
     std::vector<int> face_lines;

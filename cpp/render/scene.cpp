@@ -25,6 +25,9 @@ using json = nlohmann::json;
 
 using namespace json_fields;
 
+// The camera's largest distance from the render frame's origin (parse_camera says why).
+constexpr double kMaxCameraDistance = 1e17;
+
 // `frame`: where the render frame's origin lies (SceneDesc::origin); positions are
 // stored relative to it.
 Camera parse_camera(const json& j, const Field& f, Vec3d frame) {
@@ -44,10 +47,21 @@ Camera parse_camera(const json& j, const Field& f, Vec3d frame) {
     if (int64_t(c.width) * c.height > (int64_t(1) << 26))
         f.error("resolution ", c.width, "x", c.height,
                 " is too large (at most 67,108,864 pixels)");
+    // A camera ray starts at the camera where it misses the shapes, and Embree aborts on
+    // a ray whose origin has a coordinate past 1.8e18 (its FLT_LARGE); the start moves at
+    // most twice the camera's distance along the ray (Scene::camera_ray_start).
+    const double distance = length(origin - frame);
+    if (!(distance <= kMaxCameraDistance))
+        f.at("origin").error("lies ", distance,
+                             " from the centre of the media's bounds (allowed: at most ",
+                             kMaxCameraDistance, ", where single-precision rays start)");
+    // The direction in double: its float length overflows past 1e19
     const Vec3d along = target - origin;
-    Vec3 forward = Vec3(float(along.x), float(along.y), float(along.z));
-    if (!(length(forward) > 0.f) || !(c.target != c.origin))
+    const double len = length(along);
+    if (!(len > 0.0) || !(c.target != c.origin))
         f.at("target").error("target equals origin");
+    const Vec3 forward =
+        Vec3(float(along.x / len), float(along.y / len), float(along.z / len));
     if (!(length(cross(normalize(forward), normalize(c.up))) > 1e-4f))
         f.at("up").error("value [", c.up.x, ", ", c.up.y, ", ", c.up.z,
                          "] is parallel to the viewing direction",
@@ -254,7 +268,7 @@ TriangleMesh parse_inline_mesh(const json& j, const Field& f, MeshKind kind) {
                                                       "an index into 'vertices'")));
     }
     try {
-        const Vec3d origin = center_of_bounds(positions);
+        const Vec3d origin = center_of_bounds(positions, polygons);
         return kind == MeshKind::Open
                    ? make_open_mesh(positions, std::move(polygons), "inline mesh", origin)
                    : make_closed_mesh(positions, std::move(polygons), "inline mesh",
@@ -484,7 +498,8 @@ void warn_past_limits(SceneDesc& d, double extent) {
                 "dense media far apart render best as scenes of their own");
     }
     auto check_distance = [&](Vec3 p, const std::string& what) {
-        const double r = length(p);  // from the media's centre, the render frame's origin
+        // from the media's centre, the render frame's origin (in double: no overflow)
+        const double r = length(Vec3d(p));
         if (r > kMaxDistance * extent)
             d.warnings.push_back(
                 d.source + ": " + what + " lies " + fmt(r / extent) +
@@ -562,10 +577,20 @@ SceneDesc parse_scene(const std::string& json_text, const std::string& base_dir,
             "give the scene in other units");
     const bool any_medium = media_lo.x <= media_hi.x;
     d.origin = any_medium ? (media_lo + media_hi) * 0.5 : (lo + hi) * 0.5;
-    for (ParsedShape& ps : parsed) {
+    for (size_t k = 0; k < parsed.size(); ++k) {
+        ParsedShape& ps = parsed[k];
         for (size_t i = 0; i < ps.positions.size(); ++i)
             ps.shape.mesh.positions[i] = (ps.positions[i] - d.origin).to_float();
         ps.shape.mesh.origin = Vec3d();
+        // The file's mesh enclosed a volume (make_closed_mesh); its transform (a scale of
+        // 1e-50 on one axis) or the frame's float rounding (a plate 1e-8 thick at 0.5)
+        // may leave none, and a medium with no inside hung the grid's build.
+        if (!ps.shape.is_surface())
+            check_encloses_volume(ps.shape.mesh,
+                                  source + ": shapes[" + std::to_string(k) + "] ('" +
+                                      ps.shape.name +
+                                      "'), after its transform, in the render frame's "
+                                      "single precision");
         d.shapes.push_back(std::move(ps.shape));
         if (!ps.file.empty()) d.inputs.push_back(ps.file);
         d.warnings.insert(d.warnings.end(), ps.warnings.begin(), ps.warnings.end());

@@ -41,6 +41,10 @@ SSS_FN LightEval area_light_eval(LightData l, Vec3 p, Vec3 w, float t,
 // The smallest quad area a scene may give: below it the squares in length(cross(b, c))
 // underflow single precision (about 1.2e-38) and the area reads as 0.
 constexpr double kMinAreaLightArea = 1e-18;
+// The largest: past about 1e37 its power (radiance x area x pi) overflows single
+// precision and the light renders black; 1e30 is a quad 1e15 across, far past any scene's
+// extent (at most 1e10).
+constexpr double kMaxAreaLightArea = 1e30;
 
 inline LightType area_light_type() {
     using namespace json_fields;
@@ -71,6 +75,9 @@ inline LightType area_light_type() {
         if (area < kMinAreaLightArea)
             f.error("edge1 and edge2 span an area of ", area, " (allowed: at least ",
                     kMinAreaLightArea, ", which single precision resolves)");
+        if (area > kMaxAreaLightArea)
+            f.error("edge1 and edge2 span an area of ", area, " (allowed: at most ",
+                    kMaxAreaLightArea, ", whose power single precision holds)");
         l.scalar = length(cross(l.b, l.c));
         l.value = light_fields::radiometric(j, f, "radiance");
         return l;
