@@ -743,6 +743,21 @@ def test_export_mitsuba_says_it_leaves_max_bounces_out(tmp_path, small_scene):
         r.stderr
 
 
+def test_export_mitsuba_warns_of_a_sigma_t_channel_of_zero(tmp_path, small_scene):
+    """Mitsuba 3 renders a medium with sigma_t [0, 2, 6] wrong (volpath NaN, volpathmis
+    G and B at a third of ours, which match grey media of sigma_t 2 and 6; an outside
+    comparison): the export says so."""
+    small_scene["shapes"][0]["medium"]["sigma_t"] = [0, 2, 6]
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    r = run_cli("export-mitsuba", tmp_path / "s.json", tmp_path / "m.xml")
+    assert r.returncode == 0, r.stderr
+    assert "sssphere: warning: " in r.stderr and "has a channel of 0" in r.stderr, r.stderr
+    small_scene["shapes"][0]["medium"]["sigma_t"] = [1e-3, 2, 6]
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    r = run_cli("export-mitsuba", tmp_path / "s.json", tmp_path / "m.xml")
+    assert r.returncode == 0 and "channel of 0" not in r.stderr, r.stderr
+
+
 def test_a_reader_that_leaves_early_ends_the_command_quietly():
     """`sssphere presets | head -1`: when the reader of stdout has gone, the command ends as
     one killed by SIGPIPE (status 141) without a message (it said "error: Broken pipe")."""

@@ -276,6 +276,16 @@ def export_mitsuba(scene_path: str | os.PathLike, xml_path: str | os.PathLike, s
                       "max_depth counts every interaction (surfaces, refractions, index-matched "
                       "crossings), ours the scattering events; the XML renders every bounce "
                       "(max_depth -1)", SceneWarning, stacklevel=2)
+    for i in range(ours.num_shapes):
+        info = ours.shape_info(i)
+        sigma_t = list(info["sigma_t"]) if info["kind"] == "medium" else []
+        if 0 in sigma_t and max(sigma_t) > 0:
+            warnings.warn(f"{scene_path}: shapes[{i}] ('{info['name']}'): sigma_t "
+                          f"{[float(x) for x in sigma_t]} has a channel of 0, which Mitsuba "
+                          "3 does not render right (volpath gives NaN, volpathmis darkens the "
+                          "other channels: measured 2026-11-30); the XML keeps it, give the "
+                          "channel a small sigma_t (1e-3) to compare", SceneWarning,
+                          stacklevel=2)
     if integrator is None:
         integrator = "volpathmis" if chromatic_extinction(ours) else "volpath"
     scene_dict = ours.to_dict()
