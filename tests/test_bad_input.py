@@ -957,6 +957,16 @@ def test_faces_with_a_corner_repeated_or_on_an_edge_are_read_and_bad_ones_named(
         sssphere.load_mesh(tmp_path / "d.off")
 
 
+def test_defects_at_nearly_the_same_place_print_apart(tmp_path):
+    """Edge coordinates had six digits: two open edges 1e-13 apart printed alike. They get
+    the shortest decimal that reads back as the coordinate."""
+    v = CUBE_V + [(1, 1 + 1e-13, 1)]  # 8: beside vertex 6, which one face uses instead
+    faces = [tuple(8 if i == 6 and f == (1, 2, 6, 5) else i for i in f) for f in CUBE_F]
+    _write_off(tmp_path / "n.off", v, faces)
+    with pytest.raises(SceneError, match=r"\(1, 1\.0000000000001, 1\)"):
+        sssphere.load_mesh(tmp_path / "n.off")
+
+
 def test_a_vertex_no_face_uses_does_not_move_the_mesh(tmp_path):
     """The mesh is kept relative to the centre of its vertices' bounds in float: an unused
     vertex 3e7 away moved a cube by 0.15, one 1e10 away collapsed it to 'no volume'."""

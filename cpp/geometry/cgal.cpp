@@ -16,6 +16,7 @@
 
 #include <algorithm>
 #include <array>
+#include <charconv>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -365,10 +366,16 @@ constexpr const char* kRepairAdvice =
     "in Python pymeshfix: MeshFix(v, f).repair()), or make the shape an opaque "
     "'surface', which may be open";
 
+// The shortest decimal that reads back as v: vertices 1e-13 apart, which the mesh keeps
+// apart, printed alike with six digits.
+std::string shortest(double v) {
+    char buf[32];
+    const auto r = std::to_chars(buf, buf + sizeof buf, v);
+    return std::string(buf, r.ptr);
+}
+
 std::string at(const Point& p) {
-    std::ostringstream os;
-    os << "(" << p.x() << ", " << p.y() << ", " << p.z() << ")";
-    return os.str();
+    return "(" + shortest(p.x()) + ", " + shortest(p.y()) + ", " + shortest(p.z()) + ")";
 }
 
 // The edges (vertex pairs, smaller index first) of a triangle soup with the number of
