@@ -179,6 +179,18 @@ TriangleMesh load_mesh(const std::string& path, MeshKind kind) {
 
 namespace {
 
+// The shortest decimal that reads back as v: vertices 1e-13 apart, which the mesh keeps
+// apart, printed alike with six digits.
+std::string shortest(double v) {
+    char buf[32];
+    const auto r = std::to_chars(buf, buf + sizeof buf, v);
+    return std::string(buf, r.ptr);
+}
+
+std::string at(const Point& p) {
+    return "(" + shortest(p.x()) + ", " + shortest(p.y()) + ", " + shortest(p.z()) + ")";
+}
+
 // Ear clipping is O(n^3) at worst: faces with more corners are fanned.
 constexpr size_t kMaxEarClippedCorners = 128;
 
@@ -190,8 +202,8 @@ constexpr size_t kMaxEarClippedCorners = 128;
 // convex corner of an L covered the notch) or has no area where the face has some.
 void triangulate_face(const std::vector<Vec3d>& pos, const std::vector<uint32_t>& face,
                       std::vector<std::vector<std::size_t>>& tris) {
-    if (face.size() ==
-        3) {  // most faces: nothing to decide (no area: the caller's check)
+    // Most faces: nothing to decide (one of no area is the caller's to name)
+    if (face.size() == 3) {
         tris.push_back({face[0], face[1], face[2]});
         return;
     }
@@ -267,10 +279,10 @@ void clean_soup(const std::vector<Vec3d>& positions,
                 const std::string& what, std::vector<Point>& points,
                 std::vector<std::vector<std::size_t>>& tris) {
     // Triangulate polygons (OBJ/PLY/OFF may hold quads or n-gons); face_of: each
-    // triangle's face, for messages.
-    // A polygon given twice, in either winding, is one face: its two triangulations may
-    // differ (a quad and its reverse split along different diagonals), which the merge
-    // of duplicate triangles below would not see. (Triangles are left to that merge.)
+    // triangle's face, for messages. A polygon given twice, in either winding, is one
+    // face: its two triangulations may differ (a quad and its reverse split along
+    // different diagonals), which the merge of duplicate triangles below would not see.
+    // (Triangles are left to that merge.)
     struct PositionHash {
         size_t operator()(const std::array<double, 3>& p) const {
             const std::hash<double> h;
@@ -310,15 +322,13 @@ void clean_soup(const std::vector<Vec3d>& positions,
         if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2] ||
             CGAL::collinear(points[t[0]], points[t[1]], points[t[2]])) {
             const auto& face = polygons[face_of[f]];
-            std::ostringstream corners;
-            corners.precision(9);
+            std::string corners;
             for (size_t k = 0; k < std::min<size_t>(face.size(), 8); ++k) {
                 const Vec3d p = positions[face[k]];
-                corners << (k ? ", " : "") << "(" << p.x << ", " << p.y << ", " << p.z
-                        << ")";
+                corners += (k ? ", " : "") + at(Point(p.x, p.y, p.z));
             }
-            if (face.size() > 8) corners << ", ...";
-            fail(what, ": face ", face_of[f], " (corners ", corners.str(),
+            if (face.size() > 8) corners += ", ...";
+            fail(what, ": face ", face_of[f], " (corners ", corners,
                  ") is degenerate: it has a triangle of no area; allowed: faces of "
                  "non-zero area");
         }
@@ -365,18 +375,6 @@ constexpr const char* kRepairAdvice =
     "; repair it with a mesh tool (e.g. MeshLab's Filters > Cleaning and Repairing, or "
     "in Python pymeshfix: MeshFix(v, f).repair()), or make the shape an opaque "
     "'surface', which may be open";
-
-// The shortest decimal that reads back as v: vertices 1e-13 apart, which the mesh keeps
-// apart, printed alike with six digits.
-std::string shortest(double v) {
-    char buf[32];
-    const auto r = std::to_chars(buf, buf + sizeof buf, v);
-    return std::string(buf, r.ptr);
-}
-
-std::string at(const Point& p) {
-    return "(" + shortest(p.x()) + ", " + shortest(p.y()) + ", " + shortest(p.z()) + ")";
-}
 
 // The edges (vertex pairs, smaller index first) of a triangle soup with the number of
 // triangles that share each.
