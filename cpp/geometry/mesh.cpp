@@ -216,10 +216,14 @@ Vec3d center_of_bounds(const std::vector<Vec3d>& points) {
 
 Vec3d center_of_bounds(const std::vector<Vec3d>& points,
                        const std::vector<std::vector<uint32_t>>& polygons) {
-    std::vector<Vec3d> used;
+    Vec3d lo(INFINITY, INFINITY, INFINITY), hi(-INFINITY, -INFINITY, -INFINITY);
     for (const auto& poly : polygons)
-        for (uint32_t i : poly) used.push_back(points.at(i));
-    return center_of_bounds(used);
+        for (uint32_t i : poly)
+            for (int a = 0; a < 3; ++a) {
+                lo[a] = std::min(lo[a], points.at(i)[a]);
+                hi[a] = std::max(hi[a], points.at(i)[a]);
+            }
+    return (lo + hi) * 0.5;
 }
 
 void check_encloses_volume(const TriangleMesh& mesh, const std::string& what) {
