@@ -394,13 +394,14 @@ def test_a_truncated_binary_stl_says_what_its_header_and_size_disagree_on(tmp_pa
     for name in (b"binary cube", b"solid cube"):  # a binary header may start as ASCII's does
         _write_binary_stl(tmp_path / "cube.stl", count_in_header=1000, name=name)
         msg = error_of(small_scene)
-        assert ("cube.stl: cannot parse mesh (malformed .stl file: its header counts 1000 "
-                "triangles, which take 50084 bytes, but the file has 684 bytes)") in msg, msg
-    # A broken ASCII file gets no note made up from its text read as a header
+        assert ("cube.stl: malformed binary STL file: its header counts 1000 "
+                "triangles, which take 50084 bytes, but the file has 684 bytes") in msg, msg
+    # A broken ASCII file gets no note made up from its text read as a header, but its line
     (tmp_path / "cube.stl").write_text("  solid cube\n facet normal 0 0 1\n  outer loop\n"
                                        "   vertex 0 0\n" + "x" * 100)
     msg = error_of(small_scene)
-    assert "cube.stl" in msg and "header counts" not in msg, msg
+    assert "cube.stl: malformed ASCII STL file, line 4: a vertex needs three numbers" in msg, msg
+    assert "header counts" not in msg, msg
 
 
 def test_flat_mesh_is_refused(tmp_path, small_scene):
@@ -495,6 +496,32 @@ def test_our_ply_and_off_readers_read_what_cgals_did(tmp_path, fmt):
     np.testing.assert_array_equal(sssphere.load_mesh(tmp_path / "named.ply")[1], expected[1])
 
 
+_PLY_TETRA = ("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+              "property float z\nelement face 4\nproperty list uchar int vertex_indices\n"
+              "end_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n")
+_TETRA_V = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)]
+_STL_TETRA = "solid t\n" + "".join(
+    " facet normal 0 0 0\n  outer loop\n"
+    + "".join("   vertex %g %g %g\n" % _TETRA_V[i] for i in f)
+    + "  endloop\n endfacet\n"
+    for f in [(0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)]) + "endsolid t\n"
+
+
+def test_the_tetrahedra_the_malformed_files_start_from_load(tmp_path):
+    """The files the next test breaks load as written, in either case of the keywords, and
+    an STL file may hold more than one solid."""
+    (tmp_path / "t.ply").write_text(_PLY_TETRA)
+    (tmp_path / "t.stl").write_text(_STL_TETRA)
+    (tmp_path / "upper.stl").write_text(_STL_TETRA.upper())
+    (tmp_path / "two.stl").write_text(_STL_TETRA + "solid empty\nendsolid empty\n")
+    tetra = sssphere.load_mesh(tmp_path / "t.ply")
+    assert tetra[1].shape == (4, 3)
+    for name in ("t.stl", "upper.stl", "two.stl"):
+        got = sssphere.load_mesh(tmp_path / name)
+        np.testing.assert_array_equal(np.sort(got[0], axis=0), np.sort(tetra[0], axis=0))
+        assert got[1].shape == (4, 3)
+
+
 @pytest.mark.parametrize(
     "name, text, expected",
     [
@@ -511,6 +538,31 @@ def test_our_ply_and_off_readers_read_what_cgals_did(tmp_path, fmt):
          "end_header\n3 0 1 -2\n", "vertex index -2 is not allowed"),
         ("noxyz.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n0\n",
          "needs the scalar properties x, y and z"),
+        # An index past the vertices, and header counts that do not match the body: they
+        # were named by face only, or as "face 0 has 1 vertices", far from the cause.
+        ("range.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n",
+         "line 6: face 0: vertex index 3 but the file has 3 vertices"),
+        ("over.ply", _PLY_TETRA.replace("vertex 4", "vertex 5"),
+         "line 14: element 'vertex' 4 ends before its line does"),
+        ("under.ply", _PLY_TETRA.replace("vertex 4", "vertex 3"),
+         "line 13: element 'face' 0 ends before its line does"),
+        ("faces.ply", _PLY_TETRA.replace("face 4", "face 3"),
+         "line 17: values after the last element"),
+        ("word.ply", _PLY_TETRA.replace("\n0 0 1\n", "\n0 0 z\n"),
+         "line 13: element 'vertex' 3: 'z' is not a number"),
+        # STL: ours reads it (CGAL's said "malformed .stl file" and no more)
+        ("cut.stl", _STL_TETRA[:_STL_TETRA.index("endloop", 200)],
+         "it ends inside the facet begun on line 16 (expected 'vertex X Y Z' or 'endloop'): "
+         "truncated?"),
+        ("end.stl", _STL_TETRA.replace("endsolid t\n", ""),
+         "it ends inside the solid begun on line 1 (expected 'facet' or 'endsolid')"),
+        ("word.stl", _STL_TETRA.replace("endloop", "endlop", 1),
+         "line 7: expected 'vertex X Y Z' or 'endloop', got 'endlop'"),
+        ("nan.stl", _STL_TETRA.replace("vertex 0 0 1", "vertex 0 0 nan", 1),
+         "line 13: a vertex is not finite"),
+        ("two.stl", _STL_TETRA.replace("endloop", "vertex 1 1\nendloop", 1),
+         "line 7: a vertex needs three numbers x y z"),
+        ("tiny.stl", "hello", "5 bytes, neither ASCII (which starts with 'solid') nor binary"),
     ],
 )
 def test_malformed_ply_and_off_files_get_a_line_or_element_named(tmp_path, name, text, expected):

@@ -5,7 +5,6 @@
 #include <CGAL/AABB_tree.h>
 #include <CGAL/AABB_triangle_primitive.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-#include <CGAL/IO/polygon_soup_io.h>
 #include <CGAL/Polygon_mesh_processing/intersection.h>
 #include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
 #include <CGAL/Polygon_mesh_processing/orientation.h>
@@ -86,29 +85,6 @@ float round_down(double d) {
     return std::max(f, 0.f);
 }
 
-// Why a binary STL file did not parse, when its size is not the one its header gives
-// (a truncated download, say): "; its header counts N triangles, ...". Else empty. A
-// file is binary if its first kilobyte holds a NUL byte (a binary one's header may start
-// with "solid" as an ASCII one does; an ASCII one has no NUL).
-std::string stl_size_note(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::string head(1024, '\0');
-    in.read(head.data(), std::streamsize(head.size()));
-    head.resize(size_t(in.gcount()));
-    if (head.size() < 84 || head.find('\0') == std::string::npos) return "";
-    const char* header = head.data();
-    uint32_t count = 0;  // little-endian, as the format has it
-    for (int i = 3; i >= 0; --i) count = (count << 8) | uint8_t(header[80 + i]);
-    std::error_code ec;
-    const uintmax_t size = std::filesystem::file_size(path, ec);
-    const uintmax_t expected = 84 + 50 * uintmax_t(count);
-    if (ec || size == expected) return "";
-    std::ostringstream os;
-    os << ": its header counts " << count << " triangles, which take " << expected
-       << " bytes, but the file has " << size << " bytes";
-    return os.str();
-}
-
 }  // namespace
 
 TriangleMesh load_mesh(const std::string& path, MeshKind kind) {
@@ -125,22 +101,12 @@ TriangleMesh load_mesh(const std::string& path, MeshKind kind) {
 
     std::vector<Point> points;
     std::vector<std::vector<std::size_t>> polygons;
-    if (ext == ".stl") {
-        bool ok = false;
-        try {
-            ok = CGAL::IO::read_polygon_soup(path, points, polygons,
-                                             CGAL::parameters::verbose(false));
-        } catch (const std::exception& e) {
-            fail(path, ": cannot parse mesh: ", e.what());
-        }
-        if (!ok)
-            fail(path, ": cannot parse mesh (malformed .stl file", stl_size_note(path),
-                 ")");
-    } else {
+    {
         // Our readers (polygon_readers.h): CGAL's crash on malformed PLY and OFF files
-        // and do not say where an OBJ file is malformed.
+        // and do not say where an OBJ or STL file is malformed.
         PolygonSoup soup = ext == ".ply"   ? read_ply(path)
                            : ext == ".off" ? read_off(path)
+                           : ext == ".stl" ? read_stl(path)
                                            : read_obj(path);
         for (size_t i = 0; i + 2 < soup.xyz.size(); i += 3)
             points.emplace_back(soup.xyz[i], soup.xyz[i + 1], soup.xyz[i + 2]);

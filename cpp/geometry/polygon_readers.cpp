@@ -39,6 +39,14 @@ std::vector<std::string> words_of(const std::string& line) {
     return words;
 }
 
+// A word as an error message may quote it: at most 24 bytes, control bytes as '?'.
+std::string quoted(const std::string& w) {
+    std::string q = w.substr(0, 24);
+    for (char& c : q)
+        if (std::iscntrl(static_cast<unsigned char>(c))) c = '?';
+    return q.size() < w.size() ? q + "..." : q;
+}
+
 bool parse_double(const std::string& s, double& v) {
     char* end = nullptr;
     errno = 0;
@@ -155,7 +163,36 @@ public:
         return 0.0;
     }
 
+    // After an item: in ASCII the rest of its line must be blank (an item to a line, as
+    // PLY writers write them). More values there mean a header whose counts or
+    // properties do not match the body, which would read on as garbage.
+    void end_item(const std::string& where) {
+        if (format_ != Format::Ascii) return;
+        while (at_ < data_.size() && data_[at_] != '\n' &&
+               std::isspace((unsigned char)data_[at_]))
+            ++at_;
+        if (at_ < data_.size() && data_[at_] != '\n')
+            fail(path_, ": line ", line(), ": ", where,
+                 " ends before its line does: do the header's element counts and "
+                 "properties match the body? (allowed: an item to a line)");
+    }
+
+    // After the last element: in ASCII nothing but blanks may follow.
+    void end_body() {
+        if (format_ != Format::Ascii) return;
+        while (at_ < data_.size() && std::isspace((unsigned char)data_[at_])) ++at_;
+        if (at_ < data_.size())
+            fail(path_, ": line ", line(),
+                 ": values after the last element: do the header's element counts match "
+                 "the body?");
+    }
+
 private:
+    // The line the body is at, counted from the file's first (for ASCII errors).
+    int line() const {
+        const size_t end = std::min(at_, data_.size());
+        return 1 + int(std::count(data_.begin(), data_.begin() + long(end), '\n'));
+    }
     static bool little_endian_host() {
         const uint16_t one = 1;
         unsigned char c;
@@ -178,7 +215,7 @@ private:
         const bool integer = t != Type::F32 && t != Type::F64;
         if (!parse_double(word, v) ||
             (integer && !(std::fabs(v) < 9.2e18 && v == std::trunc(v))))
-            fail(path_, ": ", where, ": '", word, "' is not ",
+            fail(path_, ": line ", line(), ": ", where, ": '", quoted(word), "' is not ",
                  integer ? "an integer" : "a number");
         return v;
     }
@@ -308,8 +345,10 @@ PolygonSoup read_ply(const std::string& path) {
                 if (int(i) == indices) soup.polygons.push_back(std::move(polygon));
             }
             if (vertex) soup.xyz.insert(soup.xyz.end(), point, point + 3);
+            body.end_item(where);
         }
     }
+    body.end_body();
     return soup;
 }
 
@@ -382,13 +421,157 @@ PolygonSoup read_off(const std::string& path) {
             uint64_t index = 0;
             if (!parse_count(w[1 + k], INT64_MAX, index))
                 fail(path, ": malformed OFF file, line ", n, ": face ", f,
-                     ": vertex index '", w[1 + k],
+                     ": vertex index '", quoted(w[1 + k]),
                      "' is not allowed (allowed: integers >= 0)");
+            if (index >= nv)
+                fail(path, ": malformed OFF file, line ", n, ": face ", f,
+                     ": vertex index ", index, " but the file has ", nv,
+                     " vertices (counted from 0)");
             polygon.push_back(std::size_t(index));
         }
         soup.polygons.push_back(std::move(polygon));
     }
     return soup;
+}
+
+// --- STL ---------------------------------------------------------------------------
+
+namespace {
+
+// The triangle count of a binary STL header (0 for a file too short to hold one).
+uint64_t stl_binary_count(const std::string& data) {
+    if (data.size() < 84) return 0;
+    uint32_t count = 0;  // little-endian, as the format has it
+    for (int i = 3; i >= 0; --i) count = (count << 8) | uint8_t(data[80 + size_t(i)]);
+    return count;
+}
+
+// Binary STL: an 80-byte header, a little-endian triangle count, then 50 bytes per
+// triangle (a normal, three corners as floats, two bytes of attributes).
+PolygonSoup read_binary_stl(const std::string& path, const std::string& data) {
+    const uint64_t count = stl_binary_count(data);
+    PolygonSoup soup;
+    soup.xyz.reserve(size_t(9 * count));
+    soup.polygons.reserve(size_t(count));
+    for (uint64_t t = 0; t < count; ++t) {
+        const char* corners = data.data() + 84 + 50 * t + 12;  // past the normal
+        for (int k = 0; k < 9; ++k) {
+            unsigned char b[4];
+            std::memcpy(b, corners + 4 * k, 4);
+            uint32_t bits = 0;
+            for (int i = 3; i >= 0; --i) bits = (bits << 8) | b[i];
+            float v;
+            std::memcpy(&v, &bits, 4);
+            soup.xyz.push_back(double(v));
+        }
+        soup.polygons.push_back({size_t(3 * t), size_t(3 * t + 1), size_t(3 * t + 2)});
+    }
+    return soup;
+}
+
+std::string lower(std::string w) {
+    for (char& c : w) c = char(std::tolower(static_cast<unsigned char>(c)));
+    return w;
+}
+
+// ASCII STL: one or more "solid NAME ... endsolid NAME" blocks of
+//   facet normal NX NY NZ / outer loop / vertex X Y Z (3 or more) / endloop / endfacet,
+// read word by word (keywords in any case), so a misplaced word is named with its line.
+PolygonSoup read_ascii_stl(const std::string& path, const std::string& text) {
+    enum class In { Nothing, Solid, Facet, Loop, LoopEnded };
+    static const char* const kExpected[] = {"'solid'", "'facet' or 'endsolid'",
+                                            "'outer loop'", "'vertex X Y Z' or 'endloop'",
+                                            "'endfacet'"};
+    PolygonSoup soup;
+    In in = In::Nothing;
+    int solid_line = 0, facet_line = 0;  // where the solid and the facet being read begin
+    std::vector<std::size_t> polygon;
+    std::istringstream lines(text);
+    std::string line;
+    for (int n = 1; std::getline(lines, line); ++n) {
+        const std::vector<std::string> w = words_of(line);
+        auto bad = [&](const auto&... why) {
+            fail(path, ": malformed ASCII STL file, line ", n, ": ", why...);
+        };
+        for (size_t i = 0; i < w.size();) {
+            const std::string key = lower(w[i]);
+            auto unexpected = [&] {
+                bad("expected ", kExpected[int(in)], ", got '", quoted(w[i]), "'");
+            };
+            if (key == "solid" && in == In::Nothing) {
+                in = In::Solid, solid_line = n;
+                i = w.size();  // the rest of the line is the solid's name
+            } else if (key == "endsolid" && in == In::Solid) {
+                in = In::Nothing;
+                i = w.size();
+            } else if (key == "facet" && in == In::Solid) {
+                in = In::Facet, facet_line = n;
+                ++i;
+                if (i < w.size() && lower(w[i]) == "normal")
+                    i = std::min(i + 4, w.size());
+            } else if (key == "outer" && in == In::Facet) {
+                if (i + 1 >= w.size() || lower(w[i + 1]) != "loop") unexpected();
+                in = In::Loop;
+                i += 2;
+            } else if (key == "vertex" && in == In::Loop) {
+                double v[3];
+                if (i + 3 >= w.size() || !parse_double(w[i + 1], v[0]) ||
+                    !parse_double(w[i + 2], v[1]) || !parse_double(w[i + 3], v[2]))
+                    bad("a vertex needs three numbers x y z");
+                if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2]))
+                    bad("a vertex is not finite");
+                polygon.push_back(soup.xyz.size() / 3);
+                soup.xyz.insert(soup.xyz.end(), v, v + 3);
+                i += 4;
+            } else if (key == "endloop" && in == In::Loop) {
+                if (polygon.size() < 3)
+                    bad("a facet needs at least 3 vertices, this one has ",
+                        polygon.size());
+                in = In::LoopEnded;
+                ++i;
+            } else if (key == "endfacet" && in == In::LoopEnded) {
+                soup.polygons.push_back(std::move(polygon));
+                polygon.clear();
+                in = In::Solid;
+                ++i;
+            } else {
+                unexpected();
+            }
+        }
+    }
+    if (in != In::Nothing)
+        fail(path, ": malformed ASCII STL file: it ends inside the ",
+             in == In::Solid ? "solid" : "facet", " begun on line ",
+             in == In::Solid ? solid_line : facet_line, " (expected ", kExpected[int(in)],
+             "): truncated?");
+    return soup;
+}
+
+}  // namespace
+
+PolygonSoup read_stl(const std::string& path) {
+    const std::string data = read_all(path);
+    // Binary if its size is the one its header's count gives (a binary header may start
+    // with "solid", as an ASCII file does); else ASCII if it starts with "solid" and has
+    // no NUL byte in its first kilobyte (binary headers and counts usually do).
+    const uint64_t count = stl_binary_count(data);
+    if (data.size() >= 84 && data.size() == 84 + 50 * count)
+        return read_binary_stl(path, data);
+    const std::string text = without_bom(data);
+    const size_t first = text.find_first_not_of(" \t\r\n");
+    const bool ascii =
+        first != std::string::npos && text.size() - first >= 5 &&
+        std::equal(text.begin() + long(first), text.begin() + long(first) + 5, "solid",
+                   [](char a, char b) { return std::tolower((unsigned char)a) == b; }) &&
+        text.find('\0') >= 1024;
+    if (ascii) return read_ascii_stl(path, text);
+    if (data.size() < 84)
+        fail(path, ": malformed STL file: ", data.size(),
+             " bytes, neither ASCII (which starts with 'solid') nor binary (84 bytes of "
+             "header and triangle count at least)");
+    fail(path, ": malformed binary STL file: its header counts ", count,
+         " triangles, which take ", 84 + 50 * count, " bytes, but the file has ",
+         data.size(), " bytes");
 }
 
 // --- OBJ ---------------------------------------------------------------------------
@@ -413,14 +596,6 @@ bool freeform_obj_keyword(const std::string& k) {
         "trim",   "hole", "scrv", "sp",   "end",  "con",   "ctech", "stech"};
     return std::find_if(std::begin(kFreeform), std::end(kFreeform),
                         [&](const char* w) { return k == w; }) != std::end(kFreeform);
-}
-
-// A word as an error message may quote it: at most 24 bytes, control bytes as '?'.
-std::string quoted(const std::string& w) {
-    std::string q = w.substr(0, 24);
-    for (char& c : q)
-        if (std::iscntrl(static_cast<unsigned char>(c))) c = '?';
-    return q.size() < w.size() ? q + "..." : q;
 }
 
 }  // namespace

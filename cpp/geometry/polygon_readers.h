@@ -1,9 +1,9 @@
-// Readers for the PLY, OFF and OBJ polygon formats. CGAL's readers for PLY and OFF crash
-// on malformed files (found by fuzzing: tests/fuzz/regressions/mesh_ply, mesh_off), and
-// its OBJ reader says only "malformed" (or reads "f 1 2 x" as a face of two vertices), so
-// load_mesh uses these instead; STL still goes through CGAL. Each reads a polygon soup
-// and checks everything it reads: malformed input throws sss::Error naming the file, the
-// line or element, and what is allowed.
+// Readers for the PLY, OFF, OBJ and STL polygon formats. CGAL's readers for PLY and OFF
+// crash on malformed files (found by fuzzing: tests/fuzz/regressions/mesh_ply, mesh_off),
+// its OBJ reader says only "malformed" (or reads "f 1 2 x" as a face of two vertices) and
+// its STL reader only "malformed" (no line for a truncated ASCII file), so load_mesh uses
+// these instead. Each reads a polygon soup and checks everything it reads: malformed
+// input throws sss::Error naming the file, the line or element, and what is allowed.
 #pragma once
 
 #include <cstddef>
@@ -33,5 +33,10 @@ PolygonSoup read_off(const std::string& path);
 // of free-form geometry only, 'call' and unknown keywords are refused. A byte order mark
 // is skipped.
 PolygonSoup read_obj(const std::string& path);
+
+// STL, binary (when the file's size is the one its triangle count gives) or ASCII (one or
+// more "solid ... endsolid" blocks; keywords in any case; a facet may have more than 3
+// vertices). Each facet's corners are vertices of their own: load_mesh merges them.
+PolygonSoup read_stl(const std::string& path);
 
 }  // namespace sss
