@@ -10,7 +10,7 @@ namespace sss {
 
 namespace {
 
-constexpr char kMagic[8] = {'S', 'S', 'S', 'G', 'P', 'U', '0', '7'};
+constexpr char kMagic[8] = {'S', 'S', 'S', 'G', 'P', 'U', '0', '8'};
 
 template <class T>
 void write_array(std::ofstream& out, const std::vector<T>& v) {
@@ -89,11 +89,12 @@ GpuSceneData load_gpu_scene(const std::string& path) {
                std::memcmp(magic, "SSSGPU03", sizeof(magic)) == 0 ||
                std::memcmp(magic, "SSSGPU04", sizeof(magic)) == 0 ||
                std::memcmp(magic, "SSSGPU05", sizeof(magic)) == 0 ||
-               std::memcmp(magic, "SSSGPU06", sizeof(magic)) == 0))
+               std::memcmp(magic, "SSSGPU06", sizeof(magic)) == 0 ||
+               std::memcmp(magic, "SSSGPU07", sizeof(magic)) == 0))
         fail(path, ": baked by an earlier version of sssphere (", std::string(magic, 8),
              ", an earlier layout of the scene): bake the scene again");
     if (!in || std::memcmp(magic, kMagic, sizeof(kMagic)) != 0)
-        fail(path, ": not a baked GPU scene (no SSSGPU07 header)");
+        fail(path, ": not a baked GPU scene (no SSSGPU08 header)");
     GpuSceneData s;
     uint64_t n = 0;
     in.read(reinterpret_cast<char*>(&n), sizeof(n));

@@ -56,10 +56,11 @@ std::vector<int32_t> gpu_model_constants(const std::vector<float>& model);
 // widths and latent dimension, then CutPathGen's); some valid shapes when it is empty.
 std::vector<int32_t> gpu_cut_model_constants(const std::vector<float>& cut_model);
 
-// Binary file: magic "SSSGPU07" (01: before NEE, 02: before render/lights/, 03: before
+// Binary file: magic "SSSGPU08" (01: before NEE, 02: before render/lights/, 03: before
 // render/surfaces/, 04: before cut steps, 05: before exact contact, whose triangles
 // lack the touching flag and whose camera lacks its ray start, 06: before point lights
-// inside dielectric media, which its shapes and lights do not mark; refused),
+// inside dielectric media, which its shapes and lights do not mark, 07: before lights
+// name the medium they lie in (value.w); refused),
 // then the header and the five arrays (each a uint64 count then its elements),
 // little-endian as in memory. Errors name the file.
 void save_gpu_scene(const GpuSceneData& scene, const std::string& path);

@@ -185,7 +185,8 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
         put3(gl.a, l.a, float(l.type));
         put3(gl.b, l.b, l.scalar);
         put3(gl.c, l.c, 0.f);
-        put3(gl.value, l.value * scene.light_scale(int(order[i])), 0.f);
+        put3(gl.value, l.value * scene.light_scale(int(order[i])),
+             float(scene.light_medium(int(order[i]))));
         if (l.kind().quad) put3(h.emitters[emitters++], l.value, float(i));
         if (l.kind().environment) put3(h.environment, Vec3(float(i), 0.f, 0.f), 1.f);
         num_delta += l.is_delta() ? 1u : 0u;

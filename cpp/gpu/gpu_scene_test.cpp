@@ -48,13 +48,13 @@ TEST(GpuScene, FileRoundTrip) {
     std::remove(path.c_str());
 }
 
-// Files baked by earlier versions (magic SSSGPU01 to SSSGPU06) have other layouts:
+// Files baked by earlier versions (magic SSSGPU01 to SSSGPU07) have other layouts:
 // refused with the way out; any other file is not a baked scene.
 TEST(GpuScene, OldAndForeignFilesAreRefused) {
     const std::string old_file = temp_path("old.bin"), other = temp_path("other.bin");
     std::ofstream(other, std::ios::binary) << "{\"camera\": {}}";
-    for (const char* magic :
-         {"SSSGPU01", "SSSGPU02", "SSSGPU03", "SSSGPU04", "SSSGPU05", "SSSGPU06"}) {
+    for (const char* magic : {"SSSGPU01", "SSSGPU02", "SSSGPU03", "SSSGPU04", "SSSGPU05",
+                              "SSSGPU06", "SSSGPU07"}) {
         std::ofstream(old_file, std::ios::binary) << magic << " and whatever followed";
         const std::string old_msg = error_of([&] { load_gpu_scene(old_file); });
         EXPECT_HAS(old_msg, old_file);
@@ -62,7 +62,7 @@ TEST(GpuScene, OldAndForeignFilesAreRefused) {
         EXPECT_HAS(old_msg, "bake the scene again");
     }
     EXPECT_HAS(error_of([&] { load_gpu_scene(other); }),
-               "not a baked GPU scene (no SSSGPU07 header)");
+               "not a baked GPU scene (no SSSGPU08 header)");
     EXPECT_HAS(error_of([&] { load_gpu_scene(temp_path("missing.bin")); }),
                "baked scene file does not exist");
     std::remove(old_file.c_str());

@@ -69,7 +69,7 @@ PathTracer::PathTracer(const Scene& scene, int max_bounces, bool nee,
 }
 
 Vec3 PathTracer::transmittance(const Vec3& p, const Vec3& w, float dist, int shape,
-                               EmitterHit* emitter) const {
+                               EmitterHit* emitter, int light_in) const {
     const auto& shapes = scene_.desc().shapes;
     Crossing hits[kMaxShadowCrossings];
     const int n = scene_.tracer().crossings(p, w, dist, hits, kMaxShadowCrossings);
@@ -90,6 +90,13 @@ Vec3 PathTracer::transmittance(const Vec3& p, const Vec3& w, float dist, int sha
         // whether the ray meets it there is a matter of rounding (area lights end their
         // rays as short of the quad: render/lights/area.h).
         if (shapes[h.mesh].is_surface() && h.t >= kShadowRayEnd * dist) return tr;
+        // So does the face of the medium the light lies in, met leaving it at the light:
+        // a light on the face is inside (Scene::light_medium), and rounding decides
+        // whether the ray meets the face first (a lamp on a wax block's top).
+        if (int(h.mesh) == light_in && shape == light_in && h.t >= kShadowRayEnd * dist) {
+            t_prev = h.t;
+            break;
+        }
         if (shapes[h.mesh].is_surface() || !shapes[h.mesh].boundary.passes_shadow_rays())
             return Vec3(0.f);
         shape = dot(w, h.normal) < 0.f ? int(h.mesh) : -1;
@@ -242,7 +249,8 @@ Vec3 PathTracer::sample_light(const Vec3& p, const Scatter& scatter, Rng& rng, b
     }
     if (shadow_weight > 0.f && !is_black(ls.L) && !is_black(f.f)) {
         const Vec3 tr = shadow_weight * transmittance(scatter.origin(ls.w), ls.w, ls.dist,
-                                                      scatter.shape_along(ls.w));
+                                                      scatter.shape_along(ls.w), nullptr,
+                                                      scene_.light_medium(int(i)));
         if (ls.pdf == 0.f) {
             sum += ls.L * tr * f.f;  // a delta light
         } else {

@@ -122,14 +122,16 @@ private:
     // boundaries. With `emitter`, an emitter's quad ends the ray instead of blocking it:
     // the result is the transmittance up to it, and *emitter says which light, how far
     // along w, and its normal (light -1: none met). A ray to infinity that leaves the
-    // scene meets the environment, if there is one (t = kInf).
+    // scene meets the environment, if there is one (t = kInf). `light_in`: the medium the
+    // light at `dist` lies inside (Scene::light_medium), whose face the ray may meet at
+    // the light itself when the light lies on it: that face does not block it.
     struct EmitterHit {
         int light = -1;
         float t = 0.f;
         Vec3 normal;
     };
     Vec3 transmittance(const Vec3& p, const Vec3& w, float dist, int shape,
-                       EmitterHit* emitter = nullptr) const;
+                       EmitterHit* emitter = nullptr, int light_in = -1) const;
 
     const Scene& scene_;
     int max_bounces_;

@@ -939,6 +939,7 @@ void Scene::build(int threads, const Scene* previous, const StopFn& stop) {
     // The media point lights lie inside (medium_samples_lights, light_scale).
     lit_inside_.assign(size_t(num_shapes()), false);
     light_scale_.assign(desc_.lights.size(), 1.f);
+    light_medium_.assign(desc_.lights.size(), -1);
     for (int i = 0; i < num_shapes(); ++i) {
         const Shape& s = desc_.shapes[size_t(i)];
         if (s.is_surface()) continue;
@@ -947,6 +948,7 @@ void Scene::build(int threads, const Scene* previous, const StopFn& stop) {
             if (l.is_delta() && l.kind().position_key && s.mesh.bounds().contains(l.a) &&
                 point_inside_mesh(s.mesh, l.a)) {
                 lit_inside_[size_t(i)] = true;
+                light_medium_[k] = i;
                 const float n = boundary_index(s.boundary);
                 light_scale_[k] = 1.f / (n * n);
             }

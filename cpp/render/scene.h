@@ -211,6 +211,9 @@ public:
     // crossings; a path's scalings telescope to (1 / n at its light end)^2
     // (docs/notation.md, "No η² radiance scaling").
     float light_scale(int i) const { return light_scale_[size_t(i)]; }
+    // The medium point light `i` lies inside, on its surface included (CGAL's exact
+    // test), or -1.
+    int light_medium(int i) const { return light_medium_[size_t(i)]; }
     // Which of a medium's face and a surface lying on it a ray meets first is rounding's
     // choice: a ray leaving the face started past the floor (an outside sweep saw a lit
     // cube through the floor it rests on), and a ray from a camera far away may find the
@@ -282,6 +285,7 @@ private:
     std::vector<std::vector<bool>> touching_;
     std::vector<bool> lit_inside_;    // per shape: a point light lies inside its medium
     std::vector<float> light_scale_;  // per light (light_scale)
+    std::vector<int> light_medium_;   // per light (light_medium)
     Bounds3 bounds_;                  // of every mesh the BVH holds
     int environment_ = -1;
     bool grey_ = true;

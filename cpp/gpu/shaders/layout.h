@@ -74,7 +74,8 @@ struct GpuCutGrid {
 };
 
 // A light (render/lights/light.h's LightData): a.xyz, b.xyz, c.xyz and value.rgb its
-// vectors and colour, a.w its type id (render/lights/registry.h), b.w its scalar.
+// vectors and colour, a.w its type id (render/lights/registry.h), b.w its scalar, value.w
+// the medium a point light lies inside (Scene::light_medium; -1: none).
 struct GpuLight {
     vec4 a, b, c, value;
 };

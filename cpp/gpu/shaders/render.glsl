@@ -111,8 +111,9 @@ LightData light_data(GpuLight g) {
 // crossing, so a face marked touching is crossed only after a search around it (from the
 // last crossing to tie_reach past it, passing through its mesh, as other_at) finds no
 // surface there (a lamp under a floor lit an index-matched cube resting on it). One
-// traversal per iteration, for lavapipe's loop budget (meet_boundary).
-vec3 transmittance(vec3 p, vec3 w, float dist, int shape) {
+// traversal per iteration, for lavapipe's loop budget (meet_boundary). light_in: the
+// medium the light at dist lies inside (Scene::light_medium), -1 for none.
+vec3 transmittance(vec3 p, vec3 w, float dist, int shape, int light_in) {
     vec3 tr = vec3(1.0);
     float t_prev = 0.0;
     bool around = false;  // the last search found `face`, marked touching: search around it
@@ -135,6 +136,8 @@ vec3 transmittance(vec3 p, vec3 w, float dist, int shape) {
         if (shape >= 0) tr *= beer(shapes[shape].sigma_t.xyz, (hit ? h.t : dist) - t_prev);
         if (!hit || is_black(tr)) return tr;
         if (is_surface(h.mesh) && h.t >= kShadowRayEnd * dist) return tr;  // at the light
+        if (int(h.mesh) == light_in && shape == light_in && h.t >= kShadowRayEnd * dist)
+            return tr * beer(shapes[shape].sigma_t.xyz, dist - h.t);  // a light on its face
         if (h.mesh >= counts.x || is_surface(h.mesh) ||
             !boundary_passes_shadow_rays(boundary_data(shapes[h.mesh])))
             return vec3(0.0);
@@ -212,7 +215,7 @@ vec3 sample_light(vec3 p, vec3 d, int shape, PhaseData ph, int vertex, SurfaceDa
     }
     if (shadow_weight > 0.0 && !is_black(ls.L) && !is_black(f)) {
         vec3 tr = shadow_weight * transmittance(vertex == kMediumVertex ? p : leave(hit, ls.w),
-                                                ls.w, ls.dist, shape);
+                                                ls.w, ls.dist, shape, int(lights[i].value.w));
         sum = ls.pdf == 0.0  // a delta light
                   ? ls.L * tr * f
                   : ls.L * tr * f * (power_heuristic(ls.pdf / n_lights, pdf) / ls.pdf);
