@@ -250,7 +250,8 @@ def test_vulkan_tasks(two_nodes, small_scene):
 
 def test_walks_on_the_cluster_are_the_local_walks(two_nodes, tmp_path):
     """`sssphere datagen --ray` writes the file a local run writes (but for the time it
-    took, in its metadata); sphere_walks(ray_address=) gives the same walks."""
+    took, in its metadata); sphere_walks(ray_address=) gives the same walks, with arrays
+    of parameters and with numbers (which gave one walk instead of n: a review)."""
     from sssphere import cli
 
     files = {}
@@ -266,11 +267,13 @@ def test_walks_on_the_cluster_are_the_local_walks(two_nodes, tmp_path):
                 assert a.pop("seconds") > 0 and b.pop("seconds") > 0 and a == b
             else:
                 np.testing.assert_array_equal(local[key], remote[key], err_msg=key)
-    w = sssphere.sphere_walks([3.0, 40.0] * 15_000, 0.5, 0.99, 30_000, seed=3, first_index=11,
-                              ray_address=two_nodes.address)
-    w0 = sssphere.sphere_walks([3.0, 40.0] * 15_000, 0.5, 0.99, 30_000, seed=3, first_index=11)
-    for key in w0:
-        np.testing.assert_array_equal(w0[key], w[key], err_msg=key)
+    for sigma in ([3.0, 40.0] * 15_000, 20.0):
+        w = sssphere.sphere_walks(sigma, 0.5, 0.99, 30_000, seed=3, first_index=11,
+                                  ray_address=two_nodes.address)
+        w0 = sssphere.sphere_walks(sigma, 0.5, 0.99, 30_000, seed=3, first_index=11)
+        assert w0["N"].shape == (30_000,)
+        for key in w0:
+            np.testing.assert_array_equal(w0[key], w[key], err_msg=key)
 
 
 def _default_signals():

@@ -6,6 +6,7 @@ import pytest
 from scipy import stats
 
 import sssphere
+from sssphere import _core
 from reference_walks import reference_cut_sphere_walks, reference_sphere_walks
 
 KEYS = ("N", "cos_theta", "alpha", "beta", "X", "W")
@@ -192,18 +193,33 @@ def test_walk_counts_and_seeds_past_their_range_are_named(kwargs, match):
 
 
 def test_a_large_call_is_made_in_parts_with_the_same_walks(monkeypatch):
-    """sphere_walks calls C++ in parts (so that Ctrl-C is seen between them); walk i keeps
-    its stream (seed, first_index + i), so the parts give the walks of one call."""
+    """sphere_walks and cut_sphere_walks call C++ in parts of about a quarter of a second
+    (so that Ctrl-C is seen between them; 65,536 walks at sigma_t = 1000 were one call of six
+    minutes); walk i keeps its stream (seed, first_index + i), so the parts give the walks
+    of one call."""
     from sssphere import walks
 
     rng = np.random.default_rng(5)
     n = 1000
-    sigma = rng.uniform(0.5, 20, n)
-    whole = {"array": walks.sphere_walks(sigma, 0.3, 0.9, n, seed=11, first_index=7),
-             "number": walks.sphere_walks(5.0, 0.3, 0.9, n, seed=11, first_index=7)}
-    monkeypatch.setattr(walks, "_CHUNK", 128)
+    sigma = rng.uniform(0.5, 20, n).astype(np.float32)
+    calls = []
+    whole_call = _core.sphere_walks
+    monkeypatch.setattr(walks._core, "sphere_walks",
+                        lambda *a: calls.append(a[3]) or whole_call(*a))
+    monkeypatch.setattr(walks, "_FIRST_PART", 8)
+    monkeypatch.setattr(walks, "_PART_SECONDS", 1e-6)  # 8 walks, then one per call
     # per-walk arrays are split; a number serves every part
     for kind, sigma_t in (("array", sigma), ("number", 5.0)):
+        s = np.broadcast_to(np.float32(sigma_t), n) if kind == "number" else sigma
+        whole = whole_call(np.ascontiguousarray(s), np.full(n, 0.3, np.float32),
+                           np.full(n, 0.9, np.float32), n, 11, 7, 0)
+        calls.clear()
         parted = walks.sphere_walks(sigma_t, 0.3, 0.9, n, seed=11, first_index=7)
-        for key in whole[kind]:
-            np.testing.assert_array_equal(parted[key], whole[kind][key], err_msg=f"{kind} {key}")
+        assert len(calls) > 10 and sum(calls) == n, calls
+        for key in whole:
+            np.testing.assert_array_equal(parted[key], whole[key], err_msg=f"{kind} {key}")
+    cut_parted = walks.cut_sphere_walks(sigma[:200], 0.3, 0.4, -0.2, 0.9, 200, seed=3)
+    monkeypatch.setattr(walks, "_FIRST_PART", 200)  # one call
+    cut_whole = walks.cut_sphere_walks(sigma[:200], 0.3, 0.4, -0.2, 0.9, 200, seed=3)
+    for key in cut_whole:
+        np.testing.assert_array_equal(cut_parted[key], cut_whole[key], err_msg=f"cut {key}")

@@ -524,7 +524,7 @@ def _walk_part(sigma, g, albedo, seed: int, first_index: int) -> dict:
     return sphere_walks(sigma, g, albedo, len(sigma), seed=seed, first_index=first_index, threads=1)
 
 
-def walks(sigma, g, albedo, seed: int, first_index: int,
+def walks(sigma, g, albedo, n: int, seed: int, first_index: int,
           address: str, chunk: int = WALK_CHUNK,
           progress: Optional[Callable[[float], object]] = None) -> tuple[list[dict], bool]:
     """Sphere walks i = 0 .. n - 1 (stream first_index + i; sigma, g, albedo: arrays of n,
@@ -532,7 +532,6 @@ def walks(sigma, g, albedo, seed: int, first_index: int,
     (the finished chunks from the first, in order; interrupted): Ctrl-C cancels the rest
     and keeps the chunks finished in order."""
     ray = connect(address)
-    n = max(np.size(sigma), np.size(g), np.size(albedo))
     sigma, g, albedo = (np.ascontiguousarray(np.broadcast_to(a, n)) for a in (sigma, g, albedo))
     remote = ray.remote(_walk_part).options(num_cpus=1, max_retries=MAX_RETRIES,
                                             scheduling_strategy="SPREAD")  # as render's

@@ -9,6 +9,7 @@ step near a flat boundary (issue 26; its models: `sssphere.learn.cut`).
 
 from __future__ import annotations
 
+import time
 from typing import Optional, Union
 
 import numpy as np
@@ -100,24 +101,39 @@ def sphere_walks(
     if ray_address is not None:
         from sssphere.cluster import walks
 
-        parts, interrupted = walks(s, gg, a, seed, first_index, ray_address)
+        parts, interrupted = walks(s, gg, a, n, seed, first_index, ray_address)
         if interrupted:
             raise KeyboardInterrupt
         return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
-    if n <= _CHUNK:
-        return _core.sphere_walks(s, gg, a, n, seed, first_index, threads)
-    # In parts, between which Python sees Ctrl-C (a call of millions of dense walks ran for
-    # minutes deaf to it); walk i's stream is (seed, first_index + i) either way.
-    def part(x: np.ndarray, i: int) -> np.ndarray:  # a number (length 1) serves every part
-        return x if x.shape[0] == 1 else x[i:i + _CHUNK]
+    return _in_parts(lambda k, i, *x: _core.sphere_walks(*x, k, seed, first_index + i, threads),
+                     n, s, gg, a)
 
-    parts = [_core.sphere_walks(part(s, i), part(gg, i), part(a, i), min(_CHUNK, n - i), seed,
-                                first_index + i, threads)
-             for i in range(0, n, _CHUNK)]
+
+# Calls of C++ walks take about _PART_SECONDS each, between which Python sees Ctrl-C: a call
+# of millions of dense walks ran for minutes deaf to it, and 65,536 walks at sigma_t = 1000
+# (about 6 ms each on a thread) for six minutes. The first call takes _FIRST_PART walks and
+# each next one as many as the last call's pace fits in _PART_SECONDS, at most 4 times as
+# many (the parameters may get denser along the arrays).
+_PART_SECONDS = 0.25
+_FIRST_PART = 64
+_MOST_PART = 1 << 20
+
+
+def _in_parts(simulate, n: int, *arrays: np.ndarray) -> dict:
+    """simulate(k, i, parts of arrays) for walks i .. i + k - 1 over the n walks, in calls
+    of about _PART_SECONDS each; the results concatenated. Walk i's stream is (seed,
+    first_index + i) however the walks are split, so the results do not depend on it."""
+    parts, i, size = [], 0, _FIRST_PART
+    while i < n:
+        k = min(size, n - i)
+        start = time.perf_counter()
+        parts.append(simulate(k, i, *(x if x.shape[0] == 1 else x[i:i + k] for x in arrays)))
+        took = time.perf_counter() - start
+        i += k
+        size = int(min(4 * k, _MOST_PART, max(1.0, k * _PART_SECONDS / max(took, 1e-9))))
+    if len(parts) == 1:
+        return parts[0]
     return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
-
-
-_CHUNK = 1 << 16  # walks per C++ call of sphere_walks
 
 
 def cut_sphere_walks(
@@ -166,4 +182,6 @@ def cut_sphere_walks(
         raise ValueError(f"h[{i}] = {hh[i].item()!r} is out of range (allowed: h > 0)")
     m0 = _param("mu0", mu0, n, -1.0, 1.0, True)
     a = _param("albedo", albedo, n, 0.0, 1.0, True)
-    return _core.cut_sphere_walks(s, gg, hh, m0, a, n, seed, first_index, threads)
+    return _in_parts(lambda k, i, *x: _core.cut_sphere_walks(*x, k, seed, first_index + i,
+                                                             threads),
+                     n, s, gg, hh, m0, a)

@@ -77,8 +77,8 @@ def generate(
     if ray_address is not None:
         from sssphere.cluster import walks
 
-        parts, interrupted = walks(params["sigma"], params["g"], params["phi"], seed, 0,
-                                   ray_address, progress=progress)
+        parts, interrupted = walks(params["sigma"], params["g"], params["phi"], samples, seed,
+                                   0, ray_address, progress=progress)
         done = sum(len(p["N"]) for p in parts)
     try:
         while done < samples and ray_address is None:
