@@ -7,6 +7,7 @@ import math
 import re
 import sys
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -472,3 +473,69 @@ def test_an_edit_while_the_scene_renders_is_refused_and_the_render_unchanged(sma
     assert "lights[0].intensity" in errors[2]
     scene.shapes[0].medium.sigma_t = 100  # the render has returned
     assert scene.shapes[0].medium.sigma_t == 100
+
+
+def test_edits_from_two_threads_are_both_kept(small_scene, monkeypatch):
+    """An edit copied the scene's description before taking the scene's lock, so a second
+    thread's edit made while the first one rebuilt started from the old description and
+    dropped the first (a review: 8-19 of 30 barrier-started pairs lost one). Here the first
+    edit's rebuild waits a little once the second has started: both must be kept."""
+    scene = sssphere.load_scene(small_scene)
+    rebuilding, second_started = threading.Event(), threading.Event()
+    real = sssphere.Scene._rebuild
+
+    def slow_rebuild(self, *args):
+        if not rebuilding.is_set():  # the first edit only
+            rebuilding.set()
+            second_started.wait(timeout=60)
+            time.sleep(0.3)  # long enough for the second edit to copy a stale description
+        return real(self, *args)
+
+    monkeypatch.setattr(sssphere.Scene, "_rebuild", slow_rebuild)
+
+    def second():
+        rebuilding.wait(timeout=60)
+        second_started.set()
+        scene.camera.fov = 41
+
+    other = threading.Thread(target=second)
+    other.start()
+    scene.shapes[0].medium.albedo = 0.5
+    other.join()
+    assert scene.shapes[0].medium.albedo == 0.5 and scene.camera.fov == 41, scene.to_dict()
+    expected = sssphere.load_scene(scene.to_dict(), base_dir=scene.base_dir)
+    np.testing.assert_array_equal(sssphere.render(scene, spp=4, seed=1),
+                                  sssphere.render(expected, spp=4, seed=1))
+
+
+def test_a_render_from_another_thread_waits_for_render_frames(small_scene):
+    """render_frames sets the scene's camera between its frames. A render of the scene from
+    another thread in the meantime rendered from a frame's camera, and its running made
+    render_frames' next camera change (or the restoring one) fail, losing the frames (a
+    review). That render now waits for render_frames: it sees the scene's own camera, and
+    the frames are those of their cameras."""
+    scene = sssphere.load_scene(small_scene)
+    cameras = [{"origin": [0.5, 0.2, 4.0]}, {"origin": [-0.4, 0.3, 4.0]}]
+    alone = [sssphere.render(sssphere.load_scene({**small_scene, "camera": {
+        **small_scene["camera"], **c}}), spp=8, seed=2) for c in cameras]
+    own = sssphere.render(sssphere.load_scene(small_scene), spp=8, seed=2)
+    other_started, other_image = threading.Event(), []
+
+    def other():
+        other_started.set()
+        other_image.append(sssphere.render(scene, spp=8, seed=2))
+
+    thread = threading.Thread(target=other)
+
+    def on_frame(k, result):
+        if k == 0:
+            thread.start()
+            other_started.wait(timeout=60)
+            time.sleep(0.3)  # the other render would run now, from this frame's camera
+
+    frames = sssphere.render_frames(scene, cameras, on_frame=on_frame, spp=8, seed=2)
+    thread.join()
+    for k in range(2):
+        np.testing.assert_array_equal(frames[k].image, alone[k], err_msg=f"frame {k}")
+    np.testing.assert_array_equal(other_image[0], own)
+    assert scene.camera.to_python() == small_scene["camera"]

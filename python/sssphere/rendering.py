@@ -371,7 +371,9 @@ def render_frames(scene: Union[Scene, str, os.PathLike, dict], cameras: list[dic
     render_full's, and so is ``ray_address``; ``progress(fraction)`` sees the whole animation (returning False
     stops it); ``on_frame(k, result)`` is called as each frame finishes (to save it, say).
     Ctrl-C stops the animation: the results so far are returned, the last one
-    ``interrupted``. The scene's camera is restored afterwards."""
+    ``interrupted``. The scene's camera is restored afterwards. Renders of the scene from
+    other threads wait until it returns (they would see its cameras), and it starts once
+    those running have returned."""
     return _render_frames(scene, cameras, progress, on_frame, aovs, denoise, None, ray_address,
                           options)
 
@@ -395,6 +397,14 @@ def _render_frames(scene, cameras, progress, on_frame, aovs: bool, denoise: bool
             raise ValueError(f"cameras[{k}] must be a dict of camera fields, got {camera!r}")
     if denoise:
         _denoiser()
+    with scene._posed():  # other threads' renders of the scene wait: they would see our cameras
+        return _render_posed(scene, cameras, progress, on_frame, aovs, denoise, text,
+                             ray_address, options, keep)
+
+
+def _render_posed(scene, cameras, progress, on_frame, aovs, denoise, text, ray_address,
+                  options, keep) -> list[RenderResult]:
+    """_render_frames' frames, the scene held (Scene._posed)."""
     original = scene.camera.to_python()
     results: list[RenderResult] = []
     try:

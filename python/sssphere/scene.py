@@ -74,14 +74,18 @@ class Scene(_core.Scene):
     docs/notation.md, "Distance grid"). Mesh files are
     not read again unless they changed on disk. An edit while another thread renders the
     scene is refused (a SceneError): the render would see part of it. A render started
-    during an edit waits for it.
+    during an edit waits for it, and so does one started while render_frames runs in
+    another thread (it sets the camera between its frames), which starts once the renders
+    running have returned.
     """
 
     def __init__(self, text: str, base_dir: str, source: str, threads: int = 0):
         meshes = _core.MeshCache()
-        # Renders in progress (rendering.py counts them) and the lock that keeps a rebuild
-        # and a render apart.
-        self._renders, self._editing = 0, threading.Lock()
+        # Renders in progress (rendering.py counts them), the thread in render_frames (which
+        # sets the camera between its renders) and the lock that keeps a rebuild and a
+        # render apart.
+        self._renders, self._editing = {}, threading.Condition()  # renders by thread
+        self._posing = None
         super().__init__(text, base_dir, source, threads, meshes)
         self._meshes = meshes
         try:  # the text the C++ parser took, which skips one leading byte order mark
@@ -126,14 +130,40 @@ class Scene(_core.Scene):
 
     @contextlib.contextmanager
     def _rendered(self):
-        """Held by a render of this scene: edits are refused meanwhile."""
+        """Held by a render of this scene: edits are refused meanwhile. While render_frames
+        runs in another thread, it waits for it."""
+        me = threading.get_ident()
         with self._editing:
-            self._renders += 1
+            self._editing.wait_for(lambda: self._posing in (None, me))
+            self._renders[me] = self._renders.get(me, 0) + 1
         try:
             yield self
         finally:
             with self._editing:
-                self._renders -= 1
+                self._renders[me] -= 1
+                if not self._renders[me]:
+                    del self._renders[me]
+                self._editing.notify_all()
+
+    @contextlib.contextmanager
+    def _posed(self):
+        """Held by render_frames, which sets the camera between its renders: it starts once
+        the renders running (and another render_frames) have returned; meanwhile renders
+        from other threads wait and their edits are refused."""
+        me = threading.get_ident()
+        with self._editing:
+            nested = self._posing == me  # render_frames from render_frames' on_frame
+            if not nested:
+                self._editing.wait_for(lambda: self._posing is None and
+                                       not set(self._renders) - {me})
+                self._posing = me
+        try:
+            yield self
+        finally:
+            if not nested:
+                with self._editing:
+                    self._posing = None
+                    self._editing.notify_all()
 
     def to_dict(self) -> dict:
         """The scene as a dict of the scene file's structure (a copy): load_scene(d,
@@ -160,35 +190,38 @@ class Scene(_core.Scene):
         bad = None if value is _DELETE else _find_bad_value(value, _field_name(path))
         if bad:
             raise SceneError(f"{self._source}: {bad}")
-        doc = copy.deepcopy(self._doc)
-        node = doc
-        for i, key in enumerate(path[:-1]):
-            if isinstance(node, dict) and isinstance(key, str) and key not in node:
-                node[key] = [] if isinstance(path[i + 1], int) else {}
-            try:
-                node = node[key]
-            except (KeyError, IndexError, TypeError):
-                raise SceneError(f"{self._source}: {_field_name(path[:i + 1])}: no such "
-                                 "field in the scene") from None
-        key = path[-1]
-        try:
-            if value is _DELETE:
-                del node[key]
-            elif isinstance(node, list) and key == len(node):
-                node.append(value)  # one past the end appends
-            else:
-                node[key] = value
-        except (KeyError, IndexError, TypeError):
-            raise SceneError(f"{self._source}: {_field_name(path)}: no such field in the "
-                             "scene (a list grows by assigning at its length)") from None
-        with self._editing:
-            if self._renders:
+        with self._editing:  # the copy is taken here: another thread's edit is kept
+            running = sum(self._renders.values())
+            posing = self._posing not in (None, threading.get_ident())
+            if running or posing:
                 raise SceneError(
                     f"{self._source}: {_field_name(path)}: cannot be changed while the scene "
-                    f"is being rendered ({self._renders} render"
-                    f"{'s' if self._renders > 1 else ''} of it running): change it once the "
-                    "render has returned, or change a copy, "
+                    f"is being rendered ("
+                    + (f"{running} render{'s' if running > 1 else ''} of it running"
+                       if running else "render_frames in another thread")
+                    + "): change it once the render has returned, or change a copy, "
                     "load_scene(scene.to_dict(), base_dir=scene.base_dir)")
+            doc = copy.deepcopy(self._doc)
+            node = doc
+            for i, key in enumerate(path[:-1]):
+                if isinstance(node, dict) and isinstance(key, str) and key not in node:
+                    node[key] = [] if isinstance(path[i + 1], int) else {}
+                try:
+                    node = node[key]
+                except (KeyError, IndexError, TypeError):
+                    raise SceneError(f"{self._source}: {_field_name(path[:i + 1])}: no such "
+                                     "field in the scene") from None
+            key = path[-1]
+            try:
+                if value is _DELETE:
+                    del node[key]
+                elif isinstance(node, list) and key == len(node):
+                    node.append(value)  # one past the end appends
+                else:
+                    node[key] = value
+            except (KeyError, IndexError, TypeError):
+                raise SceneError(f"{self._source}: {_field_name(path)}: no such field in the "
+                                 "scene (a list grows by assigning at its length)") from None
             self._rebuild(json.dumps(doc), self._base_dir, self._source, self._threads,
                           self._meshes)
             self._doc = doc
