@@ -23,6 +23,7 @@ import ray
 
 import sssphere
 from sssphere import cluster as sss_cluster
+import sssphere.rendering  # its DEFAULT_MODELS; an attribute of sssphere once imported
 
 REL = 1e-6
 
@@ -177,6 +178,28 @@ def test_files_reach_the_workers_through_the_object_store(two_nodes, small_scene
                                    film["events"].reshape(local.events.shape), film["steps"], 6)
     np.testing.assert_array_equal(r["events"], local.events)
     np.testing.assert_allclose(r["image"], local.image, rtol=REL, atol=0)
+
+
+def test_a_scene_file_changed_or_gone_since_the_load_is_refused_not_sent(small_scene, tmp_path):
+    """A cluster render sends the scene's files as they are on disk when it starts. A mesh
+    changed or deleted since the scene was built rendered another mesh on the workers, or
+    failed with a FileNotFoundError or a message naming the workers' copy (a review): the
+    local render keeps the mesh it loaded. Now it is refused, naming the field and the file.
+    (The check comes before anything goes to the cluster.)"""
+    shutil.copy(os.path.join(os.path.dirname(__file__), "..", "scenes", "meshes",
+                             "thin_torus.obj"), tmp_path / "ring.obj")
+    small_scene["shapes"][0].pop("sphere")
+    small_scene["shapes"][0]["mesh"] = "ring.obj"
+    scene = sssphere.load_scene(small_scene, base_dir=tmp_path)
+    options = sssphere._core.resolve_render_options(scene, "", {}, integrator="pt", spp=2)
+    ring = tmp_path / "ring.obj"
+    ring.write_text(ring.read_text() + "# edited\n")
+    with pytest.raises(sssphere.SceneError, match=r"shapes\[0\]\.mesh: .*ring\.obj: the file "
+                       "changed on disk since the scene was built from it"):
+        sss_cluster.package_scene(scene, options, None)
+    ring.unlink()
+    with pytest.raises(sssphere.SceneError, match=r"ring\.obj: the file is gone since the scene"):
+        sss_cluster.package_scene(scene, options, None)
 
 
 def test_cut_models_reach_the_workers(two_nodes, small_scene, tmp_path):

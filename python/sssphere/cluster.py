@@ -150,18 +150,32 @@ def package_scene(scene, options: dict, ray) -> tuple[str, dict]:
     doc = scene.to_dict()
     files: dict[str, object] = {}
 
-    def ship(path: str) -> str:
+    def ship(path: str, field: str = "") -> str:
         full = os.path.join(scene.base_dir, path)
+        if field:  # one of the scene's files: the one the scene was built from
+            stamp = scene._stamps.get(full)
+            try:
+                st = os.stat(full)
+                now = (st.st_size, st.st_mtime_ns)
+            except OSError:
+                now = None
+            if now != stamp:
+                raise _core.SceneError(
+                    f"{scene.source}: {field}: {full}: "
+                    + ("the file is gone" if now is None else "the file changed on disk")
+                    + " since the scene was built from it: a cluster render sends the "
+                    "scene's files to its workers, which would not render this scene; "
+                    "load the scene again (sssphere.load_scene)")
         key, ref = _put_file(full, ray)
         files[key] = ref
         return key
 
-    for shape in doc.get("shapes", []):
+    for k, shape in enumerate(doc.get("shapes", [])):
         if isinstance(shape.get("mesh"), str):
-            shape["mesh"] = ship(shape["mesh"])
-    for light in doc.get("lights", []):
+            shape["mesh"] = ship(shape["mesh"], f"shapes[{k}].mesh")
+    for k, light in enumerate(doc.get("lights", [])):
         if isinstance(light.get("map"), str):
-            light["map"] = ship(light["map"])
+            light["map"] = ship(light["map"], f"lights[{k}].map")
     for key in ("models", "cut_models"):  # the options carry the models
         doc.get("render", {}).pop(key, None)
     models = []

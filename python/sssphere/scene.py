@@ -93,6 +93,7 @@ class Scene(_core.Scene):
         except ValueError as e:  # the two parsers disagree: say it as the C++ one would
             raise SceneError(f"{source}: malformed JSON: {e}") from None
         self._base_dir, self._source, self._threads = base_dir, source, threads
+        self._stamps = _file_stamps(self._doc, base_dir)
 
     def __reduce__(self):
         """Pickled (and copied) as its scene text, base directory, source and threads: the
@@ -225,7 +226,25 @@ class Scene(_core.Scene):
             self._rebuild(json.dumps(doc), self._base_dir, self._source, self._threads,
                           self._meshes)
             self._doc = doc
+            self._stamps = _file_stamps(doc, self._base_dir)
         _warned(self, stacklevel=4)
+
+
+def _file_stamps(doc: Any, base_dir: str) -> dict:
+    """{path: (size, modification time)} of the files the description reads (meshes,
+    environment maps) as the scene was built from them. A cluster render sends those
+    files to its workers and refuses one changed since (the scene holds the old one)."""
+    stamps = {}
+    for block, key in (("shapes", "mesh"), ("lights", "map")):
+        items = doc.get(block) if isinstance(doc, dict) else None
+        for item in items if isinstance(items, list) else []:
+            path = item.get(key) if isinstance(item, dict) else None
+            if isinstance(path, str):
+                full = os.path.join(base_dir, path)
+                with contextlib.suppress(OSError):
+                    st = os.stat(full)
+                    stamps[full] = (st.st_size, st.st_mtime_ns)
+    return stamps
 
 
 class SceneNode:
