@@ -258,6 +258,12 @@ def test_time_limit_ends_with_whole_tasks(two_nodes, small_scene):
     r = sssphere.render_full(scene, time_limit=1.5, seed=4, ray_address=two_nodes.address)
     assert r.time_limit_reached and r.spp >= 1 and not r.interrupted
     _assert_same_render(sssphere.render_full(scene, spp=r.spp, seed=4, threads=1), r)
+    # Path records are (spp asked for, height, width), 0 past the samples taken, as a
+    # local render's (they had the samples taken only)
+    r = sssphere.render_full(scene, spp=5000, time_limit=1.0, seed=4, record_paths=True,
+                             ray_address=two_nodes.address)
+    assert r.time_limit_reached and r.path_events.shape == (5000, *r.image.shape[:2])
+    assert r.path_events[:r.spp].any() and not r.path_events[r.spp:].any()
 
 
 def test_vulkan_tasks(two_nodes, small_scene):

@@ -496,9 +496,11 @@ def render(scene, address: str, progress: Optional[Callable[[float], object]], o
     r["warnings"] = list(dict.fromkeys(w.replace("{models}", str(resolved["models"]))
                                        for t in tasks for w in t["warnings"]))
     if resolved["record_paths"]:
+        # (spp asked for, height, width), 0 past the samples taken, as a local render's
         for key in ("path_events", "path_steps"):
-            r[key] = (np.concatenate([p[key] for p in merged]) if merged
-                      else np.zeros((0, *shape), np.uint32))
+            r[key] = np.zeros((resolved["spp"], *shape), np.uint32)
+            taken = np.concatenate([p[key] for p in merged]) if merged else r[key][:0]
+            r[key][:len(taken)] = taken
     if resolved["backend"] == "vulkan":
         r["gpu_seconds"] = sum(t["gpu_seconds"] or 0.0 for t in tasks)
         r["device"] = tasks[0]["device"] if tasks else None
