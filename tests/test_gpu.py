@@ -702,6 +702,9 @@ def test_too_many_lights_are_refused():
     ({"backend": "vulkan", "threads": 2}, r"threads=2 is CPU-only"),
     ({"backend": "vulkan", "integrator": "st", "step_nee": "event"},
      r"step_nee 'event' is CPU-only"),
+    # with pt it is wrong on either backend (it said "CPU-only", as if pt took it there)
+    ({"backend": "vulkan", "integrator": "pt", "step_nee": "event"},
+     r"step_nee 'event' is an option of integrator 'st' \(the integrator is 'pt'\)"),
     ({"backend": "vulkan", "integrator": "st", "max_bounces": 3}, r"max_bounces 3 is not supported "
      r"by integrator 'st' \(allowed: -1\)"),
     # 16 pixels at 2^23 + 1 spp: 16 paths more than record_paths holds (2^27).

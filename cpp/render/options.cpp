@@ -364,6 +364,16 @@ void check_render_options(const RenderOptions& r, const std::string& source) {
     if (!r.cut_models.empty() && r.integrator != "st")
         fail(where, "cut_models is an option of integrator 'st' (the integrator is '",
              r.integrator, "')");
+    // The other "st" options have defaults that any integrator takes. (Checked before the
+    // backend's: with "pt" they are wrong on either backend.)
+    if (r.integrator != "st" && r.step_nee != StepNee::Hits)
+        fail(where,
+             "step_nee 'event' is an option of integrator 'st' (the integrator is '",
+             r.integrator, "')");
+    if (r.integrator != "st" && r.sphere_sampler != SphereSampler::Model)
+        fail(where,
+             "sphere_sampler 'walk' is an option of integrator 'st' (the integrator is '",
+             r.integrator, "')");
     if (r.backend == Backend::Vulkan) {
         if (r.threads != 0)
             fail("threads=", r.threads,
@@ -377,15 +387,6 @@ void check_render_options(const RenderOptions& r, const std::string& source) {
                 "sphere_sampler 'walk' is CPU-only (backend 'vulkan' samples steps with "
                 "the models)");
     }
-    // The other "st" options have defaults that any integrator takes.
-    if (r.integrator != "st" && r.step_nee != StepNee::Hits)
-        fail(where,
-             "step_nee 'event' is an option of integrator 'st' (the integrator is '",
-             r.integrator, "')");
-    if (r.integrator != "st" && r.sphere_sampler != SphereSampler::Model)
-        fail(where,
-             "sphere_sampler 'walk' is an option of integrator 'st' (the integrator is '",
-             r.integrator, "')");
 }
 
 const char* to_string(StepNee v) { return v == StepNee::Event ? "event" : "hits"; }

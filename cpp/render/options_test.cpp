@@ -107,7 +107,9 @@ TEST(RenderOptions, BadValuesNameTheOptionAndWhatIsAllowed) {
                "s.json: max_bounces 3 is not supported by integrator 'st' (allowed: -1)");
     EXPECT_HAS(err([](auto& o) { o.backend = "vulkan", o.threads = 2; }),
                "threads=2 is CPU-only");
-    EXPECT_HAS(err([](auto& o) { o.backend = "vulkan", o.step_nee = "event"; }),
+    EXPECT_HAS(err([](auto& o) {
+                   o.integrator = "st", o.backend = "vulkan", o.step_nee = "event";
+               }),
                "step_nee 'event' is CPU-only");
     EXPECT_HAS(err([](auto& o) { o.backend = "cuda"; }),
                "backend 'cuda' is not allowed (allowed: 'cpu', 'vulkan')");
@@ -117,6 +119,15 @@ TEST(RenderOptions, BadValuesNameTheOptionAndWhatIsAllowed) {
         "s.json: step_nee 'event' is an option of integrator 'st' (the integrator is "
         "'pt')");
     EXPECT_HAS(err([](auto& o) { o.integrator = "pt", o.sphere_sampler = "walk"; }),
+               "sphere_sampler 'walk' is an option of integrator 'st'");
+    // ... on either backend: not "CPU-only", which said they would work on the CPU
+    EXPECT_HAS(err([](auto& o) {
+                   o.integrator = "pt", o.backend = "vulkan", o.step_nee = "event";
+               }),
+               "step_nee 'event' is an option of integrator 'st'");
+    EXPECT_HAS(err([](auto& o) {
+                   o.integrator = "pt", o.backend = "vulkan", o.sphere_sampler = "walk";
+               }),
                "sphere_sampler 'walk' is an option of integrator 'st'");
     EXPECT_EQ(err([](auto& o) { o.integrator = "pt", o.step_nee = "hits"; }), "");
     EXPECT_EQ(err([](auto& o) { o.integrator = "st", o.step_nee = "event"; }), "");
