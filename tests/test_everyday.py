@@ -304,6 +304,25 @@ def test_orbit_cameras_circle_the_target(small_scene):
     assert all(c["target"] == [0, 0, 0] and c["fov"] == 30 for c in cams)
 
 
+def test_api_arguments_taken_and_refused_as_the_rest_of_the_api_does(small_scene, tmp_path):
+    """A review found these out of line with the rest of the API: orbit_cameras refused a
+    NumPy integer (spp, seed and threads take them), first_hit_aovs refused threads=None
+    (render takes it: all cores), write_image did not say which shape it got, and an
+    image's path that is a directory was "not a image file"."""
+    scene = sssphere.load_scene(small_scene)
+    assert sssphere.orbit_cameras(scene, np.int64(3)) == sssphere.orbit_cameras(scene, 3)
+    for bad in (True, 2.0, 0):
+        with pytest.raises(ValueError, match="frames must be an integer >= 1"):
+            sssphere.orbit_cameras(scene, bad)
+    np.testing.assert_array_equal(sssphere.first_hit_aovs(scene, threads=None)["depth"],
+                                  sssphere.first_hit_aovs(scene, threads=1)["depth"])
+    with pytest.raises(SceneError, match=r"x\.exr: image must have shape \(height, width, 3\) "
+                       r"or \(height, width, 1\), got \(4, 4, 4\)"):
+        sssphere.write_image(tmp_path / "x.exr", np.ones((4, 4, 4), np.float32))
+    with pytest.raises(SceneError, match="is a directory, not an image file"):
+        sssphere.read_image(tmp_path)
+
+
 def test_render_frames_renders_each_camera_with_one_progress(small_scene):
     scene = sssphere.load_scene(small_scene)
     cams = sssphere.orbit_cameras(scene, 3)

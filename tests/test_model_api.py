@@ -278,7 +278,8 @@ def test_every_simd_target_can_be_pinned_and_samples_alike(models):
         (dict(sigma_t=-1.0), "sigma_t[0] = -1.0 is not allowed"),
         (dict(sigma_t=math.nan), "sigma_t[0] = nan is not a finite number"),
         (dict(sigma_t=math.inf), "not a finite number"),
-        (dict(sigma_t=250.0), "outside the training range [0, 200] of LengthGen"),
+        # named sigma_t, as here (it was the decoders' "sigma[0]")
+        (dict(sigma_t=250.0), "sigma_t[0] = 250 is outside the models' training range [0, 200]"),
         (dict(g=1.0), "g[0] = 1.0 is not allowed (allowed: -1 < g < 1)"),
         (dict(g=-0.97), "outside the training range [-0.95, 0.95]"),
         (dict(albedo=1.5), "albedo[0] = 1.5 is not allowed"),

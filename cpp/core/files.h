@@ -18,11 +18,13 @@ inline void check_input_file(const std::string& path, const char* what) {
     namespace fs = std::filesystem;
     std::error_code ec;
     const fs::file_status st = fs::status(path, ec);
-    if (ec.value() == ELOOP) fail(path, ": is a loop of symbolic links, not a ", what);
+    const char* a =
+        std::string("aeiou").find(what[0]) != std::string::npos ? "an " : "a ";
+    if (ec.value() == ELOOP) fail(path, ": is a loop of symbolic links, not ", a, what);
     if (ec || !fs::exists(st)) fail(path, ": ", what, " does not exist");
-    if (fs::is_directory(st)) fail(path, ": is a directory, not a ", what);
+    if (fs::is_directory(st)) fail(path, ": is a directory, not ", a, what);
     if (!fs::is_regular_file(st))
-        fail(path, ": is not a regular file (a FIFO, device or socket?); a ", what,
+        fail(path, ": is not a regular file (a FIFO, device or socket?); ", a, what,
              " must be a regular file");
 }
 

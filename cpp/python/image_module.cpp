@@ -27,10 +27,16 @@ PYBIND11_MODULE(_image, m) {
         "write_image",
         [](const std::string& path,
            py::array_t<float, py::array::c_style | py::array::forcecast> img) {
-            if (img.ndim() != 3 || (img.shape(2) != 3 && img.shape(2) != 1))
+            if (img.ndim() != 3 || (img.shape(2) != 3 && img.shape(2) != 1)) {
+                std::string shape;
+                for (py::ssize_t k = 0; k < img.ndim(); ++k)
+                    shape += (k ? ", " : "") + std::to_string(img.shape(k));
                 sss::fail(
                     path,
-                    ": image must have shape (height, width, 3) or (height, width, 1)");
+                    ": image must have shape (height, width, 3) or (height, width, 1), "
+                    "got (",
+                    shape, img.ndim() == 1 ? ",)" : ")");
+            }
             std::vector<float> px(img.data(), img.data() + img.size());
             sss::ReleasedGil release;
             sss::write_image(path, px, int(img.shape(1)), int(img.shape(0)),

@@ -131,6 +131,12 @@ class ScatteringModel:
         if np.any(s < 0):
             i = _first_bad(s < 0)
             raise ValueError(f"sigma_t[{i}] = {s[i]} is not allowed (allowed: sigma_t >= 0)")
+        lo, hi = self.sigma_range
+        if np.any((s < lo) | (s > hi)):  # named as here, not as the decoders' "sigma"
+            i = _first_bad((s < lo) | (s > hi))
+            raise ValueError(f"sigma_t[{i}] = {float(s[i]):.7g} is outside the models' training range "
+                             f"[{lo:g}, {hi:g}] (sigma_range); the renderer shrinks the sphere "
+                             "to stay within it")
         if np.any(np.abs(gg) >= 1):
             i = _first_bad(np.abs(gg) >= 1)
             raise ValueError(f"g[{i}] = {gg[i]} is not allowed (allowed: -1 < g < 1)")

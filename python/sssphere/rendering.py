@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import inspect
+import numbers
 import os
 import sys
 import warnings
@@ -341,8 +342,9 @@ def orbit_cameras(scene: Scene, frames: int) -> list[dict]:
     turned by 360/frames degrees per frame about the axis through the target along the
     camera's ``up`` (frame 0 is the scene's camera). Each is a camera block as in the
     scene file; render them with render_frames."""
-    if not (isinstance(frames, int) and frames >= 1):
+    if isinstance(frames, bool) or not isinstance(frames, numbers.Integral) or frames < 1:
         raise ValueError(f"frames must be an integer >= 1, got {frames!r}")
+    frames = int(frames)
     camera = scene.camera.to_python()
     origin = np.asarray(camera["origin"], np.float64)
     target = np.asarray(camera["target"], np.float64)
@@ -431,7 +433,7 @@ def _render_posed(scene, cameras, progress, on_frame, aovs, denoise, text, ray_a
 
 
 def first_hit_aovs(scene: Union[Scene, str, os.PathLike, dict], seed: int = 0,
-                   samples: int = DEFAULT_AOV_SAMPLES, threads: int = 0) -> dict:
+                   samples: int = DEFAULT_AOV_SAMPLES, threads: Optional[int] = 0) -> dict:
     """The first-hit AOVs of the scene's camera: ``albedo`` (H, W, 3), ``normal`` (H, W, 3)
     and ``depth`` (H, W), each the mean over the first ``samples`` camera rays of a pixel
     (the render's own rays under ``seed``). What a ray meets first gives: a medium, its
@@ -444,7 +446,8 @@ def first_hit_aovs(scene: Union[Scene, str, os.PathLike, dict], seed: int = 0,
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
     with scene._rendered():
-        return _core.first_hit_aovs(scene, seed=seed, samples=samples, threads=threads)
+        return _core.first_hit_aovs(scene, seed=seed, samples=samples,
+                                    threads=0 if threads is None else threads)
 
 
 def _denoiser():
