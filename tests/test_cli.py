@@ -80,7 +80,8 @@ def test_render_scene_file_to_exr_and_png(tmp_path, small_scene):
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--set", "spp"], "expected PATH=VALUE"),
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--set", "camera.lens.f=1"],
          "camera.lens: unknown key 'lens'"),  # made on the way, then checked
-        (["render", "{scene}", "-o", "{tmp}/x.exr", "--set", " =3"], "--set  =3: no PATH before '='"),
+        (["render", "{scene}", "-o", "{tmp}/x.exr", "--set", " =3"],
+         "--set: expected PATH=VALUE, e.g. shapes[0].medium.sigma_t=1000, got ' =3'"),
         # a number JSON cannot hold is an error, not the string "1e400"
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--set", "camera.width=1e400"],
          "--set camera.width: malformed JSON: number overflow parsing '1e400'"),
@@ -544,13 +545,16 @@ def _render_with_both(tmp_path: Path, args: list[str]) -> list:
 
 def test_both_command_lines_reject_a_bad_option_value_alike(tmp_path, small_scene):
     """A value out of range is a usage error naming the flag, status 2, as --width 0 is
-    (it was status 1 and named the option as the scene's render block does)."""
+    (it was status 1 and named the option as the scene's render block does); so is a --set
+    without PATH=VALUE (status 1 until a review)."""
     (tmp_path / "s.json").write_text(json.dumps(small_scene))
     for args, message in ((["--spp", "0"], "--spp must be an integer >= 1"),
                           (["--spp", "x"], "--spp: expected an integer >= 1"),
                           (["--integrator", "mc"],
                            "--integrator 'mc' is not allowed (allowed: 'pt', 'st')"),
-                          (["--width", "0"], "--width")):
+                          (["--width", "0"], "--width"),
+                          (["--set", "nokey"], "--set: expected PATH=VALUE"),
+                          (["--set", "=1"], "--set: expected PATH=VALUE")):
         for r in _render_with_both(tmp_path, args):
             assert r.returncode == 2 and message in r.stderr, (args, r.stderr)
     # The same values in the scene's render block are the scene's errors, status 1

@@ -6,6 +6,7 @@ the errors for bad files and inputs."""
 import json
 import math
 import os
+import shlex
 import sys
 
 from pathlib import Path
@@ -455,6 +456,71 @@ def test_missing_and_corrupt_model_files(tmp_path):
         load_checkpoint(tmp_path / "bad.pt")
 
 
+def test_checkpoints_of_another_structure_are_named_not_tracebacks(trained, tmp_path):
+    """A checkpoint torch reads but whose models are not the ones this version builds (other
+    layer widths, a missing table or encoding) raised torch's RuntimeError or a bare
+    KeyError (a review); each is a CheckpointError naming the file and the model."""
+    out, _ = trained
+    blob = torch.load(out / "cvae_checkpoint.pt", weights_only=True)
+    swapped = {**blob, "models": {**blob["models"], "LengthGen": {
+        **blob["models"]["LengthGen"], "state_dict": blob["models"]["PathGen"]["state_dict"]}}}
+    no_enc = {**blob, "models": {**blob["models"], "PathGen": {
+        **blob["models"]["PathGen"], "encodings": {
+            k: v for k, v in blob["models"]["PathGen"]["encodings"].items() if k != "cos_theta"}}}}
+    cases = {"swapped.pt": (swapped, "model LengthGen: not the LengthGen this version builds "
+                            "(RuntimeError: Error(s) in loading state_dict for CVAE: size mismatch"),
+             "tableless.pt": ({k: v for k, v in blob.items() if k != "models"},
+                              "the checkpoint holds no models"),
+             "no_enc.pt": (no_enc, "model PathGen: not the PathGen this version builds "
+                           "(KeyError: 'no encoding of cos_theta')")}
+    for name, (content, message) in cases.items():
+        torch.save(content, tmp_path / name)
+        with pytest.raises(CheckpointError) as e:
+            load_checkpoint(tmp_path / name)
+        assert f"{name}: {message}" in str(e.value), str(e.value)
+
+
+def test_training_that_could_not_finish_is_refused_before_it_starts(tiny_data, tmp_path,
+                                                                    monkeypatch):
+    """What a review found told late or not at all: data without a walk EventGen can learn
+    from was refused after LengthGen and PathGen had trained (minutes, lost); a time limit
+    too short for one step wrote untrained models and exited 0; epochs=1.5 trained one
+    epoch; a seed past about 10^14 overflowed torch's. `sssphere datagen -o` naming a
+    directory failed after simulating every walk."""
+    from sssphere.learn import train as train_module
+
+    d = dict(np.load(tiny_data))
+    d["X"] = np.zeros_like(d["X"])  # no representative event k >= 2 anywhere
+    np.savez(tmp_path / "no_events.npz", **d)
+    monkeypatch.setattr(train_module, "train_cvae", lambda *a, **k: pytest.fail("trained"))
+    with pytest.raises(ValueError, match="no_events.npz: fewer than 2 walks to train EventGen"):
+        train(tmp_path / "no_events.npz", tmp_path / "m", epochs=1, progress=False)
+    for epochs in (1.5, True, 0):
+        with pytest.raises(ValueError, match="epochs"):
+            train(tiny_data, tmp_path / "m", epochs=epochs, progress=False)
+    monkeypatch.undo()
+    with pytest.raises(ValueError, match="ended before its first training step; nothing"):
+        train(tiny_data, tmp_path / "m", epochs=1, max_minutes=1e-9, progress=False)
+    assert not (tmp_path / "m").exists()
+    train(tiny_data, tmp_path / "m", epochs=1, seed=2**64 - 1, progress=False,
+          models=("LengthGen",), config=SMOKE_CONFIG)
+    (tmp_path / "walks.npz").mkdir()
+    assert cli_main(["datagen", "--samples", "100000000", "-o", str(tmp_path / "walks.npz"),
+                     "--quiet"]) == 1  # at once: 10^8 walks would take minutes
+
+
+def test_eval_refuses_models_whose_ranges_miss_its_grid_before_evaluating(models_with, tmp_path,
+                                                                          capsys):
+    """Models trained on sigma_t <= 50 evaluated 12 of the 16 cells of the fixed grid, then
+    died with a traceback at sigma_t = 100 (a review). The grid is checked first."""
+    models = models_with(sigma=[0.0, 50.0])
+    assert cli_main(["eval", "--models", str(models), "--samples", "100", "--no-plots",
+                     "--out", str(tmp_path / "ev"), "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert "lies outside these models' training ranges: sigma_t[0] = 100 is outside" in err, err
+    assert not any((tmp_path / "ev").iterdir())
+
+
 @pytest.mark.parametrize(
     "conditions, message",
     [
@@ -552,8 +618,9 @@ def test_interrupted_train_leaves_the_output_directory_unchanged(tiny_data, tmp_
     partial = tmp_path / "m.partial"
     assert sorted(p.name for p in partial.iterdir()) == ["cvae_checkpoint.pt", "lengthgen.json",
                                                         "lengthgen.onnx"]
-    hint = f"'sssphere train {tiny_data} -o {partial} --models PathGen,EventGen'"
-    assert f"kept the finished LengthGen in {partial}; {hint}" in err, err
+    hint = shlex.join(["sssphere", "train", str(tiny_data), "-o", str(partial), "--models",
+                       "PathGen,EventGen"])
+    assert f"kept the finished LengthGen in {partial}; {hint} trains the rest" in err, err
     # A directory the run created is gone again.
     assert cli_main(["train", str(tiny_data), "-o", str(tmp_path / "new"), "--epochs", "1",
                      "--quiet"]) == 130
@@ -562,6 +629,22 @@ def test_interrupted_train_leaves_the_output_directory_unchanged(tiny_data, tmp_
     assert cli_main(["train", str(tiny_data), "-o", str(partial), "--epochs", "1", "--quiet",
                      "--models", "PathGen,EventGen"]) == 0
     sssphere.ScatteringModel.load(partial)
+
+
+def test_interrupted_train_into_the_current_directory_keeps_its_models(
+        tiny_data, tmp_path, capsys, ctrl_c_while_training, monkeypatch):
+    """`-o .` has no name to add ".partial" to: the interrupt became "PosixPath('.') has an
+    empty name", status 1, and the finished model was lost (a review). The command said to
+    finish the set is quoted for the shell (a path with a space broke it)."""
+    here = tmp_path / "sp ace"
+    here.mkdir()
+    monkeypatch.chdir(here)
+    ctrl_c_while_training("PathGen")
+    assert cli_main(["train", str(tiny_data), "-o", ".", "--epochs", "1", "--quiet"]) == 130
+    err = capsys.readouterr().err
+    partial = tmp_path / "sp ace.partial"
+    assert (partial / "lengthgen.json").is_file(), err
+    assert f"-o '{partial}' --models PathGen,EventGen trains the rest" in err, err
 
 
 def test_export_of_non_finite_weights_names_the_layer_and_writes_nothing(trained, tmp_path,

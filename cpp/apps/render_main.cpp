@@ -179,7 +179,17 @@ int main(int argc, char** argv) {
                    "(VALUE is JSON, else a string; repeatable)")
         ->type_name("PATH=VALUE")
         ->expected(1)
-        ->take_all();
+        ->take_all()
+        ->check(  // a PATH and an '=': else a usage error (status 2), not the scene's
+            [](const std::string& text) -> std::string {
+                const size_t eq = text.find('=');
+                if (eq == std::string::npos ||
+                    text.substr(0, eq).find_first_not_of(" \t") == std::string::npos)
+                    return "expected PATH=VALUE, e.g. shapes[0].medium.sigma_t=1000, got "
+                           "'" +
+                           text + "'";
+                return "";
+            });
     app.add_option("--width", width,
                    "image width (alone: the height follows the scene's aspect ratio)")
         ->check(CLI::Range(1, 16384));

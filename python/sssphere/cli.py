@@ -7,6 +7,7 @@ import contextlib
 import os
 import re
 import select
+import shlex
 import signal
 import sys
 import time
@@ -62,6 +63,17 @@ _non_negative_int = _checked(int, lambda v: v >= 0, ">= 0")
 _positive_float = _checked(float, lambda v: 0 < v < float("inf"), "a positive number")
 # camera.width and height's range (docs/scene-format.md), checked as sssphere-render does
 _image_size = _checked(int, lambda v: 1 <= v <= 16384, "1 to 16384")
+
+
+def _assignment(text: str) -> str:
+    """--set PATH=VALUE: a PATH and an '=' (the value is the scene's to check); without
+    them a usage error, status 2, as the C++ command line's."""
+    if "=" not in text or not text.split("=", 1)[0].strip():
+        raise argparse.ArgumentTypeError(
+            f"expected PATH=VALUE, e.g. shapes[0].medium.sigma_t=1000, got {text!r}")
+    return text
+
+
 # The models `sssphere train` knows (learn.train.TIME_SHARES; repeated so that the command
 # line is checked without importing torch).
 _MODEL_NAMES = ("LengthGen", "PathGen", "EventGen")
@@ -276,9 +288,10 @@ def _cmd_train(args: argparse.Namespace) -> int:
         print(_interrupted_write(e, export, args.output, "the models there are unchanged"),
               file=sys.stderr)
         if isinstance(e, train.InterruptedWithFinishedModels):
+            resume = shlex.join(["sssphere", "train", str(args.data), "-o", str(e.partial),
+                                 "--models", ",".join(e.missing)])
             print(f"sssphere: kept the finished {', '.join(e.finished)} in {e.partial}; "
-                  f"'sssphere train {args.data} -o {e.partial} --models "
-                  f"{','.join(e.missing)}' trains the rest into it", file=sys.stderr)
+                  f"{resume} trains the rest into it", file=sys.stderr)
         return _interrupted_status()
     if args.quiet:
         print(f"wrote the models to {args.output}", file=sys.stderr)
@@ -404,6 +417,14 @@ def _cmd_eval(args: argparse.Namespace) -> int:
                 return model.sample(sigma_t, g, albedo, n, seed=seed)
     except ValueError as e:  # ModelFileError and the C++ loader's errors name the file
         raise SceneError(str(e)) from None
+    try:  # a cell outside the models' ranges: told now, not after the cells before it
+        for sigma in evaluate.SIGMAS:
+            for g in evaluate.GS:
+                sample_fn(sigma, g, evaluate.ALBEDO, 1, 0)
+    except ValueError as e:
+        raise SceneError(f"{models}: the evaluation grid (sigma_t {list(evaluate.SIGMAS)}, g "
+                         f"{list(evaluate.GS)}) lies outside these models' training ranges: "
+                         f"{e}") from None
     bar = Progress("evaluating 16 cells", enabled=not args.quiet)
     try:
         cells = evaluate.evaluate(sample_fn, samples=args.samples, seed=args.seed, progress=bar)
@@ -454,7 +475,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="render on the Ray cluster at ADDRESS (auto: the one in RAY_ADDRESS or "
                         "running on this machine; HOST:PORT; docs/cluster.md); --threads is "
                         "then each task's (default 1). Needs pip install 'sssphere[cluster]'")
-    r.add_argument("--set", action="append", metavar="PATH=VALUE",
+    r.add_argument("--set", action="append", metavar="PATH=VALUE", type=_assignment,
                    help="change a scene field before loading, e.g. --set "
                         "shapes[0].medium.sigma_t=1000 or --set 'camera.origin=[0, 1, 3]' "
                         "(VALUE is JSON, else a string; repeatable)")
@@ -506,7 +527,7 @@ def build_parser() -> argparse.ArgumentParser:
     i = sub.add_parser("info", help="a scene in brief: shapes, grids, media, and the scattering "
                                      "events and sphere steps to expect per path")
     i.add_argument("scene", help="scene file (JSON, docs/scene-format.md)")
-    i.add_argument("--set", action="append", metavar="PATH=VALUE",
+    i.add_argument("--set", action="append", metavar="PATH=VALUE", type=_assignment,
                    help="change a scene field first, as for render (repeatable)")
     i.add_argument("--width", type=_image_size, help="image width, as for render")
     i.add_argument("--height", type=_image_size, help="image height, as for render")

@@ -126,6 +126,8 @@ def datagen(samples: int, output: str | Path, seed: int = 0, threads: Optional[i
     if out.parent != Path("") and not out.parent.is_dir():
         what = "is not a directory" if out.parent.exists() else "does not exist"
         raise ValueError(f"{out}: output directory {str(out.parent)!r} {what}")
+    if out.is_dir():  # told now, not after the walks (minutes) at the final rename
+        raise ValueError(f"{out}: is a directory, not a file to write the training data to")
     t0 = time.monotonic()
     data, interrupted = generate(samples, seed, threads, progress=progress,
                                  ray_address=ray_address)

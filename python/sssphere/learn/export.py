@@ -273,15 +273,27 @@ def load_checkpoint(path) -> dict:
     if blob.get("version") != CHECKPOINT_VERSION:
         raise CheckpointError(f"{path}: checkpoint version {blob.get('version')!r}, this reader "
                               f"understands {CHECKPOINT_VERSION}")
+    models = blob.get("models")
+    if not isinstance(models, dict):
+        raise CheckpointError(f"{path}: the checkpoint holds no models (no 'models' table)")
     out = {}
-    for name, entry in blob["models"].items():
+    for name, entry in models.items():
         spec = SPECS_BY_NAME.get(name)
         if spec is None:
             raise CheckpointError(f"{path}: unknown model {name!r}")
-        model = CVAE(spec)
-        model.load_state_dict(entry["state_dict"])
-        enc = {k: Encoding.from_json(v) for k, v in entry["encodings"].items()}
-        out[name] = (model.eval(), enc, entry["training"], entry["metrics"])
+        try:  # a checkpoint of other layer widths, or missing a part: named, no traceback
+            model = CVAE(spec)
+            model.load_state_dict(entry["state_dict"])
+            enc = {k: Encoding.from_json(v) for k, v in entry["encodings"].items()}
+            missing = [v for v in (*spec.conditions, *spec.outputs) if v not in enc]
+            if missing:
+                raise KeyError(f"no encoding of {', '.join(missing)}")
+            out[name] = (model.eval(), enc, entry["training"], entry["metrics"])
+        except (KeyError, TypeError, ValueError, RuntimeError) as e:
+            lines = [line.strip() for line in str(e).splitlines() if line.strip()]
+            why = " ".join(lines[:2])[:300] or type(e).__name__
+            raise CheckpointError(f"{path}: model {name}: not the {name} this version "
+                                  f"builds ({type(e).__name__}: {why})") from None
     return out
 
 

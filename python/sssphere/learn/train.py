@@ -211,23 +211,37 @@ def evaluate_cvae(model: CVAE, batches: _Batches, idx: torch.Tensor, seed: int) 
             "latent_dims_active": int(sum(k > ACTIVE_LATENT_NATS for k in kl))}
 
 
+def _walks_for(spec: ModelSpec, data: TrainingData) -> TrainingData:
+    """The walks a model trains on: N >= 2 (EventGen: and a representative event k >= 2,
+    X != 0), at least 2 of them, whose conditions vary."""
+    rows = data.N >= 2
+    if spec.name == "EventGen":
+        rows &= np.any(data.X != 0, axis=1)
+    sub = data.subset(rows)
+    if len(sub) < 2:
+        raise ValueError(f"{data.path}: fewer than 2 walks to train {spec.name} on (it needs "
+                         f"N >= 2{' and X != 0' if spec.name == 'EventGen' else ''})")
+    check_conditions_vary(sub, spec.conditions, spec.name)  # as fit_encodings will
+    return sub
+
+
+def _torch_seed(seed: int, factor: int, spec: ModelSpec) -> int:
+    """A model's torch seed from the run's: below 2^63 (torch's limit; a seed past about
+    10^14 overflowed it), the same as before for smaller seeds."""
+    return (seed * factor + _seed_index(spec)) % 2**63
+
+
 def train_cvae(spec: ModelSpec, data: TrainingData, cfg: TrainConfig, seed: int,
                time_budget_s: float | None = None, progress: bool = True):
     """Train one CVAE on the walks with N ≥ 2 of data (EventGen: and a representative event
     k ≥ 2, i.e. X ≠ 0; the first event is sampled exactly, docs/model-format.md).
     Returns (model, encodings, report)."""
-    rows = data.N >= 2
-    if spec.name == "EventGen":
-        rows &= np.any(data.X != 0, axis=1)
-    data = data.subset(rows)
-    if len(data) < 2:
-        raise ValueError(f"{data.path}: fewer than 2 walks to train {spec.name} on (it needs "
-                         f"N >= 2{' and X != 0' if spec.name == 'EventGen' else ''})")
+    data = _walks_for(spec, data)
     rng = np.random.default_rng([seed, _seed_index(spec)])
-    torch.manual_seed(seed * 7919 + _seed_index(spec))
+    torch.manual_seed(_torch_seed(seed, 7919, spec))
     enc = fit_encodings(spec, data, rng, cfg.encodings)
     batches = _Batches(spec, data, enc, cfg)
-    gen = torch.Generator().manual_seed(seed * 104729 + _seed_index(spec))
+    gen = torch.Generator().manual_seed(_torch_seed(seed, 104729, spec))
     perm = torch.randperm(len(batches), generator=gen)
     n_val = min(cfg.max_val, max(1, int(round(cfg.val_fraction * len(batches)))))
     if len(batches) - n_val < 1:
@@ -288,7 +302,8 @@ def train_cvae(spec: ModelSpec, data: TrainingData, cfg: TrainConfig, seed: int,
     bar.close()
     seconds = time.monotonic() - t0
     model.eval()
-    val = evaluate_cvae(model, batches, val_idx if n_val else train_idx[:50_000], seed + 1)
+    val = evaluate_cvae(model, batches, val_idx if n_val else train_idx[:50_000],
+                        (seed + 1) % 2**63)  # torch takes seeds below 2^63
     report = {
         "train_loss_per_epoch": epoch_losses,
         "val_nll": val["nll"],
@@ -357,10 +372,8 @@ def train(data_path, out_dir, epochs: int | None = None, seed: int = 0,
     from sssphere.learn.export import save_checkpoint, staged_output, write_model
 
     cfg = TrainConfig(**asdict(config)) if config is not None else TrainConfig()
-    if epochs is not None:
-        if epochs < 1:
-            raise ValueError(f"epochs must be >= 1, got {epochs}")
-        cfg.epochs = int(epochs)
+    if epochs is not None:  # checked as TrainConfig checks it (1.5 trained 1 epoch)
+        cfg = TrainConfig(**{**asdict(cfg), "epochs": epochs})
     if max_minutes is not None and not max_minutes > 0:
         raise ValueError(f"max_minutes must be > 0, got {max_minutes}")
     unknown = [m for m in models if m not in TIME_SHARES]
@@ -368,9 +381,14 @@ def train(data_path, out_dir, epochs: int | None = None, seed: int = 0,
         raise ValueError(f"unknown model(s) {unknown} (allowed: {list(TIME_SHARES)})")
     out = Path(out_dir)
     data = load_training_data(data_path)  # says what is wrong with it, before any directory
-    # A single medium cannot be learned from: told now, not as a nan loss minutes later.
+    # A single medium cannot be learned from: told now, not as a nan loss minutes later;
+    # nor data without the walks a model needs (no EventGen without events k >= 2), which
+    # was found after the models before it had trained.
     check_conditions_vary(data, sorted({c for s in SPECS if s.name in models
                                         for c in s.conditions} - {"N"}))
+    for spec in SPECS:
+        if spec.name in models:
+            _walks_for(spec, data)
     names = [f"{s.file_stem}.{ext}" for s in SPECS if s.name in models
              for ext in ("json", "onnx")] + ["cvae_checkpoint.pt"]
 
@@ -393,6 +411,10 @@ def train(data_path, out_dir, epochs: int | None = None, seed: int = 0,
                 if max_minutes is not None:
                     budget = 60.0 * max_minutes * TIME_SHARES[spec.name] / share_sum
                 model, enc, report = train_cvae(spec, data, cfg, seed, budget, progress)
+                if report["epochs_completed"] == 0:  # untrained weights, written as a model
+                    raise ValueError(
+                        f"max_minutes {max_minutes}: {spec.name}'s share of it ({budget:.3g} s)"
+                        " ended before its first training step; nothing was trained")
                 training = {
                     **_ranges(data),
                     "data_file": Path(data.path).name,
@@ -455,6 +477,7 @@ def _keeping_finished(out: Path, models, trained: dict):
         missing = [m for m in models if m not in trained]
         if not finished or not missing or isinstance(e, InterruptedWithFinishedModels):
             raise
+        out = out.resolve()  # "-o ." has no name to add ".partial" to
         partial = out.with_name(out.name + ".partial")
         names = [f"{s.file_stem}.{ext}" for s in finished for ext in ("json", "onnx")]
         with staged_output(partial, names + ["cvae_checkpoint.pt"]) as stage:
