@@ -315,7 +315,7 @@ def test_sample_takes_threads_0_as_all_cores_as_renders_do(models):
 
 def test_bad_value_in_an_array_is_named_by_index(models):
     model, _ = models
-    with pytest.raises(ValueError, match=r"sigma\[2\] = 300"):
+    with pytest.raises(ValueError, match=r"sigma_t\[2\] = 300 is outside the models. training range"):
         model.sample(sigma_t=np.array([1.0, 2.0, 300.0]), g=0.0, albedo=0.5, n=3)
 
 
