@@ -583,6 +583,8 @@ def test_malformed_ply_and_off_files_get_a_line_or_element_named(tmp_path, name,
         ({"integrator": "pt", "step_nee": "event"},
          "step_nee 'event' is an option of integrator 'st' \\(the integrator is 'pt'\\)"),
         ({"integrator": "pt", "sphere_sampler": "walk"}, "sphere_sampler 'walk' is an option of integrator 'st'"),
+        ({"integrator": "pt", "models": "models"}, "models is an option of integrator 'st'"),
+        ({"sphere_threshold": 2.0}, "sphere_threshold is an option of integrator 'st' \\(the integrator is 'pt'\\)"),
     ],
 )
 def test_bad_render_arguments(small_scene, kwargs, expected):

@@ -87,6 +87,11 @@ def test_render_scene_file_to_exr_and_png(tmp_path, small_scene):
          "--set camera.width: malformed JSON: number overflow parsing '1e400'"),
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--integrator", "pt", "--step-nee", "event"],
          "step_nee 'event' is an option of integrator 'st' (the integrator is 'pt')"),
+        # the scene's integrator is pt: models and threshold given would be ignored
+        (["render", "{scene}", "-o", "{tmp}/x.exr", "--models", "{tmp}"],
+         "s.json: models is an option of integrator 'st' (the integrator is 'pt')"),
+        (["render", "{scene}", "-o", "{tmp}/x.exr", "--sphere-threshold", "2"],
+         "s.json: sphere_threshold is an option of integrator 'st' (the integrator is 'pt')"),
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--width", "0"], "--width: must be 1 to 16384"),
         (["render", "{scene}", "-o", "{tmp}/x.exr", "--height", "16385"],
          "--height: must be 1 to 16384, got 16385"),
@@ -562,6 +567,21 @@ def test_both_command_lines_reject_a_bad_option_value_alike(tmp_path, small_scen
     (tmp_path / "s.json").write_text(json.dumps(small_scene))
     for r in _render_with_both(tmp_path, []):
         assert r.returncode == 1 and "render.spp" in r.stderr, r.stderr
+
+
+def test_options_of_st_given_with_pt_are_refused_by_both(tmp_path, small_scene):
+    """--models and --sphere-threshold with the scene's pt were accepted and ignored by both
+    command lines (a review): refused as --step-nee event with pt is, before any progress bar.
+    With --integrator st they are taken."""
+    (tmp_path / "s.json").write_text(json.dumps(small_scene))
+    models = os.path.join(REPO, "models")
+    for args, name in ((["--models", models], "models"), (["--sphere-threshold", "2"], "sphere_threshold")):
+        for r in _render_with_both(tmp_path, args):
+            assert r.returncode == 1, r.stderr
+            assert f"{name} is an option of integrator 'st' (the integrator is 'pt')" in r.stderr
+            assert "%" not in r.stderr, r.stderr  # no progress bar was drawn
+        for r in _render_with_both(tmp_path, [*args, "--integrator", "st", "--spp", "1"]):
+            assert r.returncode == 0, r.stderr
 
 
 def test_an_option_given_twice_takes_its_last_value_in_both(tmp_path, small_scene):

@@ -121,7 +121,10 @@ def test_a_sweep_reuses_the_workers_bvh_and_grids(two_nodes, small_scene):
     remote = sssphere.render_full(scene, spp=8, seed=3, ray_address=two_nodes.address)
     _assert_same_render(local, remote)
     c = remote.cluster
-    assert c["builds"] >= 1 and c["rebuilt"] == [[]] * c["builds"]
+    # A worker process that had the first scene rebuilt nothing; one Ray started since
+    # (it may, on a loaded machine) built everything, having no scene to start from.
+    assert c["builds"] >= 1 and all(r in ([], ["everything"]) for r in c["rebuilt"]), c
+    assert [] in c["rebuilt"], c
 
 
 def test_films_added_up_on_the_workers(two_nodes, small_scene, monkeypatch):

@@ -338,6 +338,16 @@ RenderOptions resolve_render_options(const RenderSettings& scene,
                     ? Backend::Vulkan
                     : Backend::Cpu;
     r.record_paths = o.record_paths.value_or(false);
+    // models and sphere_threshold have scene-file values that any integrator takes (a
+    // scene may name them for when "st" is chosen), but given here with another
+    // integrator they would be ignored: said, not ignored.
+    for (const auto& [name, given] :
+         {std::pair{"models", bool(o.models)},
+          std::pair{"sphere_threshold", bool(o.sphere_threshold)}})
+        if (given && r.integrator != "st")
+            fail(source.empty() ? "" : source + ": ", name,
+                 " is an option of integrator 'st' (the integrator is '", r.integrator,
+                 "')");
     check_render_options(r, source);
     return r;
 }

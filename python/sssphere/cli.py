@@ -129,6 +129,8 @@ def _cmd_render(args: argparse.Namespace) -> int:
     load_s = time.monotonic() - t0
     for path in outputs:
         _image.check_output_is_not_an_input(path, [*scene.inputs, str(args.scene)])
+    # the options' combinations with the scene's, said before a progress bar is drawn
+    _core.resolve_render_options(scene, os.fspath(rendering.DEFAULT_MODELS), text)
     if args.denoise:  # a missing extra is said before the render, not after it
         try:
             rendering._denoiser()
@@ -432,7 +434,7 @@ def _cmd_eval(args: argparse.Namespace) -> int:
         bar.close()
     table = evaluate.table_markdown(cells)
     print(table)
-    report = evaluate.write_report(cells, out, args.samples, str(models))
+    report = evaluate.write_report(cells, out, args.samples, str(models), args.decoder, args.seed)
     figures = [] if args.no_plots else evaluate.plot(cells, out)
     if args.update_card:
         evaluate.update_model_card(out / "README.md", table)

@@ -266,7 +266,8 @@ def _render_part(text: str, files: dict, options: dict, first: int, spp: int,
     y0, y1 = rows if rows is not None else (0, scene.height)
     band = {} if rows is None else {"first_row": y0, "rows": y1 - y0}
     r = _core.render(scene, models_dir, None, {}, first_sample=first, keep_film=True, **band,
-                     **{**options, "spp": spp, "models": models_dir, "cut_models": cut_dir})
+                     **{**options, "spp": spp, "cut_models": cut_dir,
+                        "models": models_dir if options["integrator"] == "st" else None})
     if r["cancelled"]:  # Ray's cancel of this task arrived as a KeyboardInterrupt
         raise KeyboardInterrupt
     task = {"seconds": r["seconds"], "step_seconds": r["step_seconds"], "build_seconds": build_s,
@@ -358,6 +359,8 @@ def render(scene, address: str, progress: Optional[Callable[[float], object]], o
     threads = resolved["threads"] or 1
     time_limit = resolved["time_limit"]
     task_options = {**resolved, "time_limit": 0.0}
+    if resolved["integrator"] != "st":  # options of "st" only (render/options.cpp)
+        task_options.update(models=None, sphere_threshold=None)
     if resolved["backend"] == "cpu":
         task_options["threads"] = threads
     spp = resolved["spp"]
