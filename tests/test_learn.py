@@ -571,6 +571,13 @@ def test_cli_learn_errors_are_clear(tmp_path, capsys):
     assert "none.npz: training-data file does not exist" in capsys.readouterr().err
     assert cli_main(["export", str(tmp_path / "none.pt"), "-o", str(tmp_path / "m")]) == 1
     assert "none.pt: checkpoint does not exist" in capsys.readouterr().err
+    # a directory named as the file was said not to exist (a review)
+    assert cli_main(["train", str(tmp_path), "-o", str(tmp_path / "m")]) == 1
+    assert f"{tmp_path}: is a directory, not a training-data file" in capsys.readouterr().err
+    assert cli_main(["export", str(tmp_path), "-o", str(tmp_path / "m")]) == 1
+    assert f"{tmp_path}: is a directory, not a checkpoint" in capsys.readouterr().err
+    with pytest.raises(ModelFileError, match="is a directory, not a model file"):
+        load_decoder(tmp_path)
     with pytest.raises(SystemExit):
         cli_main(["train", str(tmp_path / "x.npz"), "-o", str(tmp_path), "--max-minutes", "0"])
     assert "must be a positive number" in capsys.readouterr().err
@@ -802,13 +809,16 @@ def test_eval_finds_the_shipped_models_from_anywhere(tmp_path, capsys, monkeypat
     code = cli_main(["eval", "--samples", "30", "--quiet", "--no-plots"])
     assert code == 0, capsys.readouterr().err
     # the results go here, not into the shipped (in a wheel: the installed) models
-    assert json.loads((tmp_path / "eval.json").read_text())["models"] == str(DEFAULT_MODELS)
+    report = json.loads((tmp_path / "eval.json").read_text())
+    assert report["models"] == str(DEFAULT_MODELS)
+    assert (report["decoder"], report["seed"]) == ("cpp", 0)  # what repeats it (a review)
     assert sorted(p.name for p in DEFAULT_MODELS.iterdir()) == before
     # --out is made if missing, as train's --output is; a file there is refused
     code = cli_main(["eval", "--samples", "30", "--quiet", "--no-plots",
-                     "--out", str(tmp_path / "runs" / "a")])
+                     "--out", str(tmp_path / "runs" / "a"), "--seed", "7", "--decoder", "numpy"])
     assert code == 0, capsys.readouterr().err
-    assert (tmp_path / "runs" / "a" / "eval.json").is_file()
+    report = json.loads((tmp_path / "runs" / "a" / "eval.json").read_text())
+    assert (report["decoder"], report["seed"]) == ("numpy", 7)
     code = cli_main(["eval", "--quiet", "--no-plots", "--out", "eval.json"])
     assert code == 1
     assert "eval.json: output directory does not exist (it is a file)" in \

@@ -11,6 +11,13 @@ from pathlib import Path
 _count = itertools.count()
 
 
+def missing_input(path: Path, what: str) -> str:
+    """Why `path` cannot be read as `what` ("training-data file"), for a path that is not a
+    file: "is a directory, not a training-data file" or "training-data file does not
+    exist"."""
+    return f"is a directory, not a {what}" if path.is_dir() else f"{what} does not exist"
+
+
 @contextlib.contextmanager
 def atomic_output(path):
     """Yield a temporary path (same directory, same suffix) to write; on success it replaces

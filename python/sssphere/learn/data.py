@@ -39,7 +39,7 @@ from typing import Callable
 
 import numpy as np
 
-from sssphere._files import atomic_output
+from sssphere._files import atomic_output, missing_input
 
 VECTOR_KEYS = ("sigma", "g", "phi", "N", "cos_theta", "alpha", "beta")
 MATRIX_KEYS = ("X", "W")
@@ -204,7 +204,7 @@ def load_training_data(path) -> TrainingData:
     """
     path = Path(path)
     if not path.is_file():
-        _fail(path, "training-data file does not exist")
+        _fail(path, missing_input(path, "training-data file"))
     try:
         with open(path, "rb") as f:
             head = f.read(6)

@@ -167,11 +167,14 @@ def plot(cells: list[Cell], out_dir: Path) -> list[Path]:
     return written
 
 
-def write_report(cells: list[Cell], out_dir: Path, samples: int, model_dir: str) -> Path:
-    """eval.json (all metrics) in out_dir; returns its path."""
+def write_report(cells: list[Cell], out_dir: Path, samples: int, model_dir: str,
+                 decoder: str, seed: int) -> Path:
+    """eval.json (all metrics, and what repeats them: models, decoder, seed) in out_dir;
+    returns its path."""
     path = Path(out_dir) / "eval.json"
     path.write_text(json.dumps({
         "samples_per_cell": samples, "albedo": ALBEDO, "models": str(model_dir),
+        "decoder": decoder, "seed": seed,
         "target_ks": TARGET_KS, "cells": [c.to_json() for c in cells],
     }, indent=1) + "\n")
     return path

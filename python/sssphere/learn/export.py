@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from sssphere._files import atomic_output
+from sssphere._files import atomic_output, missing_input
 from sssphere.learn.models import CVAE, GaussianMLP
 from sssphere.learn.spec import (FORMAT, FORMAT_VERSION, NOTATION_VERSION, SPECS, SPECS_BY_NAME,
                                  Encoding, ModelSpec, round9)
@@ -262,7 +262,7 @@ def load_checkpoint(path) -> dict:
     """name → (model, encodings, training, metrics), as `save_checkpoint` got them."""
     path = Path(path)
     if not path.is_file():
-        raise CheckpointError(f"{path}: checkpoint does not exist")
+        raise CheckpointError(f"{path}: {missing_input(path, 'checkpoint')}")
     try:
         blob = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as e:  # torch raises many kinds (pickle, zip, runtime) for a bad file

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sssphere._files import missing_input
 from sssphere.learn.spec import (FORMAT, FORMAT_VERSION, NOTATION_VERSION, SPECS_BY_NAME,
                                  Encoding)
 
@@ -288,7 +289,7 @@ def load_decoder(path) -> NumpyDecoder:
     """Read and validate a model file; ModelFileError names the file and the problem."""
     path = Path(path)
     if not path.is_file():
-        raise ModelFileError(f"{path}: model file does not exist")
+        raise ModelFileError(f"{path}: {missing_input(path, 'model file')}")
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as e:
