@@ -842,7 +842,9 @@ def test_bad_outputs_are_told_before_any_work(tiny_data, trained, tmp_path, caps
                      str(tmp_path / "f")]) == 1
     assert f"{tmp_path / 'f'}: is a file, not a directory" in capsys.readouterr().err
     assert cli_main(["datagen", "--samples", "5", "-o", str(tmp_path / "f" / "x.npz")]) == 1
-    assert f"output directory '{tmp_path / 'f'}' is not a directory" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert f"output directory '{tmp_path / 'f'}' is not a directory" in err
+    assert "%|" not in err, err  # refused before any work: no progress bar above the error
 
 
 def test_a_signal_while_the_files_move_into_place_is_held_until_all_are_there(
