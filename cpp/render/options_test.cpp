@@ -43,16 +43,37 @@ TEST(RenderOptions, DefaultsThenSceneThenOverrides) {
     RenderOverrides o;
     o.integrator = "pt";
     o.spp = 5;
-    o.models = "mine/";
     o.nee = false;
     o.backend = "vulkan";
     RenderOptions r = resolve(scene, o);
     EXPECT_EQ(r.integrator, "pt");
     EXPECT_EQ(r.spp, 5);
     EXPECT_EQ(r.seed, 7u);  // not overridden: the scene's
-    EXPECT_EQ(r.models, "mine/");
     EXPECT_FALSE(r.nee);
     EXPECT_EQ(r.backend, Backend::Vulkan);
+
+    o.integrator = "st";
+    o.models = "mine/";
+    EXPECT_EQ(resolve(scene, o).models, "mine/");
+}
+
+TEST(RenderOptions, OptionsOfStGivenWithAnotherIntegratorAreRefused) {
+    // The scene file's models and threshold are taken whatever the integrator; the same
+    // given by the caller with "pt" would change nothing, and are refused.
+    RenderSettings scene;
+    scene.models = "scene-models/";
+    scene.sphere_threshold = 3.f;
+    EXPECT_EQ(resolve(scene, {}).integrator, "pt");
+    RenderOverrides o;
+    o.models = "mine/";
+    EXPECT_HAS(error_of([&] { resolve(scene, o); }),
+               "models is an option of integrator 'st' (the integrator is 'pt')");
+    o = {};
+    o.sphere_threshold = 2.0;
+    EXPECT_HAS(error_of([&] { resolve(scene, o); }),
+               "sphere_threshold is an option of integrator 'st'");
+    o.integrator = "st";
+    EXPECT_EQ(resolve(scene, o).sphere_threshold, 2.f);
 }
 
 TEST(RenderOptions, ATimeLimitWithoutSppLeavesTheTimeToEndTheRender) {
