@@ -19,6 +19,7 @@ however big it is.
 
 from __future__ import annotations
 
+import copy
 import math
 import re
 import warnings
@@ -748,3 +749,32 @@ def test_surfaces_meeting_a_medium_follow_edits():
     scene.lights[0].intensity = 20
     assert not any("distance grid" in r for r in scene.rebuilt), scene.rebuilt
     assert _lit_pixels(scene, "cpu", integrator="st") == 0
+
+
+
+@pytest.mark.parametrize("backend", ["cpu", "vulkan"])
+def test_long_vectors_and_far_area_lights_render_as_their_directions(small_scene, backend):
+    """Vectors whose squares overflow float (past 1.8e19) were normalised to NaN or 0 (a
+    review): a camera target 1e20 away aborted inside Embree, an `up` of 1e20 was "parallel
+    to the viewing direction" and a directional light along [0, -1e20, 0] rendered black.
+    They are directions: they render as the unit ones, bit for bit. An area light 1e10
+    away gave NaN pixels (the square of its pdf, in the MIS weight, overflowed). An area
+    light of area past 1.8e19 was never sampled: render/types_test.cpp."""
+    def render(doc):
+        r = sssphere.render_full(doc, integrator="pt", spp=2, seed=3, backend=backend,
+                                 threads=0 if backend == "vulkan" else 1)
+        assert np.isfinite(r.image).all()
+        return r.image
+
+    small_scene["lights"][0] = {"type": "directional", "direction": [0, -1, 0], "irradiance": 2}
+    base = render(small_scene)
+    for part, key, value in (("camera", "target", [0, 0, -1e20]), ("camera", "up", [0, 1e20, 0]),
+                             ("light", "direction", [0, -1e20, 0])):
+        doc = copy.deepcopy(small_scene)
+        (doc["camera"] if part == "camera" else doc["lights"][0])[key] = value
+        np.testing.assert_array_equal(render(doc), base, err_msg=key)
+
+    small_scene["lights"] = [{"type": "area", "corner": [-1, 1e10, -1], "edge1": [2, 0, 0],
+                              "edge2": [0, 0, 2], "radiance": 1e20}]  # facing down
+    with pytest.warns(sssphere.SceneWarning, match="float precision may distort"):
+        assert render(small_scene).mean() > 0

@@ -155,8 +155,8 @@ GpuSceneData bake_gpu_scene(const Scene& scene, const std::string& integrator, b
 
     // Camera, as PinholeCamera.
     const Camera& c = desc.camera;
-    const Vec3 forward = normalize(c.target - c.origin);
-    const Vec3 right = normalize(cross(forward, c.up));
+    const Vec3 forward = unit_normal(c.target - c.origin);
+    const Vec3 right = unit_normal(cross(forward, c.up));
     const Vec3 up = cross(right, forward);
     put3(h.cam_origin, c.origin, std::tan(0.5f * c.fov * 0.017453292519943295f));
     put3(h.cam_forward, forward, float(c.width) / float(c.height));

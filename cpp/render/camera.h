@@ -13,8 +13,9 @@ class PinholeCamera {
 public:
     explicit PinholeCamera(const Camera& c)
         : origin_(c.origin), width_(c.width), height_(c.height) {
-        forward_ = normalize(c.target - c.origin);
-        right_ = normalize(cross(forward_, c.up));
+        // unit_normal: target and up may be long past float's squares (1.8e19)
+        forward_ = unit_normal(c.target - c.origin);
+        right_ = unit_normal(cross(forward_, c.up));
         up_ = cross(right_, forward_);
         tan_half_ = std::tan(0.5f * c.fov * 0.017453292519943295f);
         aspect_ = float(c.width) / float(c.height);

@@ -62,7 +62,7 @@ Camera parse_camera(const json& j, const Field& f, Vec3d frame) {
         f.at("target").error("target equals origin");
     const Vec3 forward =
         Vec3(float(along.x / len), float(along.y / len), float(along.z / len));
-    if (!(length(cross(normalize(forward), normalize(c.up))) > 1e-4f))
+    if (!(length(cross(normalize(forward), unit_normal(c.up))) > 1e-4f))
         f.at("up").error("value [", c.up.x, ", ", c.up.y, ", ", c.up.z,
                          "] is parallel to the viewing direction",
                          j.contains("up") ? "" : " (up defaults to [0, 1, 0])");

@@ -15,6 +15,7 @@
 #include "io/image_io.h"
 #include "render/scene.h"
 #include "shared/sampling.h"
+#include "testing/errors.h"
 
 namespace sss {
 namespace {
@@ -272,6 +273,27 @@ Light environment_map_light(std::vector<float>& floats, const char* extra = "") 
 // cells as often as the cells' probabilities say, uniformly within each (a chi-square
 // test over 3 x 2 parts of every cell, alpha = 1e-3, parts expecting fewer than 5
 // pooled), the seam of the map at u = 0 included.
+// A quad's normal past an area of 1.8e19 (its cross product's square overflows float):
+// such a light was never sampled (its normal read as 0), only hit; below 1e-18 it is
+// refused.
+TEST(Registries, HugeAndFarAreaLightsAreSampled) {
+    const Light huge = parse_light(
+        R"({"type": "area", "corner": [-2.5e14, 2, -2.5e14], "edge1": [5e14, 0, 0],
+            "edge2": [0, 0, 5e14], "radiance": 1})");
+    const Vec3 p(0.f, 0.f, 0.f);
+    const LightSample s = light_sample(huge, p, 0.5f, 0.5f, nullptr);
+    EXPECT_FALSE(is_black(s.L));
+    EXPECT_NEAR(s.w.y, 1.f, 1e-6f);
+    EXPECT_NEAR(s.pdf, 4.f / 2.5e29f, 1e-3f * 4.f / 2.5e29f);  // dist^2 / (area cos)
+    EXPECT_EQ(huge.scalar, 2.5e29f);
+    EXPECT_HAS(
+        test::error_of([] {
+            parse_light(R"({"type": "area", "corner": [0, 2, 0], "edge1": [1e20, 1e20, 0],
+                                   "edge2": [1e20, 1.0000000000001e20, 0], "radiance": 1})");
+        }),
+        "edge1 x edge2 overflows single precision");
+}
+
 TEST(Registries, EnvironmentMapSamplingAgreesWithEvaluation) {
     for (const char* extra : {"", ", \"rotate_deg\": [20, -70, 10]"}) {
         std::vector<float> floats;

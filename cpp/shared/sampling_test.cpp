@@ -28,5 +28,24 @@ TEST(Roulette, TinyProbabilitiesNeverGiveInfiniteWeights) {
     }
 }
 
+// The weight depends on the pdfs' ratio alone, also where their squares leave float's
+// range: a small light far away (pdf past 1.8e19: inf / inf was NaN), a huge one close by
+// (below 1e-19: both strategies got weight 0).
+TEST(PowerHeuristic, DependsOnTheRatioAtAnyScale) {
+    EXPECT_EQ(power_heuristic(0.f, 0.f), 0.f);
+    EXPECT_EQ(power_heuristic(0.f, 1.f), 0.f);
+    EXPECT_EQ(power_heuristic(2.f, 0.f), 1.f);
+    EXPECT_FLOAT_EQ(power_heuristic(3.f, 1.f), 0.9f);
+    for (float scale : {1e-30f, 1e-20f, 1e-10f, 1.f, 1e10f, 1e20f, 1e30f}) {
+        EXPECT_FLOAT_EQ(power_heuristic(3.f * scale, scale), 0.9f) << scale;
+        EXPECT_FLOAT_EQ(power_heuristic(scale, 3.f * scale), 0.1f) << scale;
+        EXPECT_EQ(power_heuristic(scale, 0.f), 1.f) << scale;
+    }
+    const float inf = INFINITY;
+    EXPECT_EQ(power_heuristic(inf, 1.f), 1.f);
+    EXPECT_EQ(power_heuristic(1.f, inf), 0.f);
+    EXPECT_EQ(power_heuristic(inf, inf), 0.5f);
+}
+
 }  // namespace
 }  // namespace sss

@@ -15,7 +15,10 @@ SSS_FN LightSample area_light_sample(LightData l, Vec3 p, float u1,
                                      float u2 SSS_LIGHT_FLOATS_PARAM) {
     LightSample s = no_light_sample();
     Vec3 q = l.a + l.b * u1 + l.c * u2;
-    Vec3 n = normalize(cross(l.b, l.c));
+    // The cross product's squared length overflows past an area of 1.8e19 (such a light
+    // was never sampled, only hit): then scaled by 1 / area first.
+    Vec3 n = cross(l.b, l.c);
+    n = dot(n, n) <= 3.40282347e38f ? normalize(n) : normalize(n * (1.f / l.scalar));
     Vec3 to = q - p;
     float dist = length(to);
     if (!(dist > 0.f)) return s;
@@ -78,7 +81,14 @@ inline LightType area_light_type() {
         if (area > kMaxAreaLightArea)
             f.error("edge1 and edge2 span an area of ", area, " (allowed: at most ",
                     kMaxAreaLightArea, ", whose power single precision holds)");
-        l.scalar = length(cross(l.b, l.c));
+        // The edges' products in single precision (the sampler's normal): finite
+        const Vec3 normal = cross(l.b, l.c);
+        if (!(std::abs(normal.x) <= 3.4e38f && std::abs(normal.y) <= 3.4e38f &&
+              std::abs(normal.z) <= 3.4e38f))
+            f.error(
+                "edge1 x edge2 overflows single precision (allowed: edges whose "
+                "products stay below 3.4e38)");
+        l.scalar = dot(normal, normal) <= 3.40282347e38f ? length(normal) : float(area);
         l.value = light_fields::radiometric(j, f, "radiance");
         return l;
     };

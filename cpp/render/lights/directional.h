@@ -33,7 +33,7 @@ inline LightType directional_light_type() {
     t.keys = {"direction", "irradiance"};
     t.parse = [](const json& j, const Field& f, const LightContext&) {
         LightData l{};
-        l.a = normalize(nonzero_vec3(require(j, "direction", f), f.at("direction")));
+        l.a = unit_normal(nonzero_vec3(require(j, "direction", f), f.at("direction")));
         l.value = light_fields::radiometric(j, f, "irradiance");
         return l;
     };
