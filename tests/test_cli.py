@@ -140,6 +140,13 @@ def test_outputs_that_would_lose_the_render_or_an_input_are_refused_before_it(tm
     r = run(tmp_path / "s.json", "-o", tmp_path / "sky.png", "--aovs")
     assert r.returncode == 1 and "sky_depth.exr: is a file the scene reads" in r.stderr, r.stderr
     assert sky_depth.read_bytes() == before and not (tmp_path / "sky.png").exists()
+    # A name past what the directory takes (255 bytes on most file systems) was found when
+    # the image moved into place (a review); beside a .png the AOV files' names count too
+    name_max = os.pathconf(tmp_path, "PC_NAME_MAX")
+    for out, aovs in ((f"{'a' * (name_max - 3)}.exr", []), (f"{'b' * (name_max - 7)}.png", ["--aovs"])):
+        r = run(tmp_path / "s.json", "-o", tmp_path / out, *aovs)
+        assert r.returncode == 1 and f"bytes long (allowed: at most {name_max}" in r.stderr, r.stderr
+        assert out not in os.listdir(tmp_path)
 
     small_scene["render"]["spp"] = 1
     (tmp_path / "s.json").write_text(json.dumps(small_scene))
@@ -743,6 +750,10 @@ def test_unwritable_export_paths_are_one_line_errors(tmp_path, small_scene):
     r = run_cli("export-mitsuba", tmp_path / "s.json", tmp_path / "d.xml")
     assert r.returncode == 1 and "Traceback" not in r.stderr, r.stderr
     assert r.stderr.startswith("sssphere: error:") and "d.xml" in r.stderr, r.stderr
+    # Mitsuba's seeds are 32-bit: a larger one wrote a scene Mitsuba then refused (a review)
+    r = run_cli("export-mitsuba", tmp_path / "s.json", tmp_path / "m.xml", "--seed", str(2**32))
+    assert r.returncode == 2 and "--seed: must be 0 to 4294967295" in r.stderr, r.stderr
+    assert not (tmp_path / "m.xml").exists()
 
 
 def test_export_mitsuba_says_scene_warnings_as_render_does(tmp_path, small_scene):

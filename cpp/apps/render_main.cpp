@@ -247,7 +247,10 @@ int main(int argc, char** argv) {
             for (const char* name :
                  {"variance", "events", "sphere_steps", "albedo", "normal", "depth"})
                 outputs.push_back(aov_file(out_path, name));
-        for (const std::string& o : outputs) sss::check_output_is_not_an_input(o, inputs);
+        for (const std::string& o : outputs) {
+            sss::check_output_image(o);  // the AOV files' names too, before the render
+            sss::check_output_is_not_an_input(o, inputs);
+        }
         for (const std::string& w : desc.warnings)
             std::cerr << "sssphere-render: warning: " << w << "\n";
         const sss::RenderOptions opt = sss::resolve_render_options(

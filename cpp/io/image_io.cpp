@@ -87,6 +87,14 @@ void check_output_image(const std::string& path) {
     fs::path parent = target.parent_path();
     if (!parent.empty() && !fs::is_directory(parent))
         fail(path, ": output directory '", parent.string(), "' does not exist");
+    // A name longer than the directory takes was found only when the written image was
+    // moved into place, and the render was lost
+    const std::string dir = parent.empty() ? "." : parent.string();
+    const long name_max = ::pathconf(dir.c_str(), _PC_NAME_MAX);
+    const size_t name_size = target.filename().string().size();
+    if (name_max > 0 && name_size > size_t(name_max))
+        fail(path, ": its file name is ", name_size, " bytes long (allowed: at most ",
+             name_max, " in '", dir, "')");
     // The image replaces the file there: never a device, pipe or socket (through a link,
     // /dev/null would become a file), nor a file its owner has made read-only.
     struct stat st;

@@ -60,6 +60,8 @@ def _checked(convert, ok, requirement: str):
 
 _positive_int = _checked(int, lambda v: v >= 1, ">= 1")
 _non_negative_int = _checked(int, lambda v: v >= 0, ">= 0")
+# Mitsuba's sampler takes 32-bit seeds: a larger one wrote a scene Mitsuba refuses
+_mitsuba_seed = _checked(int, lambda v: 0 <= v < 2**32, "0 to 4294967295 (Mitsuba's seeds are 32-bit)")
 _positive_float = _checked(float, lambda v: 0 < v < float("inf"), "a positive number")
 # camera.width and height's range (docs/scene-format.md), checked as sssphere-render does
 _image_size = _checked(int, lambda v: 1 <= v <= 16384, "1 to 16384")
@@ -97,12 +99,12 @@ def _cmd_render(args: argparse.Namespace) -> int:
         _frame_pattern(args.output, args.turntable)
     outputs = ([args.output % k for k in range(args.turntable)] if args.turntable
                else [args.output])
-    # Before the render, not after it: the format, the directory, that a file can be made
-    for path in outputs:
-        _image.check_output_image(path)
     if args.aovs:  # the AOV files beside a .png (RenderResult.save)
         outputs += [f"{os.path.splitext(path)[0]}_{name}.exr" for path in outputs
                     if not path.lower().endswith(".exr") for name in rendering.AOV_LAYERS]
+    # Before the render, not after it: the format, the directory, that a file can be made
+    for path in outputs:
+        _image.check_output_image(path)
     _check_ray(args.ray)
     # The render options as typed, checked and resolved in C++ with the scene's (one table
     # for both command lines and the API: render/options.h)
@@ -541,7 +543,7 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("scene", help="scene file (JSON, docs/scene-format.md)")
     m.add_argument("output", help="Mitsuba scene (.xml); meshes go to OUTPUT_STEM_meshes/")
     m.add_argument("--spp", type=_positive_int, default=64, help="samples per pixel (default 64)")
-    m.add_argument("--seed", type=_non_negative_int, default=0, help="sampler seed (default 0)")
+    m.add_argument("--seed", type=_mitsuba_seed, default=0, help="sampler seed, 0 to 2^32 - 1 (default 0)")
     m.add_argument("--integrator", choices=["volpath", "volpathmis"],
                    help="Mitsuba's integrator (default: volpathmis, spectral MIS, where a "
                         "medium's sigma_t differs between channels, which volpath converges "
