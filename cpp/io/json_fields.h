@@ -68,6 +68,40 @@ inline std::string described(const json& j) {
 // is refused while it is parsed, before it can exhaust the stack of a recursive consumer.
 constexpr int kMaxJsonDepth = 64;
 
+// `s` with each byte that is not part of well-formed UTF-8 written as \xNN, as Python's
+// "backslashreplace" writes it: a parser's message quotes the bytes it stopped at, and a
+// stray byte (a file that starts with two byte-order marks) made stderr invalid UTF-8.
+inline std::string utf8_or_escaped(const std::string& s) {
+    std::string out;
+    for (size_t i = 0; i < s.size();) {
+        const auto byte = [&](size_t k) { return static_cast<unsigned char>(s[i + k]); };
+        const unsigned char c = byte(0);
+        const size_t n = c < 0x80   ? 1
+                         : c < 0xC2 ? 0
+                         : c < 0xE0 ? 2
+                         : c < 0xF0 ? 3
+                         : c < 0xF5 ? 4
+                                    : 0;
+        bool ok = n > 0 && i + n <= s.size();
+        for (size_t k = 1; ok && k < n; ++k) ok = (byte(k) & 0xC0) == 0x80;
+        // No overlong forms, surrogates or code points past U+10FFFF
+        if (ok && n >= 3) {
+            const unsigned char d = byte(1);
+            ok = !(c == 0xE0 && d < 0xA0) && !(c == 0xED && d >= 0xA0) &&
+                 !(c == 0xF0 && d < 0x90) && !(c == 0xF4 && d >= 0x90);
+        }
+        if (ok) {
+            out.append(s, i, n);
+            i += n;
+            continue;
+        }
+        const char* hex = "0123456789abcdef";
+        out += {'\\', 'x', hex[c >> 4], hex[c & 15]};
+        ++i;
+    }
+    return out;
+}
+
 // Parses `text` (named `source` in messages): malformed JSON, nesting deeper than
 // kMaxJsonDepth and an object with the same key twice (which JSON parsers otherwise
 // resolve silently, the last one winning) are errors naming the place.
@@ -134,7 +168,7 @@ inline json parse_json(const std::string& text, const std::string& source,
         // nlohmann's message, without the name of its exception class
         // ("[json.exception.parse_error.101] "), after the field it was reading (an
         // overflowing number has no line and column).
-        std::string what = e.what();
+        std::string what = utf8_or_escaped(e.what());
         if (what.rfind("[json.exception.", 0) == 0 &&
             what.find("] ") != std::string::npos)
             what = what.substr(what.find("] ") + 2);

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "core/check.h"
+#include "io/json_fields.h"
 #include "render/medium_presets.h"
 #include "testing/scenes.h"
 
@@ -85,6 +86,26 @@ INSTANTIATE_TEST_SUITE_P(
                 "equals origin"},
         BadCase{"\"sphere\": {\"center\": [0, 0, 0], \"radius\": 1}",
                 "\"mesh\": \"no_such.obj\"", "shapes[0].mesh", "does not exist"}));
+
+// The parser quotes the bytes it stopped at: a file that starts with two byte-order marks
+// (the second, after the first is skipped, an invalid literal) put a lone 0xEF byte, not
+// UTF-8, into the message and so onto stderr.
+TEST(SceneParse, MessagesAreUtf8WhateverTheFileHolds) {
+    std::string e;
+    try {
+        parse_scene("\xEF\xBB\xBF\xEF\xBB\xBF{}", ".", "test.json");
+    } catch (const Error& err) {
+        e = err.what();
+    }
+    EXPECT_NE(e.find("malformed JSON"), std::string::npos) << e;
+    EXPECT_NE(e.find("\\xef"), std::string::npos) << e;
+    EXPECT_EQ(json_fields::utf8_or_escaped("ok \xC3\xA9 \xF0\x9F\x99\x82"),
+              "ok \xC3\xA9 \xF0\x9F\x99\x82");
+    EXPECT_EQ(json_fields::utf8_or_escaped("\xEF\xBB"), "\\xef\\xbb");  // cut short
+    EXPECT_EQ(json_fields::utf8_or_escaped("\xC0\x80 \xED\xA0\x80"),
+              "\\xc0\\x80 \\xed\\xa0\\x80");  // overlong, surrogate
+    EXPECT_EQ(json_fields::utf8_or_escaped("\xFF"), "\\xff");
+}
 
 TEST(SceneBuild, RefusesCameraInsideShape) {
     std::string text = kGood;
