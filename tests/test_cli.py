@@ -129,6 +129,7 @@ def test_outputs_that_would_lose_the_render_or_an_input_are_refused_before_it(tm
                                    timeout=120))
     for out, expected in ((tmp_path / "d.exr", "d.exr: is a directory"),
                           ("/proc/sss.exr", "/proc/sss.exr: cannot write in '/proc': "),
+                          (sky / "x.exr", "output directory '" + str(sky) + "' is a file, not a directory"),
                           (sky, f"sky.exr: is a file the scene reads ('{sky}')")):
         r = run(tmp_path / "s.json", "-o", out)
         assert r.returncode == 1 and expected in r.stderr, r.stderr
@@ -750,6 +751,8 @@ def test_unwritable_export_paths_are_one_line_errors(tmp_path, small_scene):
     r = run_cli("export-mitsuba", tmp_path / "s.json", tmp_path / "d.xml")
     assert r.returncode == 1 and "Traceback" not in r.stderr, r.stderr
     assert r.stderr.startswith("sssphere: error:") and "d.xml" in r.stderr, r.stderr
+    r = run_cli("export-mitsuba", tmp_path / "s.json", "/proc/m.xml")  # was a raw OSError
+    assert r.returncode == 1 and "/proc/m.xml: cannot make the meshes' directory" in r.stderr
     # Mitsuba's seeds are 32-bit: a larger one wrote a scene Mitsuba then refused (a review)
     r = run_cli("export-mitsuba", tmp_path / "s.json", tmp_path / "m.xml", "--seed", str(2**32))
     assert r.returncode == 2 and "--seed: must be 0 to 4294967295" in r.stderr, r.stderr

@@ -237,6 +237,9 @@ def test_cut_models_missing_file_is_named(tmp_path):
     import sssphere
     with pytest.raises(Exception, match="cutlengthgen.json"):
         sssphere.render_full(_dense_sphere(), integrator="st", spp=1, cut_models=tmp_path)
+    # a directory that is not there is named as one, as --models names it (a review)
+    with pytest.raises(sssphere.SceneError, match=r"none: not a directory \(expected cutlengthgen.json"):
+        sssphere.render_full(_dense_sphere(), integrator="st", spp=1, cut_models=tmp_path / "none")
 
 
 # ----------------------------------------------------------------------------------------

@@ -821,7 +821,7 @@ def test_eval_finds_the_shipped_models_from_anywhere(tmp_path, capsys, monkeypat
     assert (report["decoder"], report["seed"]) == ("numpy", 7)
     code = cli_main(["eval", "--quiet", "--no-plots", "--out", "eval.json"])
     assert code == 1
-    assert "eval.json: output directory does not exist (it is a file)" in \
+    assert "eval.json: is a file, not an output directory" in \
         capsys.readouterr().err
 
 

@@ -86,7 +86,8 @@ void check_output_image(const std::string& path) {
         fail(path, ": unsupported image format '", ext, "' (allowed: .exr, .png)");
     fs::path parent = target.parent_path();
     if (!parent.empty() && !fs::is_directory(parent))
-        fail(path, ": output directory '", parent.string(), "' does not exist");
+        fail(path, ": output directory '", parent.string(), "' ",
+             fs::exists(parent, ec) ? "is a file, not a directory" : "does not exist");
     // A name longer than the directory takes was found only when the written image was
     // moved into place, and the render was lost
     const std::string dir = parent.empty() ? "." : parent.string();

@@ -67,7 +67,8 @@ void lanes(const SimdDecoder& d, int width, int outputs, const float* x, const f
 
 CutStepModel CutStepModel::load(const std::string& dir) {
     namespace fs = std::filesystem;
-    // One after the other, so that a missing directory is reported as its first file.
+    if (!fs::is_directory(dir))  // as ScatteringModel::load says it
+        fail(dir, ": not a directory (expected cutlengthgen.json, cutpathgen.json)");
     Decoder length = load_decoder((fs::path(dir) / "cutlengthgen.json").string());
     Decoder path = load_decoder((fs::path(dir) / "cutpathgen.json").string());
     return CutStepModel(std::move(length), std::move(path), dir);

@@ -395,7 +395,7 @@ def _cmd_eval(args: argparse.Namespace) -> int:
             raise SceneError(f"{out}: cannot create the output directory: "
                              f"{e.strerror}") from None
     if not out.is_dir():
-        raise SceneError(f"{out}: output directory does not exist (it is a file)"
+        raise SceneError(f"{out}: is a file, not an output directory"
                          if out.exists() else f"{out}: output directory does not exist")
     if not os.access(out, os.W_OK):
         raise SceneError(f"{out}: output directory is not writable (--out chooses another)")

@@ -266,7 +266,7 @@ def export_mitsuba(scene_path: str | os.PathLike, xml_path: str | os.PathLike, s
     scattering events. Returns the files written."""
     import warnings
 
-    from sssphere.scene import SceneWarning, load_scene
+    from sssphere.scene import SceneError, SceneWarning, load_scene
 
     scene_path, xml_path = os.fspath(scene_path), os.fspath(xml_path)
     ours = load_scene(scene_path)  # a bad file gets the parser's SceneError
@@ -292,7 +292,11 @@ def export_mitsuba(scene_path: str | os.PathLike, xml_path: str | os.PathLike, s
     xml_dir = os.path.dirname(os.path.abspath(xml_path))
     stem = os.path.splitext(os.path.basename(xml_path))[0]
     mesh_dir = os.path.join(xml_dir, f"{stem}_meshes")
-    os.makedirs(mesh_dir, exist_ok=True)
+    try:
+        os.makedirs(mesh_dir, exist_ok=True)
+    except OSError as e:  # a raw "[Errno 2] ... '/proc/m_meshes'" before (a review)
+        raise SceneError(f"{xml_path}: cannot make the meshes' directory {mesh_dir} "
+                         f"({e.strerror})") from None
     d = mitsuba_scene_dict(scene_dict, ours, mesh_dir, spp=spp, seed=seed)
     d["integrator"]["type"] = integrator
     written = [xml_path]
