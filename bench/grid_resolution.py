@@ -77,7 +77,7 @@ def measure(boundary: str, sigma: float, args) -> list[dict]:
             for res in order:
                 r = sssphere.render_full(scenes[res], spp=args.spp, seed=7,
                                          threads=args.threads, integrator=name,
-                                         models=args.models)
+                                         models=args.models if name == "st" else None)
                 seconds[res, name].append(r.seconds)
                 last[res, name] = r
     rows = []

@@ -52,6 +52,11 @@ Z_MAX = 4.0
 
 
 
+def _models(integrator: str, model_dir: str):
+    """`models` for a render with `integrator`: an option of "st" alone."""
+    return model_dir if integrator == "st" else None
+
+
 def _render_gpu(scene, integrator, spp, seed, progress=None, batch=0, lanes=0, **options):
     """The binding's render on the Vulkan backend, with the benchmark knobs (dispatch batch,
     lanes) the public API does not offer."""
@@ -543,7 +548,7 @@ def test_gpu_render_agrees_with_cpu(case, integrator, model_dir):
     image means, block means, mean events and sphere steps per path."""
     make, nee = RENDER_CASES[case]
     scene = sssphere.load_scene(make())
-    cpu, gpu = _render_pair(scene, integrator=integrator, nee=nee, models=model_dir)
+    cpu, gpu = _render_pair(scene, integrator=integrator, nee=nee, models=_models(integrator, model_dir))
     if integrator == "st":
         assert gpu.mean_sphere_steps_per_path > 0.05, gpu.mean_sphere_steps_per_path
     else:
@@ -637,7 +642,7 @@ def test_gpu_furnace(integrator, model_dir):
     env = {"type": "environment", "radiance": [0.5, 0.25, 1.0]}
     scene = sssphere.load_scene(bunny_scene(sigma_t=50.0, albedo=(1, 1, 1), g=0.7, lights=[env]))
     r = sssphere.render_full(scene, integrator=integrator, spp=8, seed=3, backend="vulkan",
-                             models=model_dir)
+                             models=_models(integrator, model_dir))
     np.testing.assert_array_equal(r.image, np.broadcast_to(np.float32(env["radiance"]), r.image.shape))
     assert not r.variance.any()
     assert r.mean_events_per_path > 1
@@ -662,14 +667,15 @@ def test_gpu_delta_lights_agree_with_cpu(integrator, model_dir):
     clearance, the GPU's step_radius)."""
     scene = sssphere.load_scene(sphere_scene(sigma_t=30.0, g=0.7, boundary=INDEX_MATCHED,
                                              lights=[POINT, AREA, DIRECTIONAL, ENV]))
-    cpu, gpu = _render_pair(scene, integrator=integrator, nee=True, models=model_dir)
+    cpu, gpu = _render_pair(scene, integrator=integrator, nee=True,
+                            models=_models(integrator, model_dir))
     if integrator == "st":
         assert gpu.mean_sphere_steps_per_path > 0.05, gpu.mean_sphere_steps_per_path
     assert_renders_agree(cpu, gpu, f"delta lights, {integrator}")
     # The test has power: those lights add much light (without NEE, which misses them, the
     # image is darker by many standard errors in every channel).
     dark = sssphere.render_full(scene, integrator=integrator, spp=128, seed=3, nee=False,
-                                backend="vulkan", models=model_dir)
+                                backend="vulkan", models=_models(integrator, model_dir))
     z = mean_z(gpu, dark)
     assert np.all(z > 3 * Z_MAX), z
 
@@ -763,7 +769,7 @@ def test_gpu_render_is_deterministic(integrator, model_dir):
     """The same seed gives the same image whatever the batching of samples into dispatches
     (sample k of a pixel has its own stream); another seed gives another image."""
     scene = sssphere.load_scene(sphere_scene(res=(12, 8), sigma_t=30.0))
-    kw = dict(integrator=integrator, spp=6, backend="vulkan", models=model_dir)
+    kw = dict(integrator=integrator, spp=6, backend="vulkan", models=_models(integrator, model_dir))
     a = sssphere.render_full(scene, seed=5, **kw)
     b = sssphere.render_full(scene, seed=5, **kw)
     c = sssphere.render_full(scene, seed=6, **kw)
@@ -772,13 +778,14 @@ def test_gpu_render_is_deterministic(integrator, model_dir):
     np.testing.assert_array_equal(a.sphere_steps, b.sphere_steps)
     assert not np.array_equal(a.image, c.image)
     # Two samples per dispatch instead of all six at once.
-    batched = _render_gpu(scene, integrator, 6, 5, models=model_dir, batch=2)
+    batched = _render_gpu(scene, integrator, 6, 5, models=_models(integrator, model_dir), batch=2)
     np.testing.assert_array_equal(batched["image"], a.image)
     np.testing.assert_array_equal(batched["events"], a.events)
     # 100 lanes for the 576 paths: a lane renders every 100th path, starting the next when
     # one ends (path regeneration; "st" batches steps among the lanes still running).
     for lanes in (100, 576 + 64):
-        regenerated = _render_gpu(scene, integrator, 6, 5, models=model_dir, record_paths=True,
+        regenerated = _render_gpu(scene, integrator, 6, 5, models=_models(integrator, model_dir),
+                                  record_paths=True,
                                   lanes=lanes)
         np.testing.assert_array_equal(regenerated["image"], a.image)
         np.testing.assert_array_equal(regenerated["events"], a.events)
@@ -807,8 +814,8 @@ def test_st_without_possible_steps_is_pt(model_dir):
     """Where the grid's bound times sigma_t stays under the threshold everywhere, "st"
     takes no step and renders pt's paths exactly (the renderer then runs the pt kernel)."""
     scene = sssphere.load_scene(sphere_scene(res=(12, 8), sigma_t=5.0))  # unit sphere: sigma_t r <= 5
-    kw = dict(spp=4, seed=2, backend="vulkan", models=model_dir)
-    st = sssphere.render_full(scene, integrator="st", **kw)
+    kw = dict(spp=4, seed=2, backend="vulkan")
+    st = sssphere.render_full(scene, integrator="st", models=model_dir, **kw)
     pt = sssphere.render_full(scene, integrator="pt", **kw)
     assert st.mean_sphere_steps_per_path == 0 and st.mean_events_per_path > 0.5
     np.testing.assert_array_equal(st.image, pt.image)
