@@ -18,7 +18,9 @@ namespace sss {
 
 // Packed decoders (model.glsl): decoder d (0 LengthGen, 1 PathGen, 2 EventGen) has a
 // header of kGpuDecoderHeader floats at d * kGpuDecoderHeader: [0] layers, [1]
-// input_width, [2] latent_dim, [3] conditions, [4] outputs; layer l at [8 + 4l]: in, out,
+// input_width, [2] latent_dim, [3] conditions, [4] outputs, and in PathGen's header [5]
+// where the forward-memory tilt starts (0: none; model.glsl, tilt_at), [6] and [7] its
+// counts of nodes of sigma and g; layer l at [8 + 4l]: in, out,
 // softplus (1/0), offset of its row-major weights (the bias follows them); the encoding
 // of condition i at [32 + 8i] and of output o at [32 + 8(7 + o)]: kind (0 affine, 1 log,
 // 2 logit), a, b, s, c, lo, hi, eps. Weights follow the three headers.

@@ -80,9 +80,20 @@ std::vector<float> pack_gpu_model(const ScatteringModel& m) {
         fail(m.where(),
              ": EventGen needs more than the 16 normals per step the GPU path ",
              "supports");
+    // The tilt (model.glsl, tilt_at): where it starts and its nodes' counts in PathGen's
+    // header, then the nodes (ln sigma, g) and the tables a and b.
+    const StepTilt& t = m.tilt();
+    if (!t.empty()) {
+        const size_t h = size_t(kGpuDecoderHeader);
+        out[h + 5] = float(out.size());
+        out[h + 6] = float(t.log_sigma.size());
+        out[h + 7] = float(t.g.size());
+        for (const auto* v : {&t.log_sigma, &t.g, &t.a, &t.b})
+            out.insert(out.end(), v->begin(), v->end());
+    }
     if (out.size() > size_t(kGpuModelFloats))
-        fail(m.where(), ": the decoders take ", out.size(),
-             " floats; the GPU path holds at most ", kGpuModelFloats);
+        fail(m.where(), ": the decoders", t.empty() ? "" : " and the tilt", " take ",
+             out.size(), " floats; the GPU path holds at most ", kGpuModelFloats);
     return out;
 }
 

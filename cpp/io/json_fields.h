@@ -217,6 +217,11 @@ inline double number(const json& j, const Field& f) {
     return v + 0.0;
 }
 
+inline std::string string_of(const json& j, const Field& f) {
+    if (!j.is_string()) f.error("expected a string, got ", type_name(j), " ", show(j));
+    return j.get<std::string>();
+}
+
 // An integer in [lo, hi]; `allowed` describes the range for the message.
 inline int64_t integer_in(const json& j, const Field& f, int64_t lo, int64_t hi,
                           const char* allowed) {

@@ -39,11 +39,6 @@ float float32(const json& j, const Field& f) {
     return x;
 }
 
-std::string string_of(const json& j, const Field& f) {
-    if (!j.is_string()) f.error("expected a string, got ", type_name(j), " ", show(j));
-    return j.get<std::string>();
-}
-
 const json& array_of(const json& j, const Field& f, size_t size, const char* what) {
     if (!j.is_array()) f.error("expected ", what, ", got ", type_name(j), " ", show(j));
     if (j.size() != size) f.error("expected ", what, ", got ", j.size(), " entries");

@@ -167,15 +167,19 @@ ScatteringModel::ScatteringModel(Decoder length, Decoder path, Decoder event,
     }
 }
 
-ScatteringModel ScatteringModel::load(const std::string& dir) {
+ScatteringModel ScatteringModel::load(const std::string& dir, bool tilt) {
     namespace fs = std::filesystem;
     if (!fs::is_directory(dir))
         fail(dir,
              ": not a directory (expected lengthgen.json, pathgen.json, eventgen.json)");
     auto file = [&](const char* name) { return (fs::path(dir) / name).string(); };
-    return ScatteringModel(load_decoder(file("lengthgen.json")),
-                           load_decoder(file("pathgen.json")),
-                           load_decoder(file("eventgen.json")), dir);
+    ScatteringModel m(load_decoder(file("lengthgen.json")),
+                      load_decoder(file("pathgen.json")),
+                      load_decoder(file("eventgen.json")), dir);
+    std::error_code ec;
+    if (tilt && fs::exists(file("tilt.json"), ec))
+        m.set_tilt(load_step_tilt(file("tilt.json")));
+    return m;
 }
 
 const Decoder& ScatteringModel::decoder(const std::string& name) const {
@@ -260,42 +264,26 @@ void ScatteringModel::group_with(int K, const float* sigma, const float* g,
     }
     if (na == 0) return;
 
-    // The normals of every step that needs the networks, in one Box-Muller call: per
-    // step, those of LengthGen and PathGen (z, eps, z, eps), then EventGen's (z, eps) if
-    // asked for.
     const Decoder &L = length_, &P = path_, &E = event_;
     const int n_lp = L.latent_dim + 1 + P.latent_dim + 3,
               n_e = with_event ? E.latent_dim + 6 : 0;
-    const int lanes_lp = normal_lanes(n_lp),
-              lanes = lanes_lp + (n_e ? normal_lanes(n_e) : 0);
-    constexpr int kMaxLanes = 3 * kMaxStepWidth;
-    float xr[kMaxGroup * kMaxLanes], xa[kMaxGroup * kMaxLanes], c[kMaxGroup * kMaxLanes],
-        sn[kMaxGroup * kMaxLanes];
-    xr[0] = xa[0] = 0.f;  // (all written below; this tells gcc's uninitialized check)
-    for (int j = 0; j < na; ++j) {
-        draw_normal_uniforms(rng[act[j]], n_lp, xr + j * lanes, xa + j * lanes);
-        if (n_e)
-            draw_normal_uniforms(rng[act[j]], n_e, xr + j * lanes + lanes_lp,
-                                 xa + j * lanes + lanes_lp);
-    }
-    ops.box_muller(xr, xa, c, sn, na * lanes);
-    float z[kMaxGroup][3 * kMaxStepWidth];
-    for (int j = 0; j < na; ++j) {
-        assemble_normals(c + j * lanes, sn + j * lanes, n_lp, z[j]);
-        if (n_e)
-            assemble_normals(c + j * lanes + lanes_lp, sn + j * lanes + lanes_lp, n_e,
-                             z[j] + n_lp);
-    }
+    float s_act[kMaxGroup], g_act[kMaxGroup], v_act[kMaxGroup];
+    for (int j = 0; j < na; ++j) s_act[j] = sigma[act[j]], g_act[j] = g[act[j]];
 
-    // Paths in lanes: row i of x is input i of every active step (lane j = step act[j]);
-    // lanes past na repeat lane 0, so that every lane a vector computes holds finite
+    // The decoders run on up to kLanes steps at once ("paths in lanes"): row i of x is
+    // input i of the steps evaluated together, lane q being step act[sel[q]] for q < ns;
+    // lanes past ns repeat lane 0, so that every lane a vector computes holds finite
     // values.
     alignas(64) float x[kMaxStepWidth * kLanes], eps[kMaxStepWidth * kLanes],
         u[kMaxStepWidth * kLanes], raw[kLanes];
+    int sel[kLanes], ns = 0;
     auto fill = [&](float* row, auto&& value) {
-        for (int j = 0; j < na; ++j) row[j] = value(j);
-        std::fill(row + na, row + kLanes, row[0]);
+        for (int q = 0; q < ns; ++q) row[q] = value(sel[q]);
+        std::fill(row + ns, row + kLanes, row[0]);
     };
+    // Per active step j its normals z[j]: LengthGen's and PathGen's (z, eps, z, eps),
+    // then EventGen's (z, eps) if asked for (drawn once the step is kept).
+    float z[kMaxGroup][3 * kMaxStepWidth];
     // Condition i of decoder d from raw values, the latent z (from offset zo of each
     // step's normals) and eps (the no outputs after it), zero rows up to input_width.
     auto inputs = [&](const Decoder& d, std::initializer_list<const float*> values,
@@ -303,8 +291,8 @@ void ScatteringModel::group_with(int K, const float* sigma, const float* g,
         int i = 0;
         for (const float* v : values) {
             fill(raw, [&](int j) { return v[j]; });
-            code_lanes(d.conditions[i].encoding, false, raw, x + i * kLanes, na, impl);
-            std::fill(x + i * kLanes + na, x + (i + 1) * kLanes, x[i * kLanes]);
+            code_lanes(d.conditions[i].encoding, false, raw, x + i * kLanes, ns, impl);
+            std::fill(x + i * kLanes + ns, x + (i + 1) * kLanes, x[i * kLanes]);
             ++i;
         }
         for (int l = 0; l < d.latent_dim; ++l, ++i)
@@ -313,41 +301,85 @@ void ScatteringModel::group_with(int K, const float* sigma, const float* g,
         for (int o = 0; o < d.num_outputs(); ++o)
             fill(eps + o * kLanes, [&](int j) { return z[j][zo + d.latent_dim + o]; });
     };
-    // Output o of decoder d, decoded, into raw (lanes [0, na)).
+    // Output o of decoder d, decoded, into raw (lanes [0, ns)).
     auto output = [&](const Decoder& d, int o) {
-        code_lanes(d.outputs[o].encoding, true, u + o * kLanes, raw, na, impl);
+        code_lanes(d.outputs[o].encoding, true, u + o * kLanes, raw, ns, impl);
     };
-    float s_act[kMaxGroup], g_act[kMaxGroup], v_act[kMaxGroup];
-    for (int j = 0; j < na; ++j) s_act[j] = sigma[act[j]], g_act[j] = g[act[j]];
 
-    // LengthGen(sigma, g) -> N = max(2, floor(x))
-    inputs(L, {s_act, g_act}, 0);
-    ops.sample(L, length_simd_, x, eps, u, na);
-    output(L, 0);
-    for (int j = 0; j < na; ++j) {
-        const float n_real = raw[j];
-        out[act[j]].N =
-            n_real >= 2.f
-                ? (n_real < float(kMaxScatterCount) ? int64_t(n_real) : kMaxScatterCount)
-                : 2;
-        v_act[j] = float(out[act[j]].N);
-    }
+    // The normals of the steps in sel, in one Box-Muller call: `n` of them from offset
+    // zo of each step's normals.
+    constexpr int kMaxLanes = 3 * kMaxStepWidth;
+    float xr[kLanes * kMaxLanes], xa[kLanes * kMaxLanes], c[kLanes * kMaxLanes],
+        sn[kLanes * kMaxLanes];
+    auto draw_normals = [&](int n, int zo) {
+        const int lanes = normal_lanes(n);
+        for (int q = 0; q < ns; ++q)
+            draw_normal_uniforms(rng[act[sel[q]]], n, xr + q * lanes, xa + q * lanes);
+        ops.box_muller(xr, xa, c, sn, ns * lanes);
+        for (int q = 0; q < ns; ++q)
+            assemble_normals(c + q * lanes, sn + q * lanes, n, z[sel[q]] + zo);
+    };
 
-    // PathGen(sigma, g, N) -> cos_theta clamped, (alpha, beta) into the unit disc
-    inputs(P, {s_act, g_act, v_act}, L.latent_dim + 1);
-    ops.sample(P, path_simd_, x, eps, u, na);
-    float ab[3][kLanes];
-    for (int o = 0; o < 3; ++o) {
-        output(P, o);
-        std::copy(raw, raw + na, ab[o]);
-    }
-    for (int j = 0; j < na; ++j) {
-        SphereStep& s = out[act[j]];
-        s.cos_theta = std::clamp(finite(ab[0][j]), -1.f, 1.f);
-        float a = finite(ab[1][j]), b = finite(ab[2][j]);
-        project_into_disc(a, b);  // shared/sphere_step.h
-        s.alpha = a;
-        s.beta = b;
+    auto length_and_path = [&] {
+        // LengthGen(sigma, g) -> N = max(2, floor(x))
+        inputs(L, {s_act, g_act}, 0);
+        ops.sample(L, length_simd_, x, eps, u, ns);
+        output(L, 0);
+        for (int q = 0; q < ns; ++q) {
+            const float n_real = raw[q];
+            const int j = sel[q];
+            out[act[j]].N = n_real >= 2.f
+                                ? (n_real < float(kMaxScatterCount) ? int64_t(n_real)
+                                                                    : kMaxScatterCount)
+                                : 2;
+            v_act[j] = float(out[act[j]].N);
+        }
+
+        // PathGen(sigma, g, N) -> cos_theta clamped, (alpha, beta) into the unit disc
+        inputs(P, {s_act, g_act, v_act}, L.latent_dim + 1);
+        ops.sample(P, path_simd_, x, eps, u, ns);
+        float ab[3][kLanes];
+        for (int o = 0; o < 3; ++o) {
+            output(P, o);
+            std::copy(raw, raw + ns, ab[o]);
+        }
+        for (int q = 0; q < ns; ++q) {
+            SphereStep& s = out[act[sel[q]]];
+            s.cos_theta = std::clamp(finite(ab[0][q]), -1.f, 1.f);
+            float a = finite(ab[1][q]), b = finite(ab[2][q]);
+            project_into_disc(a, b);  // shared/sphere_step.h
+            s.alpha = a;
+            s.beta = b;
+        }
+    };
+
+    // LengthGen and PathGen for every active step, kLanes at a time from a queue. With
+    // the forward-memory tilt each drawn step is kept with probability tilt_acceptance
+    // (shared/sphere_step.h) and a refused one joins the queue's end to be drawn again
+    // (at most kTiltMaxDraws draws, the last kept), so that the draws again fill the
+    // lanes of the next evaluations. Each step draws from its own stream, in the order
+    // of sample(), whatever the queue does.
+    float ta[kMaxGroup], tb[kMaxGroup];
+    for (int j = 0; j < na; ++j) tilt_.at(s_act[j], g_act[j], &ta[j], &tb[j]);
+    int queue[kMaxGroup], head = 0, waiting = na;  // a ring of step indices j
+    int draws[kMaxGroup] = {};
+    for (int j = 0; j < na; ++j) queue[j] = j;
+    while (waiting > 0) {
+        ns = std::min(waiting, kLanes);
+        for (int q = 0; q < ns; ++q) sel[q] = queue[(head + q) % kMaxGroup];
+        head += ns, waiting -= ns;
+        draw_normals(n_lp, 0);
+        for (int q = 0; q < ns; ++q) ++draws[sel[q]];
+        length_and_path();
+        if (tilt_.empty()) continue;
+        for (int q = 0; q < ns; ++q) {
+            const int j = sel[q];
+            const SphereStep& s = out[act[j]];
+            const bool kept = rng[act[j]].uniform() <
+                              tilt_acceptance(s.cos_theta, s.alpha, s.beta, ta[j], tb[j]);
+            if (!kept && draws[j] < kTiltMaxDraws)
+                queue[(head + waiting++) % kMaxGroup] = j;
+        }
     }
     if (!with_event) return;
 
@@ -357,25 +389,31 @@ void ScatteringModel::group_with(int K, const float* sigma, const float* g,
         const SphereStep& s = out[act[j]];
         p_act[j] = phi[act[j]], ct[j] = s.cos_theta, al[j] = s.alpha, be[j] = s.beta;
     }
-    inputs(E, {s_act, g_act, p_act, v_act, ct, al, be}, n_lp);
-    ops.sample(E, event_simd_, x, eps, u, na);
-    float xw[6][kLanes];
-    for (int o = 0; o < 6; ++o) {
-        output(E, o);
-        std::copy(raw, raw + na, xw[o]);
-    }
-    for (int j = 0; j < na; ++j) {
-        SphereStep& s = out[act[j]];
-        float v[6];
-        for (int i = 0; i < 6; ++i) v[i] = finite(xw[i][j]);
-        s.X = project_into_ball(Vec3(v[0], v[1], v[2]));  // shared/sphere_step.h
-        s.W = unit_or_z(Vec3(v[3], v[4], v[5]));
-        // The first event (the centre) is the representative one with its exact
-        // probability; EventGen models only events k >= 2.
-        if (double(rng[act[j]].uniform()) <
-            first_event_probability(phi[act[j]], double(s.N))) {
-            s.X = Vec3(0.f);
-            s.W = Vec3(0.f, 0.f, 1.f);
+    for (int first = 0; first < na; first += kLanes) {
+        ns = std::min(na - first, kLanes);
+        for (int q = 0; q < ns; ++q) sel[q] = first + q;
+        draw_normals(n_e, n_lp);
+        inputs(E, {s_act, g_act, p_act, v_act, ct, al, be}, n_lp);
+        ops.sample(E, event_simd_, x, eps, u, ns);
+        float xw[6][kLanes];
+        for (int o = 0; o < 6; ++o) {
+            output(E, o);
+            std::copy(raw, raw + ns, xw[o]);
+        }
+        for (int q = 0; q < ns; ++q) {
+            const int j = sel[q];
+            SphereStep& s = out[act[j]];
+            float v[6];
+            for (int i = 0; i < 6; ++i) v[i] = finite(xw[i][q]);
+            s.X = project_into_ball(Vec3(v[0], v[1], v[2]));  // shared/sphere_step.h
+            s.W = unit_or_z(Vec3(v[3], v[4], v[5]));
+            // The first event (the centre) is the representative one with its exact
+            // probability; EventGen models only events k >= 2.
+            if (double(rng[act[j]].uniform()) <
+                first_event_probability(phi[act[j]], double(s.N))) {
+                s.X = Vec3(0.f);
+                s.W = Vec3(0.f, 0.f, 1.f);
+            }
         }
     }
 }

@@ -9,27 +9,31 @@
 //   1. xi; if xi < exp(-sigma): N = 1 exactly, cos_theta = hg_sample_cos(xi', g),
 //      alpha = beta = 0, X = 0, W = +z (no network, no more random numbers).
 //   2. Normals for LengthGen then PathGen (latent z, then output noise eps;
-//   sample_normals).
+//      sample_normals).
 //   3. LengthGen(sigma, g) -> N = max(2, floor(x)) (capped at kMaxScatterCount).
 //   4. PathGen(sigma, g, N) -> cos_theta clamped to [-1, 1]; (alpha, beta) scaled to the
-//   unit
-//      disc if outside it.
+//      unit disc if outside it.
+//   4'. Only with a tilt (tilt.json, step_tilt.h): one more xi; unless xi <
+//      tilt_acceptance(...), steps 2 to 4' again (at most kTiltMaxDraws draws in all;
+//      the last is kept).
 //   5. Only if EventGen is asked for: its normals, then EventGen(sigma, g, phi, N,
-//   cos_theta,
-//      alpha, beta) -> X scaled into the unit ball if outside, W normalized (+z if zero);
-//      then one more xi: if xi < (1 - phi) / (1 - phi^N) (1/N for phi = 1), the first
-//      event (X = 0, W = +z) is the representative one instead (EventGen models events k
-//      >= 2).
+//      cos_theta, alpha, beta) -> X scaled into the unit ball if outside, W normalized
+//      (+z if zero); then one more xi: if xi < (1 - phi) / (1 - phi^N) (1/N for
+//      phi = 1), the first event (X = 0, W = +z) is the representative one instead
+//      (EventGen models events k >= 2). Steps 1 to 4' draw the same numbers with the
+//      event or without it.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <utility>
 
 #include "core/rng.h"
 #include "core/vec.h"
 #include "nn/decoder.h"
 #include "nn/simd_decoder.h"
+#include "nn/step_tilt.h"
 
 namespace sss {
 
@@ -52,8 +56,9 @@ public:
     // Loads dir/lengthgen.json, dir/pathgen.json and dir/eventgen.json and checks that
     // each is the decoder it should be (name, conditions and outputs of the table in
     // docs/model-format.md) and that the encodings are defined wherever the step uses
-    // them.
-    static ScatteringModel load(const std::string& dir);
+    // them; and dir/tilt.json, PathGen's forward-memory tilt, if the directory has one
+    // and `tilt` is true.
+    static ScatteringModel load(const std::string& dir, bool tilt = true);
     // The same from three decoders already in memory (tests, tools); `where` names them.
     ScatteringModel(Decoder length, Decoder path, Decoder event,
                     const std::string& where = "");
@@ -67,12 +72,13 @@ public:
 
     // `count` steps at once (at most kMaxGroup), step k with its own parameters and its
     // own Rng: the same samples as `count` calls of `sample`, bit for bit. With the SIMD
-    // decoder the steps are the lanes of one evaluation (SimdDecoder::sample_lanes), so
-    // 16 cost about as much as one (bench/README.md). For a renderer that advances
-    // several paths together.
+    // decoder up to 16 steps are the lanes of one evaluation (SimdDecoder::sample_lanes),
+    // and 16 cost about as much as one (bench/README.md); the steps the tilt draws again
+    // fill the lanes of later evaluations, so the more steps per call the fewer lanes
+    // idle. For a renderer that advances several paths together.
     void sample_group(int count, const float* sigma, const float* g, const float* phi,
                       Rng* rng, bool with_event, DecoderImpl impl, SphereStep* out) const;
-    static constexpr int kMaxGroup = 16;
+    static constexpr int kMaxGroup = 64;
 
     // n steps for per-sample parameters (arrays of n), sample i drawn with Rng(seed, i):
     // the result does not depend on `threads` (0: all hardware threads). All inputs are
@@ -81,7 +87,11 @@ public:
     void sample_batch(const float* sigma, const float* g, const float* phi, size_t n,
                       uint64_t seed, int threads, bool with_event, DecoderImpl impl,
                       SphereStep* out) const;
-    static constexpr int kBatchGroup = 16;
+    static constexpr int kBatchGroup = 64;
+
+    // PathGen's forward-memory tilt (empty: none; the steps are the decoders' own).
+    const StepTilt& tilt() const { return tilt_; }
+    void set_tilt(StepTilt tilt) { tilt_ = std::move(tilt); }
 
     const Decoder& length_gen() const { return length_; }
     const Decoder& path_gen() const { return path_; }
@@ -109,6 +119,7 @@ private:
     std::string where_;
     Decoder length_, path_, event_;
     SimdDecoder length_simd_, path_simd_, event_simd_;
+    StepTilt tilt_;
     // Precomputed for inputs_ok: [without event, with event] intersections of the
     // training ranges of (sigma, g, phi), and the encodings of those conditions.
     struct Limits {

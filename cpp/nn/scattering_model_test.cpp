@@ -12,6 +12,7 @@
 
 #include "core/check.h"
 #include "nn/random_models.h"
+#include "shared/sphere_step.h"
 #include "testing/errors.h"
 
 namespace sss {
@@ -26,6 +27,17 @@ ScatteringModel random_model(uint64_t seed = 1, float scale = 1.f) {
     return ScatteringModel(random_decoder("LengthGen", seed, scale),
                            random_decoder("PathGen", seed, scale),
                            random_decoder("EventGen", seed, scale), "random");
+}
+
+// The tilt (a, b) at every (sigma, g).
+StepTilt constant_tilt(float a, float b) {
+    StepTilt t;
+    t.log_sigma = {0.f};
+    t.g = {0.f};
+    t.a = {a};
+    t.b = {b};
+    t.source = "constant";
+    return t;
 }
 
 bool same(const SphereStep& a, const SphereStep& b) {
@@ -309,31 +321,38 @@ TEST(ScatteringModel, ScalarAndSimdSamplesAgree) {
 }
 
 // A group of steps gives the same samples, bit for bit, as the steps one at a time,
-// whatever the group size and however many of its steps take the N = 1 shortcut.
+// whatever the group size (past 16, in several evaluations) and however many of its
+// steps take the N = 1 shortcut.
+//
+// With a tilt too: its refusals draw some steps of a group again (a strong one here, so
+// that many are).
 TEST(ScatteringModel, GroupEqualsSingleSteps) {
     ScatteringModel m = random_model(5);
-    for (DecoderImpl impl : {DecoderImpl::Simd, DecoderImpl::Scalar}) {
-        for (int K : {1, 3, 8, 16}) {
-            for (bool event : {false, true}) {
-                float sigma[16], g[16], phi[16];
-                Rng param(3, K);
-                for (int k = 0; k < K; ++k) {
-                    sigma[k] = k % 3 == 0 ? 0.2f : 30.f * param.uniform();
-                    g[k] = 1.8f * param.uniform() - 0.9f;
-                    phi[k] = param.uniform();
-                }
-                std::vector<Rng> group, single;
-                for (int k = 0; k < K; ++k) {
-                    group.emplace_back(21, K, k);
-                    single.emplace_back(21, K, k);
-                }
-                SphereStep out[16];
-                m.sample_group(K, sigma, g, phi, group.data(), event, impl, out);
-                for (int k = 0; k < K; ++k) {
-                    EXPECT_TRUE(same(
-                        out[k], m.sample(sigma[k], g[k], phi[k], single[k], event, impl)))
-                        << K << " " << k;
-                    EXPECT_EQ(group[k].next_u32(), single[k].next_u32());
+    for (bool tilted : {false, true}) {
+        if (tilted) m.set_tilt(constant_tilt(0.6f, -0.25f));
+        for (DecoderImpl impl : {DecoderImpl::Simd, DecoderImpl::Scalar}) {
+            for (int K : {1, 3, 8, 16, 40, 64}) {
+                for (bool event : {false, true}) {
+                    float sigma[64], g[64], phi[64];
+                    Rng param(3, K);
+                    for (int k = 0; k < K; ++k) {
+                        sigma[k] = k % 3 == 0 ? 0.2f : 30.f * param.uniform();
+                        g[k] = 1.8f * param.uniform() - 0.9f;
+                        phi[k] = param.uniform();
+                    }
+                    std::vector<Rng> group, single;
+                    for (int k = 0; k < K; ++k) {
+                        group.emplace_back(21, K, k);
+                        single.emplace_back(21, K, k);
+                    }
+                    SphereStep out[64];
+                    m.sample_group(K, sigma, g, phi, group.data(), event, impl, out);
+                    for (int k = 0; k < K; ++k) {
+                        EXPECT_TRUE(same(out[k], m.sample(sigma[k], g[k], phi[k],
+                                                          single[k], event, impl)))
+                            << K << " " << k << " tilted " << tilted;
+                        EXPECT_EQ(group[k].next_u32(), single[k].next_u32());
+                    }
                 }
             }
         }
@@ -346,9 +365,9 @@ TEST(ScatteringModel, GroupEqualsSingleSteps) {
                }),
                "sigma[0] = 300");
     EXPECT_HAS(error_of([&] {
-                   m.sample_group(17, &s, &g, &phi, &rng, true, DecoderImpl::Simd, &out);
+                   m.sample_group(65, &s, &g, &phi, &rng, true, DecoderImpl::Simd, &out);
                }),
-               "count 17");
+               "count 65");
 }
 
 TEST(ScatteringModel, BatchIsIndependentOfThreadCount) {
@@ -379,6 +398,121 @@ TEST(ScatteringModel, BatchIsIndependentOfThreadCount) {
                 << i;
         }
     }
+}
+
+// The tilt reweights the decoders' steps by 1 + a cos_theta + b w_z
+// (shared/sphere_step.h): the tilted steps' means of cos_theta and w_z are the untilted
+// steps' weighted means, to within five standard errors of the difference (both from the
+// samples). Steps with N = 1 are exact and left alone (sigma 1.5: a fifth of them).
+TEST(ScatteringModel, TiltReweightsTheDecodersSteps) {
+    ScatteringModel m = random_model(8);
+    const size_t n = 200000;
+    const float a = 0.5f, b = 0.3f;
+    for (float sigma : {1.5f, 12.f}) {
+        std::vector<float> s(n, sigma), g(n, 0.4f), phi(n, 0.9f);
+        std::vector<SphereStep> plain(n), tilted(n);
+        m.set_tilt(StepTilt());
+        m.sample_batch(s.data(), g.data(), phi.data(), n, 5, 0, false, DecoderImpl::Simd,
+                       plain.data());
+        m.set_tilt(constant_tilt(a, b));
+        m.sample_batch(s.data(), g.data(), phi.data(), n, 6, 0, false, DecoderImpl::Simd,
+                       tilted.data());
+        auto w_z = [](const SphereStep& st) {
+            return double(sphere_exit_direction(st.cos_theta, st.alpha, st.beta).z);
+        };
+        // The untilted steps' means with the networks' steps (N >= 2) weighted, those
+        // with N = 1 as they are (the tilt keeps their share), the tilted steps' plain
+        // means, and their variances for the standard errors.
+        double m1 = 0, w1 = 0, swm = 0, sww = 0, sw = 0, p1 = 0;
+        double tm = 0, tw = 0, tm2 = 0, tw2 = 0, ones = 0;
+        for (size_t i = 0; i < n; ++i) {
+            const SphereStep& p = plain[i];
+            if (p.N == 1) {
+                p1 += 1, m1 += p.cos_theta, w1 += w_z(p);
+            } else {
+                const double w = 1.0 + a * p.cos_theta + b * w_z(p);
+                sw += w, swm += w * p.cos_theta, sww += w * w_z(p);
+            }
+            const SphereStep& t = tilted[i];
+            tm += t.cos_theta, tw += w_z(t);
+            tm2 += double(t.cos_theta) * t.cos_theta, tw2 += w_z(t) * w_z(t);
+            ones += t.N == 1;
+        }
+        const double want_m = (m1 + (n - p1) * swm / sw) / n,
+                     want_w = (w1 + (n - p1) * sww / sw) / n;
+        tm /= n, tw /= n;
+        const double se_m = std::sqrt(2 * (tm2 / n - tm * tm) / n),
+                     se_w = std::sqrt(2 * (tw2 / n - tw * tw) / n);
+        EXPECT_NEAR(tm, want_m, 5 * se_m) << sigma;
+        EXPECT_NEAR(tw, want_w, 5 * se_w) << sigma;
+        // The tilt moves the means by much more than that (the test can fail).
+        double pm = 0;
+        for (const SphereStep& p : plain) pm += p.cos_theta;
+        EXPECT_GT(std::abs(tm - pm / n), 10 * se_m) << sigma;
+        if (sigma < 2.f) {
+            EXPECT_NEAR(ones / n, std::exp(-1.5), 0.01);
+        }
+    }
+}
+
+TEST(StepTilt, InterpolatesInLogSigmaAndG) {
+    StepTilt t;
+    t.log_sigma = {std::log(2.f), std::log(8.f)};
+    t.g = {0.f, 0.5f, 0.9f};
+    t.a = {0.f, 0.2f, 0.1f, 0.3f, 0.4f, 0.4f};  // rows of g: (0, 0.2), (0.1, 0.3), ...
+    t.b = {0.f, -0.2f, 0.f, 0.f, 0.f, 0.f};
+    float a, b;
+    t.at(4.f, 0.f, &a, &b);  // halfway in ln sigma
+    EXPECT_NEAR(a, 0.1f, 1e-6f);
+    EXPECT_NEAR(b, -0.1f, 1e-6f);
+    t.at(2.f, 0.25f, &a, &b);
+    EXPECT_NEAR(a, 0.05f, 1e-6f);
+    t.at(8.f, 0.7f, &a, &b);
+    EXPECT_NEAR(a, 0.35f, 1e-6f);
+    t.at(1000.f, 0.99f, &a, &b);  // clamped at the outer nodes
+    EXPECT_NEAR(a, 0.4f, 1e-6f);
+    t.at(0.5f, -0.9f, &a, &b);
+    EXPECT_EQ(a, 0.f);
+    StepTilt().at(4.f, 0.f, &a, &b);
+    EXPECT_EQ(a, 0.f);
+    EXPECT_EQ(b, 0.f);
+}
+
+TEST(StepTilt, LoadsBesideTheModelsAndNamesWhatIsWrong) {
+    ModelDir dir;
+    dir.write_random();
+    const std::string good =
+        R"({"format": "sssphere-step-tilt", "format_version": 1, "sigma": [3, 30],
+            "g": [0, 0.9], "a": [[0, 0.1], [0.2, 0.3]], "b": [[0, 0], [0, -0.1]]})";
+    dir.write("tilt.json", good);
+    EXPECT_FALSE(ScatteringModel::load(dir.path()).tilt().empty());
+    EXPECT_TRUE(ScatteringModel::load(dir.path(), false).tilt().empty());
+    float a, b;
+    ScatteringModel::load(dir.path()).tilt().at(30.f, 0.9f, &a, &b);
+    EXPECT_FLOAT_EQ(a, 0.3f);
+    EXPECT_FLOAT_EQ(b, -0.1f);
+
+    auto error = [&](const std::string& text) {
+        dir.write("tilt.json", text);
+        return error_of([&] { ScatteringModel::load(dir.path()); });
+    };
+    auto with = [&](const std::string& from, const std::string& to) {
+        std::string t = good;
+        t.replace(t.find(from), from.size(), to);
+        return error(t);
+    };
+    EXPECT_HAS(with("step-tilt", "cvae-decoder"), "is not a tilt file");
+    EXPECT_HAS(with("\"format_version\": 1", "\"format_version\": 2"),
+               "format_version 2 is not supported");
+    EXPECT_HAS(with("[3, 30]", "[30, 3]"), "sigma[1]: value 3 is not above the node");
+    EXPECT_HAS(with("[3, 30]", "[0, 30]"), "allowed: 0 < sigma");
+    EXPECT_HAS(with("[0, 0.9]", "[0, 1]"), "allowed: -1 < g < 1");
+    EXPECT_HAS(with("[[0, 0.1], [0.2, 0.3]]", "[[0, 0.1]]"),
+               "expected an array of 2 rows");
+    EXPECT_HAS(with("[0.2, 0.3]", "[0.2, 0.95]"), "a[1][1]: |a| + |b| = 1.05");
+    EXPECT_HAS(with("[0.2, 0.3]", "[0.2, \"x\"]"), "a[1][1]: expected a number");
+    EXPECT_HAS(with("\"b\":", "\"c\": 1, \"b\":"), "unknown key 'c'");
+    EXPECT_HAS(error("{"), "tilt.json: malformed JSON");
 }
 
 }  // namespace

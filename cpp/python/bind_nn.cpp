@@ -161,11 +161,15 @@ void bind_nn(py::module_& m) {
     py::class_<ScatteringModel, std::shared_ptr<ScatteringModel>>(m, "ScatteringModel")
         .def_static(
             "load",
-            [](const std::string& path) {
-                return std::make_shared<ScatteringModel>(ScatteringModel::load(path));
+            [](const std::string& path, bool tilt) {
+                return std::make_shared<ScatteringModel>(
+                    ScatteringModel::load(path, tilt));
             },
-            py::arg("path"),
-            "Loads lengthgen.json, pathgen.json and eventgen.json from a directory.")
+            py::arg("path"), py::arg("tilt") = true,
+            "Loads lengthgen.json, pathgen.json and eventgen.json from a directory, and "
+            "tilt.json (PathGen's forward-memory tilt) if it has one and tilt is true.")
+        .def_property_readonly("tilted",
+                               [](const ScatteringModel& m) { return !m.tilt().empty(); })
         .def("sample", &sample_py, py::arg("sigma"), py::arg("g"), py::arg("albedo"),
              py::arg("n"), py::arg("seed"), py::arg("threads") = 0,
              py::arg("event") = true, py::arg("impl") = "simd",

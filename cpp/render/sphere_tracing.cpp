@@ -305,21 +305,24 @@ WorldSphereStep SphereTracing::sample(const StepRequest& r, Rng& rng) const {
 void SphereTracing::sample_group(int count, const StepRequest* const* requests,
                                  Rng* const* rngs, WorldSphereStep* out) const {
     // The requests by kind: cut steps, then sphere steps without and with a
-    // representative event, each kind in model calls of up to kMaxGroup (its decoders run
-    // on all of them at once, so full calls are cheapest per step). Each step draws from
-    // its own stream, so the grouping changes nothing (up to rounding for cut steps,
+    // representative event, each kind in model calls of up to kMaxGroup cut steps or
+    // ScatteringModel::kMaxGroup sphere steps (the decoders run on 16 of them at once, so
+    // full calls are cheapest per step; and the sphere steps the tilt draws again fill
+    // the lanes of a call's later evaluations). Each step draws from its own stream, so
+    // the grouping changes nothing (up to rounding for cut steps,
     // CutStepModel::sample_group). next(kind, from, idx) gathers the next call's requests
     // of a kind at or after `from` into idx and returns their count.
     auto kind_of = [&](int k) {
         return requests[k]->cut ? 0 : requests[k]->with_event ? 2 : 1;
     };
     auto next = [&](int kind, int& from, int* idx) {
+        const int most = kind == 0 ? kMaxGroup : ScatteringModel::kMaxGroup;
         int n = 0;
-        for (; from < count && n < kMaxGroup; ++from)
+        for (; from < count && n < most; ++from)
             if (kind_of(from) == kind) idx[n++] = from;
         return n;
     };
-    int idx[kMaxGroup];
+    int idx[ScatteringModel::kMaxGroup];
     for (int from = 0, n; (n = next(0, from, idx)) > 0;) {
         float sigma[kMaxGroup], g[kMaxGroup], h[kMaxGroup], mu0[kMaxGroup];
         Rng rng[kMaxGroup];
@@ -351,7 +354,7 @@ void SphereTracing::sample_group(int count, const StepRequest* const* requests,
     }
     for (int with_event = 0; with_event < 2; ++with_event) {
         for (int from = 0, n; (n = next(1 + with_event, from, idx)) > 0;) {
-            SphereStep s[kMaxGroup];
+            SphereStep s[ScatteringModel::kMaxGroup];
             if (sampler_ == SphereSampler::Walk) {
                 for (int j = 0; j < n; ++j) {
                     const StepRequest& r = *requests[idx[j]];
@@ -365,8 +368,9 @@ void SphereTracing::sample_group(int count, const StepRequest* const* requests,
                 }
             } else {
                 SSS_CHECK(model_ != nullptr);
-                float sigma[kMaxGroup], g[kMaxGroup], phi[kMaxGroup];
-                Rng rng[kMaxGroup];
+                constexpr int kMost = ScatteringModel::kMaxGroup;
+                float sigma[kMost], g[kMost], phi[kMost];
+                Rng rng[kMost];
                 for (int j = 0; j < n; ++j) {
                     const StepRequest& r = *requests[idx[j]];
                     sigma[j] = r.sigma;

@@ -125,7 +125,8 @@ public:
     WorldSphereStep sample(const StepRequest& r, Rng& rng) const;
     // `count` steps, step k for *requests[k] with *rngs[k]: the same samples as `count`
     // calls of sample(), faster per step for the learned models (their decoders run on
-    // all the steps at once; at most kMaxGroup per call of the model, more are split).
+    // the steps together; model calls of at most kMaxGroup cut steps or
+    // ScatteringModel::kMaxGroup sphere steps, more are split).
     // Cut step requests get cut steps (WorldSphereStep's N, exit_pos, exit_dir), the same
     // as sample()'s up to rounding (CutStepModel::sample_group).
     void sample_group(int count, const StepRequest* const* requests, Rng* const* rngs,

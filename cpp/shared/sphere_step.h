@@ -104,6 +104,29 @@ SSS_FN Vec3 unit_or_z(Vec3 v) {
     return Vec3(float(x / l), float(y / l), float(z / l));
 }
 
+// PathGen's forward-memory tilt (docs/sphere-tracing.md, "The forward-memory tilt"): a
+// learned step (N >= 2) is kept with probability tilt_acceptance and otherwise drawn
+// again (LengthGen and PathGen), which reweights the decoders' law by 1 + a cos_theta + b
+// w_z, w_z the exit direction's z: the part of the entering direction the step keeps. a
+// and b are calibrated per (sigma, g) so that the means of cos_theta and w_z are those of
+// exact walks (models/tilt.json, docs/model-format.md).
+//
+// The largest value of a cos_theta + b w_z over the exits a step can have: an exit
+// direction points out of the sphere, so w_z <= sqrt(1 - cos_theta^2) where cos_theta < 0
+// and w_z >= -sqrt(1 - cos_theta^2) where cos_theta > 0; over that set the maximum is |a|
+// + |b| (a corner) when a and b have one sign, and sqrt(a^2 + b^2) (on an arc) otherwise.
+SSS_FN float tilt_bound(float a, float b) {
+    return a * b >= 0.f ? abs(a) + abs(b) : sqrt(a * a + b * b);
+}
+SSS_FN float tilt_acceptance(float cos_theta, float alpha, float beta, float a, float b) {
+    float w_z = sphere_exit_direction(cos_theta, alpha, beta).z;
+    return (1.f + a * cos_theta + b * w_z) / (1.f + tilt_bound(a, b));
+}
+// A step drawn this many times is kept. The shipped table refuses at most 35 % of the
+// draws (sigma = 3, g = 0.95; 30 % at sigma = 6), so every draw is refused with a
+// probability below 1e-14.
+SSS_CONST int kTiltMaxDraws = 32;
+
 // phi^N: the probability that a walk of N events survives absorption (phi in [0, 1]).
 // log1p(phi - 1) rather than log(phi): phi - 1 is exact, and for albedos near 1 a float
 // log (the GPU's) would be about 1 % off at phi = 0.99995.

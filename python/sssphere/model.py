@@ -55,12 +55,15 @@ class ScatteringModel:
         self._core = core
 
     @classmethod
-    def load(cls, path: Union[str, os.PathLike, None] = None) -> ScatteringModel:
+    def load(cls, path: Union[str, os.PathLike, None] = None, tilt: bool = True) -> ScatteringModel:
         """Load ``lengthgen.json``, ``pathgen.json`` and ``eventgen.json`` from a directory.
 
         Parameters
         ----------
         path : the model directory (default: the repository's ``models/``).
+        tilt : also load ``tilt.json``, PathGen's forward-memory tilt, if the directory has
+            one (docs/sphere-tracing.md, "The forward-memory tilt"). ``False`` gives the
+            decoders' own steps (what ``sssphere calibrate-tilt`` measures).
 
         Raises
         ------
@@ -78,12 +81,17 @@ class ScatteringModel:
         if not path.is_dir():
             raise ValueError(f"{path}: not a directory (expected lengthgen.json, pathgen.json, "
                              "eventgen.json)")
-        return cls(_core.ScatteringModel.load(str(path)))
+        return cls(_core.ScatteringModel.load(str(path), bool(tilt)))
 
     @property
     def path(self) -> str:
         """The directory the model was loaded from."""
         return self._core.path
+
+    @property
+    def tilted(self) -> bool:
+        """Whether the steps carry PathGen's forward-memory tilt (``tilt.json`` was loaded)."""
+        return self._core.tilted
 
     @property
     def sigma_range(self) -> tuple[float, float]:

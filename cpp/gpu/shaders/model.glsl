@@ -80,6 +80,41 @@ void decoder_sample(int w0, int w1, int w2, int n_in, int h1, int h2, int n_out,
         u[o] = o < n_out ? a[o] + exp(0.5 * a[n_out + o]) * eps[o] : 0.0;
 }
 
+// Node coordinate of x between the n increasing nodes at `at`: index i and fraction t in
+// [0, 1], clamped at both ends (nn/step_tilt.cpp's locate).
+void tilt_locate(int at, int n, float x, out int i, out float t) {
+    i = 0;
+    t = 0.0;
+    if (n == 1 || !(x > mval(at))) return;
+    while (i + 2 < n && x >= mval(at + i + 1)) ++i;
+    t = min(1.0, (x - mval(at + i)) / (mval(at + i + 1) - mval(at + i)));
+}
+
+// The table at `at` (rows of ns values, one row per node of g) between rows k and k1 and
+// columns i and i1, bilinearly.
+float tilt_lerp(int at, int ns, int i, int i1, float t, int k, int k1, float u) {
+    float lo = mval(at + k * ns + i) + t * (mval(at + k * ns + i1) - mval(at + k * ns + i));
+    float hi = mval(at + k1 * ns + i) + t * (mval(at + k1 * ns + i1) - mval(at + k1 * ns + i));
+    return lo + u * (hi - lo);
+}
+
+// PathGen's forward-memory tilt (a, b) at (sigma, g) (nn/step_tilt.h, StepTilt::at); false
+// when the model has none.
+bool tilt_at(float sigma, float g, out float a, out float b) {
+    a = 0.0;
+    b = 0.0;
+    int at = mhead(kPathGen, 5), ns = mhead(kPathGen, 6), ng = mhead(kPathGen, 7);
+    if (at == 0) return false;
+    int i, k;
+    float t, u;
+    tilt_locate(at, ns, log(sigma), i, t);
+    tilt_locate(at + ns, ng, g, k, u);
+    int i1 = min(i + 1, ns - 1), k1 = min(k + 1, ng - 1);
+    a = tilt_lerp(at + ns + ng, ns, i, i1, t, k, k1, u);
+    b = tilt_lerp(at + ns + ng + ns * ng, ns, i, i1, t, k, k1, u);
+    return true;
+}
+
 struct SphereStepSample {
     float N;  // events (>= 1; an integer, exact in float up to 2^24 and rounded beyond)
     float cos_theta, alpha, beta;
@@ -104,44 +139,56 @@ SphereStepSample sample_sphere_step(float sigma, float g, float phi, bool with_e
         s.cos_theta = hg_sample_cos(rng_uniform(rng), g);
         return s;
     }
-    // The normals: LengthGen's and PathGen's (z, eps, z, eps), then EventGen's (z, eps).
+    // The normals: LengthGen's and PathGen's (z, eps, z, eps), then, once the step is
+    // kept, EventGen's (z, eps).
     float z[16], ze[16];
     draw_normals(rng, L_LAT + 1 + P_LAT + 3, z);
-    if (with_event) draw_normals(rng, E_LAT + 6, ze);
 
-    // LengthGen(sigma, g) -> N = max(2, floor(x))
+    float ta, tb;
+    bool tilted = tilt_at(sigma, g, ta, tb);
     float x[kW], eps[6], u[6];
-    [[unroll]] for (int i = 0; i < kW; ++i) x[i] = 0.0;
-    [[unroll]] for (int o = 0; o < 6; ++o) eps[o] = 0.0;
-    x[0] = code(condition_code(kLengthGen, 0), sigma, false);
-    x[1] = code(condition_code(kLengthGen, 1), g, false);
-    [[unroll]] for (int l = 0; l < kW - 2; ++l)
-        if (l < L_LAT) x[2 + l] = z[l];
-    eps[0] = z[L_LAT];
-    decoder_sample(kL0, kL1, kL2, L_IN, L_H1, L_H2, 1, x, eps, u);
-    float n_real = code(output_code(kLengthGen, 0), u[0], true);
-    s.N = n_real >= 2.0 ? (n_real < kMaxScatterCount ? floor(n_real) : kMaxScatterCount)
-                        : 2.0;
+    // LengthGen and PathGen, drawn again while the tilt refuses the step (at most
+    // kTiltMaxDraws draws, the last kept; shared/sphere_step.h).
+    for (int draw = 1;; ++draw) {
+        // LengthGen(sigma, g) -> N = max(2, floor(x))
+        [[unroll]] for (int i = 0; i < kW; ++i) x[i] = 0.0;
+        [[unroll]] for (int o = 0; o < 6; ++o) eps[o] = 0.0;
+        x[0] = code(condition_code(kLengthGen, 0), sigma, false);
+        x[1] = code(condition_code(kLengthGen, 1), g, false);
+        [[unroll]] for (int l = 0; l < kW - 2; ++l)
+            if (l < L_LAT) x[2 + l] = z[l];
+        eps[0] = z[L_LAT];
+        decoder_sample(kL0, kL1, kL2, L_IN, L_H1, L_H2, 1, x, eps, u);
+        float n_real = code(output_code(kLengthGen, 0), u[0], true);
+        s.N = n_real >= 2.0 ? (n_real < kMaxScatterCount ? floor(n_real) : kMaxScatterCount)
+                            : 2.0;
 
-    // PathGen(sigma, g, N) -> cos_theta clamped, (alpha, beta) into the unit disc
-    [[unroll]] for (int i = 0; i < kW; ++i) x[i] = 0.0;
-    x[0] = code(condition_code(kPathGen, 0), sigma, false);
-    x[1] = code(condition_code(kPathGen, 1), g, false);
-    x[2] = code(condition_code(kPathGen, 2), s.N, false);
-    const int zo = L_LAT + 1;
-    [[unroll]] for (int l = 0; l < kW - 3; ++l)
-        if (l < P_LAT) x[3 + l] = z[zo + l];
-    [[unroll]] for (int o = 0; o < 3; ++o) eps[o] = z[zo + P_LAT + o];
-    decoder_sample(kP0, kP1, kP2, P_IN, P_H1, P_H2, 3, x, eps, u);
-    s.cos_theta = clamp(finite_value(code(output_code(kPathGen, 0), u[0], true)), -1.0, 1.0);
-    float a = finite_value(code(output_code(kPathGen, 1), u[1], true));
-    float b = finite_value(code(output_code(kPathGen, 2), u[2], true));
-    project_into_disc(a, b);  // shared/sphere_step.h
-    s.alpha = a;
-    s.beta = b;
+        // PathGen(sigma, g, N) -> cos_theta clamped, (alpha, beta) into the unit disc
+        [[unroll]] for (int i = 0; i < kW; ++i) x[i] = 0.0;
+        x[0] = code(condition_code(kPathGen, 0), sigma, false);
+        x[1] = code(condition_code(kPathGen, 1), g, false);
+        x[2] = code(condition_code(kPathGen, 2), s.N, false);
+        const int zo = L_LAT + 1;
+        [[unroll]] for (int l = 0; l < kW - 3; ++l)
+            if (l < P_LAT) x[3 + l] = z[zo + l];
+        [[unroll]] for (int o = 0; o < 3; ++o) eps[o] = z[zo + P_LAT + o];
+        decoder_sample(kP0, kP1, kP2, P_IN, P_H1, P_H2, 3, x, eps, u);
+        s.cos_theta = clamp(finite_value(code(output_code(kPathGen, 0), u[0], true)), -1.0, 1.0);
+        float a = finite_value(code(output_code(kPathGen, 1), u[1], true));
+        float b = finite_value(code(output_code(kPathGen, 2), u[2], true));
+        project_into_disc(a, b);  // shared/sphere_step.h
+        s.alpha = a;
+        s.beta = b;
+        if (!tilted) break;
+        if (rng_uniform(rng) < tilt_acceptance(s.cos_theta, s.alpha, s.beta, ta, tb) ||
+            draw == kTiltMaxDraws)
+            break;
+        draw_normals(rng, L_LAT + 1 + P_LAT + 3, z);
+    }
     if (!with_event) return s;
 
     // EventGen(sigma, g, phi, N, cos_theta, alpha, beta) -> X into the unit ball, W unit
+    draw_normals(rng, E_LAT + 6, ze);
     [[unroll]] for (int i = 0; i < kW; ++i) x[i] = 0.0;
     float cond[7] = float[7](sigma, g, phi, s.N, s.cos_theta, s.alpha, s.beta);
     [[unroll]] for (int i = 0; i < 7; ++i)
