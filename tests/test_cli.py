@@ -910,3 +910,41 @@ def test_st_on_a_medium_the_models_were_not_trained_for_says_so_and_renders(tmp_
     assert "shapes[0] ('ball')" in said[0] and "g = 0.3 is outside the training range" in said[0]
     assert "SceneWarning" not in r.stderr, r.stderr
     assert r.stderr.index(said[0]) < r.stderr.index("100.0%"), r.stderr  # both bars say it
+
+
+def test_calibrate_tilt_writes_a_table_the_renderer_reads(tmp_path, capsys, monkeypatch):
+    """`sssphere calibrate-tilt` end to end on a small grid (the real one takes ~25 min): it
+    measures the decoders without any tilt already there, writes tilt.json beside them, and
+    the C++ loader takes it; bad outputs and directories are told before any work."""
+    from sssphere.cli import main
+    from sssphere.learn import tilt
+    from sssphere.model import DEFAULT_MODELS
+
+    models = tmp_path / "m"
+    models.mkdir()
+    for name in ("lengthgen.json", "pathgen.json", "eventgen.json", "tilt.json"):
+        shutil.copy(DEFAULT_MODELS / name, models / name)
+    monkeypatch.setattr(tilt, "SIGMAS", (20.0, 40.0))
+    monkeypatch.setattr(tilt, "GS", (0.5, 0.9))
+    monkeypatch.setattr(tilt, "MODEL_SAMPLES", 20_000)
+    monkeypatch.setattr(tilt, "WALK_MIN", 5_000)
+    monkeypatch.setattr(tilt, "WALK_MAX", 5_000)
+    assert main(["calibrate-tilt", "--models", str(models), "--quiet"]) == 0, capsys.readouterr().err
+    written = json.loads((models / "tilt.json").read_text())
+    assert written["sigma"] == [20.0, 40.0] and written["g"] == [0.5, 0.9]
+    assert len(written["a"]) == 2 and len(written["a"][0]) == 2
+    assert len(written["calibration"]["cells"]) == 4
+    # the decoders' own steps were measured, not the shipped tilt's
+    plain = tilt.moments(sssphere.ScatteringModel.load(models, tilt=False).sample(
+        sigma_t=20.0, g=0.5, albedo=0.9999, n=20_000, seed=11))
+    assert written["calibration"]["cells"][0]["model"] == plain
+    assert sssphere.ScatteringModel.load(models).tilted
+
+    capsys.readouterr()
+    assert main(["calibrate-tilt", "--models", str(tmp_path / "none"), "--quiet"]) == 1
+    assert "none: not a directory" in capsys.readouterr().err
+    assert main(["calibrate-tilt", "--models", str(models), "-o", str(tmp_path), "--quiet"]) == 1
+    assert "is a directory, not a tilt file" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["calibrate-tilt", "--models", str(models), "--seed", str(2**64 - 1)])
+    assert "the walks take seed + 1" in capsys.readouterr().err

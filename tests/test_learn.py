@@ -557,13 +557,19 @@ def test_cli_train_and_export(tiny_data, tmp_path, capsys):
     assert (tmp_path / "e" / "pathgen.json").read_text() == (tmp_path / "m" / "pathgen.json").read_text()
     assert (tmp_path / "e" / "pathgen.onnx").is_file()
     # --models: PathGen alone, again with seed 2, gives the same file; the others stay.
+    # A tilt fitted to the PathGen replaced is moved aside, and the command says so.
     before = (tmp_path / "m" / "eventgen.json").read_bytes()
     (tmp_path / "m" / "pathgen.json").unlink()
+    (tmp_path / "m" / "tilt.json").write_text('{"format": "sssphere-step-tilt"}')
+    capsys.readouterr()
     code = cli_main(["train", str(tiny_data), "-o", str(tmp_path / "m"), "--epochs", "1",
                      "--seed", "2", "--models", "PathGen", "--quiet"])
     assert code == 0
     assert (tmp_path / "e" / "pathgen.json").read_text() == (tmp_path / "m" / "pathgen.json").read_text()
     assert (tmp_path / "m" / "eventgen.json").read_bytes() == before
+    assert not (tmp_path / "m" / "tilt.json").exists()
+    assert (tmp_path / "m" / "tilt.json.stale").read_text() == '{"format": "sssphere-step-tilt"}'
+    assert "fitted to the models this run replaced; moved to tilt.json.stale" in capsys.readouterr().err
 
 
 def test_cli_learn_errors_are_clear(tmp_path, capsys):

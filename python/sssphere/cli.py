@@ -62,6 +62,8 @@ _positive_int = _checked(int, lambda v: v >= 1, ">= 1")
 _non_negative_int = _checked(int, lambda v: v >= 0, ">= 0")
 # Mitsuba's sampler takes 32-bit seeds: a larger one wrote a scene Mitsuba refuses
 _mitsuba_seed = _checked(int, lambda v: 0 <= v < 2**32, "0 to 4294967295 (Mitsuba's seeds are 32-bit)")
+# calibrate-tilt's walks take seed + 1, a 64-bit stream number
+_tilt_seed = _checked(int, lambda v: 0 <= v < 2**64 - 1, "0 to 2^64 - 2 (the walks take seed + 1)")
 _positive_float = _checked(float, lambda v: 0 < v < float("inf"), "a positive number")
 # camera.width and height's range (docs/scene-format.md), checked as sssphere-render does
 _image_size = _checked(int, lambda v: 1 <= v <= 16384, "1 to 16384")
@@ -447,6 +449,29 @@ def _cmd_eval(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_calibrate_tilt(args: argparse.Namespace) -> int:
+    from sssphere.learn import tilt
+    from sssphere.model import ScatteringModel
+
+    models = Path(args.models)
+    try:
+        model = ScatteringModel.load(models, tilt=False)
+    except ValueError as e:
+        raise SceneError(str(e)) from None
+    out = Path(args.output) if args.output else models / "tilt.json"
+    if out.is_dir():
+        raise SceneError(f"{out}: is a directory, not a tilt file (-o: the file to write)")
+    if not out.parent.is_dir() or not os.access(out.parent, os.W_OK):
+        raise SceneError(f"{out.parent}: output directory does not exist or is not writable")
+    bar = Progress("calibrating the tilt", enabled=not args.quiet)
+    try:
+        result = tilt.calibrate(model, seed=args.seed, progress=bar)
+    finally:
+        bar.close()
+    print(f"wrote {tilt.write(result, out)}", file=sys.stderr)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="sssphere", description=__doc__)
     parser.add_argument("--version", action="version", version=f"sssphere {__version__}")
@@ -566,6 +591,16 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--no-plots", action="store_true", help="skip the figures")
     e.add_argument("--quiet", action="store_true", help="no progress bar")
     e.set_defaults(func=_cmd_eval)
+
+    c = sub.add_parser("calibrate-tilt", help="fit PathGen's forward-memory tilt (tilt.json) "
+                       "against exact walks (docs/sphere-tracing.md)")
+    c.add_argument("--models", required=True,
+                   help="directory of the model files; tilt.json is written there")
+    c.add_argument("-o", "--output", help="the tilt file to write (default: MODELS/tilt.json)")
+    c.add_argument("--seed", type=_tilt_seed, default=11,
+                   help="seed of the model samples (the walks take seed + 1; default 11)")
+    c.add_argument("--quiet", action="store_true", help="no progress bar")
+    c.set_defaults(func=_cmd_calibrate_tilt)
 
     p = sub.add_parser("presets", help="list the measured media a scene's medium can name")
     p.set_defaults(func=_cmd_presets)

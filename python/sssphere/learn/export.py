@@ -12,6 +12,7 @@ import math
 import os
 import shutil
 import signal
+import sys
 import tempfile
 import threading
 import warnings
@@ -208,6 +209,14 @@ def staged_output(out_dir, names):
                 if signal.getsignal(s) not in (signal.SIG_IGN, None):
                     previous[s] = signal.signal(s, lambda signum, frame: held.append(signum))
         try:
+            # A tilt fitted to the decoders being replaced would skew the new ones' steps
+            # (docs/model-format.md, "tilt.json"): moved aside first, never left with them.
+            stale = out / "tilt.json"
+            if {"lengthgen.json", "pathgen.json"} & set(names) and stale.is_file():
+                os.replace(stale, out / "tilt.json.stale")
+                print(f"{stale}: fitted to the models this run replaced; moved to "
+                      f"tilt.json.stale (sssphere calibrate-tilt --models {out} fits the new "
+                      "ones)", file=sys.stderr)
             for name in names:
                 os.replace(stage / name, out / name)
             ok = True

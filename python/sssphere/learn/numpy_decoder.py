@@ -315,17 +315,22 @@ class SphereSampler:
     (optionally) EventGen for N ≥ 2."""
 
     def __init__(self, lengthgen: NumpyDecoder, pathgen: NumpyDecoder,
-                 eventgen: NumpyDecoder | None = None):
+                 eventgen: NumpyDecoder | None = None, tilt: dict | None = None):
         for dec, name in ((lengthgen, "LengthGen"), (pathgen, "PathGen"), (eventgen, "EventGen")):
             if dec is not None and dec.name != name:
                 raise ValueError(f"{dec.path} holds {dec.name}, expected {name}")
         self.lengthgen, self.pathgen, self.eventgen = lengthgen, pathgen, eventgen
+        self.tilt = tilt  # PathGen's forward-memory tilt (learn/tilt.py), or None
 
     @classmethod
-    def from_dir(cls, directory, events: bool = True) -> "SphereSampler":
+    def from_dir(cls, directory, events: bool = True, tilt: bool = True) -> "SphereSampler":
+        """The decoders of a model directory, and its tilt.json if it has one and `tilt`."""
+        from sssphere.learn import tilt as tilt_file
+
         d = Path(directory)
+        t = tilt_file.read(d / "tilt.json") if tilt and (d / "tilt.json").exists() else None
         return cls(load_decoder(d / "lengthgen.json"), load_decoder(d / "pathgen.json"),
-                   load_decoder(d / "eventgen.json") if events else None)
+                   load_decoder(d / "eventgen.json") if events else None, t)
 
     def sample(self, sigma, g, albedo, n: int, rng: np.random.Generator) -> dict:
         """n sphere steps; sigma, g, albedo scalars or (n,) arrays. Keys as
@@ -349,9 +354,23 @@ class SphereSampler:
         W = np.tile([0.0, 0.0, 1.0], (n, 1))
         m = ~one
         if m.any():
-            N[m] = self.lengthgen.sample({"sigma": sigma[m], "g": g[m]}, rng)["N"]
-            p = self.pathgen.sample({"sigma": sigma[m], "g": g[m], "N": N[m]}, rng)
-            cos_theta[m], alpha[m], beta[m] = p["cos_theta"], p["alpha"], p["beta"]
+            from sssphere.learn import tilt as tilt_file
+
+            draw = np.flatnonzero(m)
+            if self.tilt is not None:
+                ta, tb = tilt_file.coefficients(self.tilt, sigma[draw], g[draw])
+            for k in range(tilt_file.MAX_DRAWS if self.tilt is not None else 1):
+                N[draw] = self.lengthgen.sample({"sigma": sigma[draw], "g": g[draw]}, rng)["N"]
+                p = self.pathgen.sample({"sigma": sigma[draw], "g": g[draw], "N": N[draw]}, rng)
+                cos_theta[draw], alpha[draw], beta[draw] = p["cos_theta"], p["alpha"], p["beta"]
+                if self.tilt is None or k + 1 == tilt_file.MAX_DRAWS:
+                    break
+                # the tilt keeps a step with its acceptance and draws the others again
+                again = rng.random(draw.size) >= tilt_file.acceptance(
+                    cos_theta[draw], alpha[draw], beta[draw], ta, tb)
+                draw, ta, tb = draw[again], ta[again], tb[again]
+                if draw.size == 0:
+                    break
             if self.eventgen is not None:
                 # The first event is the representative one with probability
                 # φ / Σ_{j≤N} φ^j = (1 − φ)/(1 − φ^N) (1/N for φ = 1): X = 0, W = +z exactly.
