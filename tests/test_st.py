@@ -230,11 +230,11 @@ def test_st_under_a_point_light_agrees_with_pt_for_white_media(albedo, models_di
     assert np.all(np.abs(z) < 4), f"albedo {albedo}: image mean z-scores {z} against pt"
 
 
-def backlit_slab(g: float, sigma_t: float) -> dict:
-    """An index-matched slab 0.2 thick (albedo 0.9999) between the camera and an area light:
-    the image is light transmitted through 20-60 reduced mean free paths by many sphere steps
-    (as bench/forward_memory.py's slabs)."""
-    x, y, z = 0.7, 0.7, 0.1
+def backlit_slab(g: float, sigma_t: float, thickness: float = 0.2) -> dict:
+    """An index-matched slab (albedo 0.9999) between the camera and an area light: the image
+    is light transmitted through 5-60 reduced mean free paths by many sphere steps (as
+    bench/forward_memory.py's slabs)."""
+    x, y, z = 0.7, 0.7, thickness / 2
     v = [[sx * x, sy * y, sz * z] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
     quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
     return {"camera": {"origin": [0, 0, 3], "target": [0, 0, 0], "up": [0, 1, 0], "fov": 20,
@@ -247,16 +247,20 @@ def backlit_slab(g: float, sigma_t: float) -> dict:
 
 
 # A small bias per step adds up over many steps: in light transmitted through dense
-# forward-scattering slabs the step's forward memory (mean exit cos theta) decides the image.
-# The shipped models keep within 2 % here (models/README.md, "Known weaknesses"); PathGens
-# trained with other seeds ranged from -14 % to +22 % at g = 0.95. The bound is this allowance
-# on top of 4 sigma of the two renders.
-TRANSMISSION_ALLOWANCE = 0.04
+# forward-scattering slabs the step's forward memory (the means of the exit's cos theta and
+# w_z) decides the image. The forward-memory tilt (models/tilt.json) gives the steps the
+# walks' means; with it nine backlit slabs are within 2.3 % of pt, all within 1.6 sigma
+# (bench/results/forward_memory.json); without it the decoders were 7.3 % too dark at g 0.7
+# and 5.1 % too bright through the thin layer below (g 0.95, sigma_t 1000, 0.1 thick). The
+# bound is this allowance, for what the tilt does not match, on top of 4 sigma of the two
+# renders.
+TRANSMISSION_ALLOWANCE = 0.02
 
 
-@pytest.mark.parametrize("g,sigma_t", [(0.9, 2000.0), (0.95, 3000.0)])
-def test_st_transmission_through_dense_forward_scattering_slabs(g, sigma_t, models_dir):
-    scene = sssphere.load_scene(backlit_slab(g, sigma_t))
+@pytest.mark.parametrize("g,sigma_t,thickness", [(0.9, 2000.0, 0.2), (0.95, 3000.0, 0.2),
+                                                 (0.95, 1000.0, 0.1)])
+def test_st_transmission_through_dense_forward_scattering_slabs(g, sigma_t, thickness, models_dir):
+    scene = sssphere.load_scene(backlit_slab(g, sigma_t, thickness))
     pt = sssphere.render_full(scene, integrator="pt", spp=4096, seed=1)
     st = sssphere.render_full(scene, integrator="st", models=models_dir, spp=4096, seed=2)
     assert st.mean_sphere_steps_per_path > 2  # the steps carry the light
