@@ -171,7 +171,7 @@ def test_files_reach_the_workers_through_the_object_store(two_nodes, small_scene
         scene, os.fspath(sssphere.rendering.DEFAULT_MODELS), {}, integrator="st", spp=6)
     package, files = sss_cluster.package_scene(scene, options, ray)
     assert sorted(name.split("-", 1)[1] for name in files) == [
-        "eventgen.json", "lengthgen.json", "pathgen.json", "ring.obj", "sky.exr"]
+        "eventgen.json", "lengthgen.json", "pathgen.json", "ring.obj", "sky.exr", "tilt.json"]
     shutil.rmtree(d)
     part = ray.get(ray.remote(sss_cluster._render_part).remote(
         package, files, {**options, "threads": 1}, 0, 6))

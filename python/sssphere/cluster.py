@@ -180,7 +180,9 @@ def package_scene(scene, options: dict, ray) -> tuple[str, dict]:
         doc.get("render", {}).pop(key, None)
     models = []
     if options["integrator"] == "st" and options["sphere_sampler"] == "model":
-        for name in ("lengthgen.json", "pathgen.json", "eventgen.json"):
+        # tilt.json too, where the directory has one: without it the workers' steps would
+        # be the decoders' own, not the local render's
+        for name in ("lengthgen.json", "pathgen.json", "eventgen.json", "tilt.json"):
             path = os.path.join(options["models"], name)
             if os.path.isfile(path):
                 models.append(ship(path))
