@@ -222,6 +222,22 @@ inline std::string string_of(const json& j, const Field& f) {
     return j.get<std::string>();
 }
 
+// The "format" and "format_version" of a versioned file (a model file: nn/decoder.h,
+// nn/step_tilt.h), checked before anything else, so that a file of another kind or
+// version is reported as such rather than by its first unexpected key. `kind` names the
+// files of this format in the message ("a decoder file").
+inline void check_format(const json& obj, const Field& root, const char* format,
+                         int version, const char* kind) {
+    const std::string found = string_of(require(obj, "format", root), root.at("format"));
+    if (found != format)
+        fail(root.source, ": format \"", found, "\" is not ", kind,
+             " (this build reads format \"", format, "\", format_version ", version, ")");
+    const json& v = require(obj, "format_version", root);
+    if (!v.is_number_integer() || v.get<int64_t>() != version)
+        fail(root.source, ": format_version ", show(v),
+             " is not supported (this build reads format_version ", version, ")");
+}
+
 // An integer in [lo, hi]; `allowed` describes the range for the message.
 inline int64_t integer_in(const json& j, const Field& f, int64_t lo, int64_t hi,
                           const char* allowed) {

@@ -153,18 +153,7 @@ Decoder parse_decoder(const std::string& text, const std::string& source) {
     Field root{source, ""};
     if (!j.is_object()) root.error("expected a JSON object, got ", type_name(j));
 
-    // The format is checked before anything else, so that a file of another kind or
-    // version is reported as such rather than by its first unexpected key.
-    std::string format = string_of(require(j, "format", root), root.at("format"));
-    if (format != kDecoderFormat)
-        fail(source, ": format \"", format,
-             "\" is not a decoder file (this build reads format \"", kDecoderFormat,
-             "\", format_version ", kDecoderFormatVersion, ")");
-    const json& jv = require(j, "format_version", root);
-    if (!jv.is_number_integer() || jv.get<int64_t>() != kDecoderFormatVersion)
-        fail(source, ": format_version ", show(jv),
-             " is not supported (this build reads format_version ", kDecoderFormatVersion,
-             ")");
+    check_format(j, root, kDecoderFormat, kDecoderFormatVersion, "a decoder file");
 
     check_keys(j, root,
                {"format", "format_version", "notation_version", "name", "conditions",

@@ -83,16 +83,7 @@ StepTilt parse_step_tilt(const std::string& text, const std::string& source) {
     json j = parse_json(text, source);
     Field root{source, ""};
     if (!j.is_object()) root.error("expected a JSON object, got ", type_name(j));
-    std::string format = string_of(require(j, "format", root), root.at("format"));
-    if (format != kTiltFormat)
-        fail(source, ": format \"", format,
-             "\" is not a tilt file (this build reads format \"", kTiltFormat,
-             "\", format_version ", kTiltFormatVersion, ")");
-    const json& jv = require(j, "format_version", root);
-    if (!jv.is_number_integer() || jv.get<int64_t>() != kTiltFormatVersion)
-        fail(source, ": format_version ", show(jv),
-             " is not supported (this build reads format_version ", kTiltFormatVersion,
-             ")");
+    check_format(j, root, kTiltFormat, kTiltFormatVersion, "a tilt file");
     check_keys(j, root,
                {"format", "format_version", "sigma", "g", "a", "b", "calibration"});
 
