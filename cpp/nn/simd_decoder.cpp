@@ -516,12 +516,21 @@ void softplus_simd(const float* x, float* y, size_t n) {
 
 namespace {
 
+// The targets compiled in that this CPU runs, best first. Read once, while no target is
+// pinned (pin_target asks first, after unpinning): a pin narrows Highway's own list to
+// the pinned target, and simd_targets() listed only that one after the decoders' first
+// use.
+const std::vector<int64_t>& runnable_targets() {
+    static const std::vector<int64_t> targets = hwy::SupportedAndGeneratedTargets();
+    return targets;
+}
+
 // Pins `name` ("": every target this CPU has, the best chosen).
 void pin_target(const std::string& name) {
     hwy::SetSupportedTargetsForTest(0);  // the real CPU again
     int64_t mask = 0;
     std::string allowed;
-    for (int64_t t : hwy::SupportedAndGeneratedTargets()) {
+    for (int64_t t : runnable_targets()) {
         if (name == hwy::TargetName(t)) mask = t;
         allowed +=
             (allowed.empty() ? "'" : ", '") + std::string(hwy::TargetName(t)) + "'";
@@ -548,8 +557,7 @@ const char* simd_target_name() {
 
 std::vector<std::string> simd_targets() {
     std::vector<std::string> names;
-    for (int64_t t : hwy::SupportedAndGeneratedTargets())
-        names.push_back(hwy::TargetName(t));
+    for (int64_t t : runnable_targets()) names.push_back(hwy::TargetName(t));
     return names;
 }
 

@@ -50,6 +50,19 @@ TEST(SimdDecoder, TargetsIncludeTheBaseline) {
               targets.end());
 }
 
+// Pinning a target changes which one runs, not the list of those this CPU can run (the
+// list once shrank to the pinned target, so after the decoders' first use it held only
+// the default).
+TEST(SimdDecoder, PinningATargetKeepsTheListOfTargets) {
+    const std::vector<std::string> before = simd_targets();
+    for (const std::string& t : before) {
+        simd_use_target(t);
+        EXPECT_EQ(simd_targets(), before) << "after pinning " << t;
+    }
+    simd_use_target("");
+    EXPECT_EQ(simd_targets(), before);
+}
+
 // The best target, except AVX2 instead of AVX-512 on Intel's family 6, model 85.
 TEST(SimdDecoder, DefaultTargetAvoidsAvx512WhereItLowersTheClock) {
     const std::vector<std::string> all = {"AVX3", "AVX2", "SSE4"};
