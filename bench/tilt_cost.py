@@ -10,7 +10,7 @@ bench/forward_memory.py does not make.
    σt = 500, 1000, 2000: image means of `st` with and without the tilt against `pt`,
    16 seeds × 64 spp each.
 
-    python -m bench.tilt_cost            # ~12 min on 2 cores
+    python -m bench.tilt_cost            # ~5 min on 2 cores
 
 Writes bench/results/tilt_cost.json.
 """

@@ -420,11 +420,18 @@ TEST(SphereTracer, IdenticalForAnyThreadCount) {
 
 // The renderer keeps many "st" paths in flight and samples their sphere steps together;
 // each path still draws from its own stream, so every pixel is the mean of the same
-// samples that tracing its paths one at a time (PathTracer::trace) gives.
+// samples that tracing its paths one at a time (PathTracer::trace) gives. With a
+// forward-memory tilt too (a strong one, refusing many draws), whose draws again fill
+// the lanes of a call's later evaluations.
 TEST(SphereTracer, PathsInFlightAreThePathsTracedOneAtATime) {
     test::ModelDir models;
     models.write_random(4);
-    for (StepNee mode : {StepNee::Event, StepNee::Hits})
+    for (int variant = 0; variant < 3; ++variant) {
+        const StepNee mode = variant == 0 ? StepNee::Hits : StepNee::Event;
+        const bool tilted = variant == 2;
+        if (tilted)
+            models.write("tilt.json", R"({"format": "sssphere-step-tilt",
+                "format_version": 1, "sigma": [1], "g": [0], "a": [[0.6]], "b": [[-0.25]]})");
         for (bool chromatic : {false, true}) {
             Scene scene(sphere_scene(Vec3(15.f),
                                      chromatic ? Vec3(0.99f, 0.9f, 0.8f) : Vec3(0.95f),
@@ -468,6 +475,7 @@ TEST(SphereTracer, PathsInFlightAreThePathsTracedOneAtATime) {
                     EXPECT_EQ(r.sphere_steps[p], float(double(steps) / opt.spp));
                 }
         }
+    }
 }
 
 TEST(SphereTracer, RefusesBadOptionsAndStepsNotWhereTheModelsCannot) {
