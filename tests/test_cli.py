@@ -566,6 +566,8 @@ def test_both_command_lines_reject_a_bad_option_value_alike(tmp_path, small_scen
                           (["--integrator", "mc"],
                            "--integrator 'mc' is not allowed (allowed: 'pt', 'st')"),
                           (["--width", "0"], "--width"),
+                          # sssphere-render said "Value 16.5 not in range 1 to 16384"
+                          (["--width", "16.5"], "--width: expected an integer"),
                           (["--set", "nokey"], "--set: expected PATH=VALUE"),
                           (["--set", "=1"], "--set: expected PATH=VALUE")):
         for r in _render_with_both(tmp_path, args):

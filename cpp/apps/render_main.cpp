@@ -190,12 +190,25 @@ int main(int argc, char** argv) {
                            text + "'";
                 return "";
             });
+    // A whole number of pixels (CLI::Range said "Value 16.5 not in range 1 to 16384").
+    auto pixels = [](const std::string& text) -> std::string {
+        size_t end = 0;
+        long long v = 0;
+        try {
+            v = std::stoll(text, &end);
+        } catch (const std::exception&) {
+            end = 0;
+        }
+        if (end == 0 || end != text.size() || v < 1 || v > 16384)
+            return "expected an integer from 1 to 16384, got '" + text + "'";
+        return "";
+    };
     app.add_option("--width", width,
                    "image width (alone: the height follows the scene's aspect ratio)")
-        ->check(CLI::Range(1, 16384));
+        ->check(pixels);
     app.add_option("--height", height,
                    "image height (alone: the width follows the scene's aspect ratio)")
-        ->check(CLI::Range(1, 16384));
+        ->check(pixels);
     app.add_flag("--quiet", quiet, "no progress bar");
     app.set_version_flag("--version", std::string("sssphere-render ") + SSSPHERE_VERSION);
     try {
