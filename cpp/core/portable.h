@@ -33,6 +33,10 @@ namespace sss {
 using real = double;
 
 inline constexpr float kInf = std::numeric_limits<float>::infinity();
+// float's largest finite value and smallest normal one (FLT_MAX, FLT_MIN): where a square
+// or product leaves float's range, the portable maths change formula.
+inline constexpr float kFloatMax = 3.40282347e38f;
+inline constexpr float kFloatMinNormal = 1.17549435e-38f;
 
 using std::abs;
 using std::acos;

@@ -8,6 +8,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/portable.h"
+
 namespace sss {
 
 struct Vec3 {
@@ -74,7 +76,7 @@ inline Vec3 normalize(Vec3 v) { return v / length(v); }
 // in range the result is normalize()'s, bit for bit.
 inline Vec3 unit_normal(Vec3 v) {
     const float l2 = dot(v, v);
-    if (l2 >= 1.17549435e-38f && l2 <= 3.40282347e38f) return v / std::sqrt(l2);
+    if (l2 >= kFloatMinNormal && l2 <= kFloatMax) return v / std::sqrt(l2);
     const float m = std::max(std::abs(v.x), std::max(std::abs(v.y), std::abs(v.z)));
     return normalize(v / m);
 }

@@ -52,13 +52,13 @@ SSS_FN float roulette_weight(float q, float u) {
 // Power heuristic (beta = 2) for two strategies with one sample each.
 SSS_FN float power_heuristic(float pdf_a, float pdf_b) {
     float a = pdf_a * pdf_a, b = pdf_b * pdf_b;
-    if (a + b >= 1.17549435e-38f && a + b <= 3.40282347e38f) return a / (a + b);
+    if (a + b >= kFloatMinNormal && a + b <= kFloatMax) return a / (a + b);
     // The squares left float's normal range: a small light far away has a pdf past
     // 1.8e19 (inf / inf gave NaN pixels), a huge one close by below 1e-19 (0 / 0 gave
     // both strategies weight 0). The pdfs' ratio decides alone.
     float m = max(pdf_a, pdf_b);
     if (!(m > 0.f)) return 0.f;
-    if (m > 3.40282347e38f) return pdf_a < m ? 0.f : (pdf_b < m ? 1.f : 0.5f);
+    if (m > kFloatMax) return pdf_a < m ? 0.f : (pdf_b < m ? 1.f : 0.5f);
     a = pdf_a / m;
     b = pdf_b / m;
     return a * a / (a * a + b * b);

@@ -10,7 +10,6 @@
 
 const int kDecoderHeader = 160;  // floats per decoder header
 const float kMaxScatterCount = 1099511627776.0;  // 2^40, as in scattering_model.h
-const float kFloatMax = 3.402823466e38;
 
 // e(x) (decode false) or its inverse for the encoding (kind, a, b, s, c, lo, hi, eps)
 // (nn/decoder.h's Encoding).

@@ -10,6 +10,8 @@
 #define real float
 
 const float kInf = 1.0 / 0.0;
+const float kFloatMax = 3.40282347e38;  // FLT_MAX, as core/portable.h
+const float kFloatMinNormal = 1.17549435e-38;  // FLT_MIN
 
 // log(1 + x) and exp(x) - 1, accurate for small |x| too (GLSL has neither): the albedos
 // near 1 of dense media make log(phi) a difference of nearly equal numbers, which a

@@ -18,7 +18,7 @@ SSS_FN LightSample area_light_sample(LightData l, Vec3 p, float u1,
     // The cross product's squared length overflows past an area of 1.8e19 (such a light
     // was never sampled, only hit): then scaled by 1 / area first.
     Vec3 n = cross(l.b, l.c);
-    n = dot(n, n) <= 3.40282347e38f ? normalize(n) : normalize(n * (1.f / l.scalar));
+    n = dot(n, n) <= kFloatMax ? normalize(n) : normalize(n * (1.f / l.scalar));
     Vec3 to = q - p;
     float dist = length(to);
     if (!(dist > 0.f)) return s;
@@ -88,7 +88,7 @@ inline LightType area_light_type() {
             f.error(
                 "edge1 x edge2 overflows single precision (allowed: edges whose "
                 "products stay below 3.4e38)");
-        l.scalar = dot(normal, normal) <= 3.40282347e38f ? length(normal) : float(area);
+        l.scalar = dot(normal, normal) <= kFloatMax ? length(normal) : float(area);
         l.value = light_fields::radiometric(j, f, "radiance");
         return l;
     };
