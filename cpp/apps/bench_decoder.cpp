@@ -287,7 +287,7 @@ int main(int argc, char** argv) {
                 ns[0], ns[1]);
         }
         // The forward-memory tilt (models with tilt.json): groups of K sphere steps with
-        // and without it, at sigma 30 and g 0.9, where the table refuses about a fifth of
+        // and without it, at sigma 30 and g 0.9, where the shipped table refuses 8 % of
         // the draws (docs/sphere-tracing.md, "The forward-memory tilt").
         if (!model.tilt().empty()) {
             const StepTilt tilt = model.tilt();
