@@ -565,9 +565,9 @@ def test_both_command_lines_reject_a_bad_option_value_alike(tmp_path, small_scen
                           (["--spp", "x"], "--spp: expected an integer >= 1"),
                           (["--integrator", "mc"],
                            "--integrator 'mc' is not allowed (allowed: 'pt', 'st')"),
-                          (["--width", "0"], "--width"),
+                          (["--width", "0"], "--width: must be 1 to 16384, got 0"),
                           # sssphere-render said "Value 16.5 not in range 1 to 16384"
-                          (["--width", "16.5"], "--width: expected an integer"),
+                          (["--width", "16.5"], "--width: expected an integer, got '16.5'"),
                           (["--set", "nokey"], "--set: expected PATH=VALUE"),
                           (["--set", "=1"], "--set: expected PATH=VALUE")):
         for r in _render_with_both(tmp_path, args):

@@ -190,25 +190,35 @@ int main(int argc, char** argv) {
                            text + "'";
                 return "";
             });
-    // A whole number of pixels (CLI::Range said "Value 16.5 not in range 1 to 16384").
-    auto pixels = [](const std::string& text) -> std::string {
+    // --width and --height: read as text and checked and converted by one base-10 parser,
+    // with the Python command line's messages (CLI::Range said "Value 16.5 not in range 1
+    // to 16384", and CLI11's own conversion reads "010" as octal).
+    std::string width_text, height_text;
+    auto pixels = [](const std::string& text, int* value) -> std::string {
         size_t end = 0;
         long long v = 0;
         try {
-            v = std::stoll(text, &end);
+            v = std::stoll(text, &end, 10);
+        } catch (const std::out_of_range&) {
+            return "must be 1 to 16384, got " + text;
         } catch (const std::exception&) {
             end = 0;
         }
-        if (end == 0 || end != text.size() || v < 1 || v > 16384)
-            return "expected an integer from 1 to 16384, got '" + text + "'";
+        if (end == 0 || end != text.size())
+            return "expected an integer, got '" + text + "'";
+        if (v < 1 || v > 16384) return "must be 1 to 16384, got " + std::to_string(v);
+        if (value) *value = int(v);
         return "";
     };
-    app.add_option("--width", width,
+    auto check_pixels = [pixels](const std::string& t) { return pixels(t, nullptr); };
+    app.add_option("--width", width_text,
                    "image width (alone: the height follows the scene's aspect ratio)")
-        ->check(pixels);
-    app.add_option("--height", height,
+        ->type_name("INT")
+        ->check(check_pixels);
+    app.add_option("--height", height_text,
                    "image height (alone: the width follows the scene's aspect ratio)")
-        ->check(pixels);
+        ->type_name("INT")
+        ->check(check_pixels);
     app.add_flag("--quiet", quiet, "no progress bar");
     app.set_version_flag("--version", std::string("sssphere-render ") + SSSPHERE_VERSION);
     try {
@@ -220,6 +230,8 @@ int main(int argc, char** argv) {
                   << "\n(sssphere-render --help lists the options)\n";
         return 2;
     }
+    if (!width_text.empty()) pixels(width_text, &width);
+    if (!height_text.empty()) pixels(height_text, &height);
 
     // Each option's value before the scene is read (their combinations after it, with the
     // scene's): a value out of range is a usage error, as --width 0 is

@@ -426,6 +426,7 @@ TEST(SphereTracer, IdenticalForAnyThreadCount) {
 TEST(SphereTracer, PathsInFlightAreThePathsTracedOneAtATime) {
     test::ModelDir models;
     models.write_random(4);
+    std::vector<float> untilted[2];  // variant 1's images, which the tilt must change
     for (int variant = 0; variant < 3; ++variant) {
         const StepNee mode = variant == 0 ? StepNee::Hits : StepNee::Event;
         const bool tilted = variant == 2;
@@ -443,6 +444,8 @@ TEST(SphereTracer, PathsInFlightAreThePathsTracedOneAtATime) {
             opt.step_nee = mode;
             RenderResult r = render(scene, opt);
             ASSERT_GT(r.total_sphere_steps, 0u);
+            if (variant == 1) untilted[chromatic] = r.image;
+            if (tilted) EXPECT_NE(r.image, untilted[chromatic]);  // the tilt was taken
 
             SphereTracing st(scene, opt.sphere_threshold, SphereSampler::Model,
                              opt.models, true, mode);
