@@ -50,6 +50,21 @@ double ns_per_call(size_t iters, int trials, const std::function<void(size_t)>& 
     return best;
 }
 
+// ns per step of sample_group on `count` steps (the SIMD decoder), iters / count calls,
+// the best of `trials` runs.
+double group_ns(const ScatteringModel& model, int count, const float* sigma,
+                const float* g, const float* phi, Rng* rng, bool event, size_t iters,
+                int trials) {
+    SphereStep out[ScatteringModel::kMaxGroup];
+    return ns_per_call(iters / size_t(count), trials,
+                       [&](size_t) {
+                           model.sample_group(count, sigma, g, phi, rng, event,
+                                              DecoderImpl::Simd, out);
+                           g_sink = out[0].cos_theta;
+                       }) /
+           count;
+}
+
 std::string cpu_model() {
     std::ifstream in("/proc/cpuinfo");
     std::string line;
@@ -235,29 +250,16 @@ int main(int argc, char** argv) {
             std::fill(ph, ph + 16, phi);
             Rng rng[16];
             for (int k = 0; k < 16; ++k) rng[k] = Rng(6, k);
-            SphereStep out[16];
             for (int K : {1, 2, 4, 8, 16}) {
                 double ns =
-                    ns_per_call(iters / 2 / K, trials,
-                                [&](size_t) {
-                                    model.sample_group(K, sigma, gg, ph, rng, false,
-                                                       DecoderImpl::Simd, out);
-                                    g_sink = out[0].cos_theta;
-                                }) /
-                    K;
+                    group_ns(model, K, sigma, gg, ph, rng, false, iters / 2, trials);
                 js << ", \"" << K << "\": " << ns;
                 if (K == 16) group16_ns = ns;
                 std::printf("group of %2d, N+path: %6.1f ns per step\n", K, ns);
             }
             js << "},\n";
             group16_event_ns =
-                ns_per_call(iters / 16, trials,
-                            [&](size_t) {
-                                model.sample_group(16, sigma, gg, ph, rng, true,
-                                                   DecoderImpl::Simd, out);
-                                g_sink = out[0].cos_theta;
-                            }) /
-                16;
+                group_ns(model, 16, sigma, gg, ph, rng, true, iters, trials);
             js << "  \"group_16_N_path_event_ns_per_step\": " << group16_event_ns
                << ",\n";
             std::printf("group of 16, N+path+event: %6.1f ns per step\n",
@@ -298,20 +300,13 @@ int main(int argc, char** argv) {
             std::fill(ph, ph + kMax, phi);
             Rng rng[kMax];
             for (int k = 0; k < kMax; ++k) rng[k] = Rng(7, k);
-            SphereStep out[kMax];
             js << "  \"tilt_group_ns_per_step\": {\"sigma\": 30, \"g\": 0.9";
             for (int K : {1, 4, 16, 64}) {
                 double ns[2];
                 for (int t = 0; t < 2; ++t) {
                     model.set_tilt(t ? tilt : StepTilt());
                     ns[t] =
-                        ns_per_call(iters / 2 / K, trials,
-                                    [&](size_t) {
-                                        model.sample_group(K, sigma, gg, ph, rng, false,
-                                                           DecoderImpl::Simd, out);
-                                        g_sink = out[0].cos_theta;
-                                    }) /
-                        K;
+                        group_ns(model, K, sigma, gg, ph, rng, false, iters / 2, trials);
                 }
                 js << ", \"" << K << "\": {\"untilted\": " << ns[0]
                    << ", \"tilted\": " << ns[1] << "}";
