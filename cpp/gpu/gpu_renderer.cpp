@@ -46,6 +46,19 @@ VulkanCompute::BufferId upload_array(VulkanCompute& vk, const std::vector<T>& v,
     return b;
 }
 
+// The packed decoders as a uniform block of `floats` floats, zeros after them.
+VulkanCompute::BufferId upload_uniform_block(VulkanCompute& vk,
+                                             const std::vector<float>& v, int floats,
+                                             const std::string& source,
+                                             const char* what) {
+    if (v.size() > size_t(floats))
+        fail(source, ": the ", what, " take ", v.size(),
+             " floats; the GPU path holds at most ", floats);
+    std::vector<float> padded(size_t(floats), 0.f);
+    std::copy(v.begin(), v.end(), padded.begin());
+    return upload_array(vk, padded, source, what);
+}
+
 // Whether "st" can take a step anywhere in the scene. Sphere steps: some medium's grid
 // bound times its largest sigma_t reaches the threshold (the bound at a point is at most
 // the largest value of the grid's nodes).
@@ -92,20 +105,18 @@ GpuRenderer::GpuRenderer(VulkanCompute& vk, const GpuSceneData& scene)
     nodes_ = upload_array(vk, scene.nodes, scene.source, "BVH nodes");
     triangles_ = upload_array(vk, scene.triangles, scene.source, "triangles");
     grid_ = upload_array(vk, scene.floats, scene.source, "distance grids");
-    // The uniform block of model.glsl: kGpuModelFloats, zeros after the decoders.
-    std::vector<float> model(size_t(kGpuModelFloats), 0.f);
-    SSS_CHECK(scene.model.size() <= model.size());
-    std::copy(scene.model.begin(), scene.model.end(), model.begin());
-    model_ = upload_array(vk, model, scene.source, "decoders");
-    // The cut decoders (cut_model.glsl's storage buffer; one unused float without).
-    cut_model_ = upload_array(vk, scene.cut_model, scene.source, "cut decoders");
+    // The uniform blocks of model.glsl and cut_model.glsl (zeros without cut steps).
+    model_ =
+        upload_uniform_block(vk, scene.model, kGpuModelFloats, scene.source, "decoders");
+    cut_model_ = upload_uniform_block(vk, scene.cut_model, kGpuCutModelFloats,
+                                      scene.source, "cut decoders");
     // Specialization constants (gpu_render_constants).
     const std::vector<int32_t> constants = gpu_render_constants(scene);
-    constexpr uint32_t kModelUniform = 1u << 4;  // binding 4 is a uniform block
+    constexpr uint32_t kUniformBlocks = (1u << 4) | (1u << 7);  // bindings 4 and 7
     pt_ = vk.create_pipeline(kRenderPt, sizeof(kRenderPt) / 4, 8, sizeof(GpuRenderPush),
-                             constants, kModelUniform);
+                             constants, kUniformBlocks);
     st_ = vk.create_pipeline(kRenderSt, sizeof(kRenderSt) / 4, 8, sizeof(GpuRenderPush),
-                             constants, kModelUniform);
+                             constants, kUniformBlocks);
 }
 
 RenderResult GpuRenderer::render(const RenderOptions& opt, const ProgressFn& progress) {
@@ -234,12 +245,8 @@ std::vector<float> gpu_sample_steps(VulkanCompute& vk, const std::vector<float>&
         in[4 * i] = sigma[i], in[4 * i + 1] = g[i];
         in[4 * i + 2] = phi ? phi[i] : 1.f;
     }
-    std::vector<float> padded(size_t(kGpuModelFloats), 0.f);
-    if (model.size() > padded.size())
-        fail("gpu_sample_steps: ", model.size(), " floats of decoders; at most ",
-             kGpuModelFloats);
-    std::copy(model.begin(), model.end(), padded.begin());
-    auto m = upload_array(vk, padded, "gpu_sample_steps", "decoders");
+    auto m =
+        upload_uniform_block(vk, model, kGpuModelFloats, "gpu_sample_steps", "decoders");
     auto bin = upload_array(vk, in, "gpu_sample_steps", "inputs");
     auto bout = vk.create_buffer(out.size() * 4);
     auto pipe = vk.create_pipeline(kSampleSteps, sizeof(kSampleSteps) / 4, 3, 16,
@@ -263,7 +270,8 @@ std::vector<float> gpu_sample_cut_steps(VulkanCompute& vk,
     for (size_t i = 0; i < n; ++i)
         in[4 * i] = sigma[i], in[4 * i + 1] = g[i], in[4 * i + 2] = h[i],
                in[4 * i + 3] = mu0[i];
-    auto m = upload_array(vk, model, "gpu_sample_cut_steps", "cut decoders");
+    auto m = upload_uniform_block(vk, model, kGpuCutModelFloats, "gpu_sample_cut_steps",
+                                  "cut decoders");
     auto bin = upload_array(vk, in, "gpu_sample_cut_steps", "inputs");
     auto bout = vk.create_buffer(out.size() * 4);
     // cut_model.glsl's shapes are constants 13-20, as in the render shaders.
@@ -271,7 +279,7 @@ std::vector<float> gpu_sample_cut_steps(VulkanCompute& vk,
     constants.push_back(0);
     for (int32_t v : gpu_cut_model_constants(model)) constants.push_back(v);
     auto pipe = vk.create_pipeline(kSampleCutSteps, sizeof(kSampleCutSteps) / 4, 3, 12,
-                                   constants);
+                                   constants, 1u);
     const uint32_t push[3] = {uint32_t(seed), uint32_t(seed >> 32), uint32_t(n)};
     vk.run(pipe, {m, bin, bout}, push, sizeof(push), uint32_t((n + 63) / 64));
     vk.download(bout, out.data(), out.size() * 4);

@@ -28,8 +28,10 @@ namespace sss {
 constexpr int kGpuDecoderHeader = 160;
 constexpr int kGpuLayers = 3;
 constexpr int kGpuMaxWidth = 16;
-// The cut step's decoders (cut_model.glsl, read from a storage buffer) may be wider.
+// The cut step's decoders (cut_model.glsl) may be wider, and have a uniform block of
+// their own of this many floats.
 constexpr int kGpuCutMaxWidth = 32;
+constexpr int kGpuCutModelFloats = 4096;
 // The shaders read the packed decoders from a uniform block of this many floats.
 constexpr int kGpuModelFloats = 4096;
 

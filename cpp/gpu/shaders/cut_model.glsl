@@ -3,8 +3,9 @@
 // (gpu_scene_bake.h's pack_gpu_cut_model: decoder_common.glsl's layout, two decoders),
 // consuming the random stream as CutStepModel::sample does, so that a stream gives the
 // same step on both up to float rounding (tests/test_gpu.py compares them).
-// The includer declares `float cut_f[]` (a storage buffer) first, includes math.glsl, and
-// enables GL_EXT_control_flow_attributes.
+// The includer declares the uniform block `vec4 cut_v[kCutVec4]` (the packed floats, four
+// per vec4; kGpuCutModelFloats) first, includes math.glsl, and enables
+// GL_EXT_control_flow_attributes.
 //
 // The decoders' shapes are specialization constants (ids 13-20, after model.glsl's and
 // render.glsl's; the host sets them from the packed decoders: gpu_cut_model_constants), so
@@ -27,8 +28,17 @@ layout(constant_id = 20) const int CP_LAT = 4;  //   (4 outputs)
 const int kCutLengthGen = 0, kCutPathGen = 1;
 const int kCutW = 32;  // the widest layer or input (kGpuCutMaxWidth, checked on the host)
 
-float cval(int i) { return cut_f[i]; }
-int chead(int d, int i) { return int(cval(d * kDecoderHeader + i)); }
+float cval(int i) { return cut_v[i >> 2][i & 3]; }
+
+// Where each layer's weights start (its bias follows them), as pack_gpu_cut_model lays
+// them out after the two headers: constants once the shapes are specialized (checked on
+// the host: gpu_cut_model_constants).
+const int kCL0 = 2 * kDecoderHeader;
+const int kCL1 = kCL0 + CL_IN * CL_H1 + CL_H1;
+const int kCL2 = kCL1 + CL_H1 * CL_H2 + CL_H2;
+const int kCP0 = kCL2 + CL_H2 * 2 + 2;  // CutLengthGen's last layer: mean and log-variance
+const int kCP1 = kCP0 + CP_IN * CP_H1 + CP_H1;
+const int kCP2 = kCP1 + CP_H1 * CP_H2 + CP_H2;
 
 // Condition i (decode false) or output o (decode true) of decoder d.
 float cut_code(int d, int i, float x, bool decode) {
@@ -53,15 +63,16 @@ void cut_dense(int w, int n_in, int n_out, bool act, float a[kCutW], out float b
     }
 }
 
-// Decoder d (input n_in, hidden h1 and h2 wide, n_out outputs) on its encoded input x:
-// the outputs (at most 4) u_o = mean_o + exp(logvar_o / 2) eps_o, the exponent capped at
-// 88 as the CPU's lanes cap it, and made finite (0 otherwise) as CutStepModel does.
-void cut_decoder_sample(int d, int n_in, int h1, int h2, int n_out, float x[kCutW],
-                        float eps[4], out float u[4]) {
+// The decoder whose layers start at w0, w1 and w2 (input n_in, hidden h1 and h2 wide, n_out
+// outputs) on its encoded input x: the outputs (at most 4) u_o = mean_o + exp(logvar_o / 2)
+// eps_o, the exponent capped at 88 as the CPU's lanes cap it, and made finite (0
+// otherwise) as CutStepModel does.
+void cut_decoder_sample(int w0, int w1, int w2, int n_in, int h1, int h2, int n_out,
+                        float x[kCutW], float eps[4], out float u[4]) {
     float a[kCutW], b[kCutW];
-    cut_dense(chead(d, 11), n_in, h1, true, x, a);
-    cut_dense(chead(d, 15), h1, h2, true, a, b);
-    cut_dense(chead(d, 19), h2, 2 * n_out, false, b, a);
+    cut_dense(w0, n_in, h1, true, x, a);
+    cut_dense(w1, h1, h2, true, a, b);
+    cut_dense(w2, h2, 2 * n_out, false, b, a);
     [[unroll]] for (int o = 0; o < 4; ++o)
         u[o] = o < n_out ? finite_or(a[o] + exp(min(0.5 * a[n_out + o], 88.0)) * eps[o], 0.0)
                          : 0.0;
@@ -97,7 +108,7 @@ CutStepSample sample_cut_step(float sigma, float g, float h, float mu0, inout Rn
             if (i < nl) x[4 + i] = z[i];
         eps[0] = z[nl];
         eps[1] = eps[2] = eps[3] = 0.0;
-        cut_decoder_sample(kCutLengthGen, CL_IN, CL_H1, CL_H2, 1, x, eps, u);
+        cut_decoder_sample(kCL0, kCL1, kCL2, CL_IN, CL_H1, CL_H2, 1, x, eps, u);
         float n_raw = finite_or(cut_code(kCutLengthGen, 0, u[0], true), 2.0);
         s.N = clamp(floor(n_raw), 2.0, kMaxScatterCount);
 
@@ -107,7 +118,7 @@ CutStepSample sample_cut_step(float sigma, float g, float h, float mu0, inout Rn
         [[unroll]] for (int i = 0; i < kCutW - 5; ++i)
             if (i < np) x[5 + i] = z[nl + 1 + i];
         [[unroll]] for (int o = 0; o < 4; ++o) eps[o] = z[nl + 1 + np + o];
-        cut_decoder_sample(kCutPathGen, CP_IN, CP_H1, CP_H2, 4, x, eps, u);
+        cut_decoder_sample(kCP0, kCP1, kCP2, CP_IN, CP_H1, CP_H2, 4, x, eps, u);
         float cos_p = clamp(finite_or(cut_code(kCutPathGen, 0, u[0], true), 1.0), -1.0, 1.0);
         float cos_psi = clamp(finite_or(cut_code(kCutPathGen, 1, u[1], true), 1.0), -1.0, 1.0);
         float alpha = finite_or(cut_code(kCutPathGen, 2, u[2], true), 0.0);

@@ -42,7 +42,10 @@ layout(constant_id = 12) const bool NEE = false;
 
 // Cut sphere steps ("st" with cut_models): the packed cut decoders, their shapes
 // (cut_model.glsl, constants 13-20), and whether the scene takes any (CUTS).
-layout(std430, binding = 7) readonly buffer CutModel { float cut_f[]; };
+// A uniform block, as model.glsl's: read from a storage buffer, the cut decoders' weights
+// made lavapipe (LLVM) take five minutes to build the render pipelines, cold; one now.
+const int kCutVec4 = 1024;  // kGpuCutModelFloats / 4
+layout(std140, binding = 7) uniform CutModel { vec4 cut_v[kCutVec4]; };
 layout(constant_id = 21) const bool CUTS = false;
 #if SSS_ST
 #include "gpu/shaders/cut_model.glsl"

@@ -10,7 +10,8 @@ layout(local_size_x = 64) in;
 
 #include "gpu/shaders/math.glsl"
 
-layout(std430, binding = 0) readonly buffer CutModel { float cut_f[]; };
+const int kCutVec4 = 1024;  // kGpuCutModelFloats / 4
+layout(std140, binding = 0) uniform CutModel { vec4 cut_v[kCutVec4]; };
 layout(std430, binding = 1) readonly buffer Inputs { vec4 inputs[]; };  // sigma, g, h, mu0
 // Per item: (N, through_plane, 0, 0), (exit_pos, 0), (exit_dir, 0).
 layout(std430, binding = 2) writeonly buffer Outputs { vec4 outputs[]; };
