@@ -5,7 +5,7 @@ Lavapipe gives a shader invocation 65,535 loop iterations in all (docs/robustnes
 GPU path"), so a change to render.glsl that adds loops, or inlined copies of code that
 holds them, shortens the longest path it can finish, even where that code never runs. This
 renders the scene of tests/test_gpu.py's clearance test (st, a point light inside an
-index-matched sphere with chromatic extinction) on the Vulkan backend at rising albedos,
+index-matched sphere with chromatic extinction) on the Vulkan backend at five rising albedos,
 and records for each seed whether every path finished and the longest path's events.
 
     python -m bench.lavapipe_budget     # ~1 min on 2 cores (lavapipe)
@@ -27,7 +27,8 @@ sys.path.insert(0, str(REPO / "tests"))
 import sssphere  # noqa: E402
 from test_gpu import DIRECTIONAL, ENV, INDEX_MATCHED, sphere_scene  # noqa: E402
 
-ALBEDOS = [(0.99, 0.99, 0.99), (0.995, 0.99, 0.98), (0.997, 0.994, 0.99), (0.998, 0.996, 0.99)]
+ALBEDOS = [(0.99, 0.99, 0.99), (0.995, 0.99, 0.98), (0.997, 0.994, 0.99), (0.998, 0.996, 0.99),
+           (0.999, 0.998, 0.995)]
 SEEDS = (1, 2)
 
 
