@@ -585,7 +585,8 @@ CpuId this_cpu_id() {
 std::string default_simd_target(const CpuId& cpu,
                                 const std::vector<std::string>& available) {
     if (available.empty()) return "";
-    const bool throttles = cpu.intel && cpu.family == 6 && cpu.model == 85;
+    const bool throttles =
+        cpu.intel && cpu.family == 6 && (cpu.model == 85 || cpu.model == 167);
     if (throttles && available.front() == "AVX3")
         for (const std::string& t : available)
             if (t == "AVX2") return t;

@@ -63,10 +63,11 @@ TEST(SimdDecoder, PinningATargetKeepsTheListOfTargets) {
     EXPECT_EQ(simd_targets(), before);
 }
 
-// The best target, except AVX2 instead of AVX-512 on Intel's family 6, model 85.
+// The best target, except AVX2 instead of AVX-512 on Intel's family 6, models 85 and 167.
 TEST(SimdDecoder, DefaultTargetAvoidsAvx512WhereItLowersTheClock) {
     const std::vector<std::string> all = {"AVX3", "AVX2", "SSE4"};
     EXPECT_EQ(default_simd_target({true, 6, 85}, all), "AVX2");    // Cascade Lake
+    EXPECT_EQ(default_simd_target({true, 6, 167}, all), "AVX2");   // Rocket Lake
     EXPECT_EQ(default_simd_target({true, 6, 106}, all), "AVX3");   // Ice Lake-SP
     EXPECT_EQ(default_simd_target({true, 6, 143}, all), "AVX3");   // Sapphire Rapids
     EXPECT_EQ(default_simd_target({false, 25, 97}, all), "AVX3");  // AMD Zen 4
