@@ -10,8 +10,9 @@ and records for each seed whether every path finished and the longest path's eve
 
     python -m bench.lavapipe_budget     # ~1 min on 2 cores (lavapipe)
 
-Writes bench/results/lavapipe_budget.json. Compare the longest paths that finish before and
-after a shader change (the same seeds give the same paths while nothing fails).
+Writes bench/results/lavapipe_budget.json (--output elsewhere; --models DIR renders with
+other models). Compare the longest paths that finish before and after a shader change (the
+same seeds give the same paths while nothing fails and the models stay the same).
 """
 
 from __future__ import annotations
@@ -33,7 +34,12 @@ SEEDS = (1, 2)
 
 
 def main(argv=None) -> None:
-    argparse.ArgumentParser(description=__doc__.split("\n\n")[0]).parse_args(argv)
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--models", type=Path, default=None,
+                   help="model directory (default: the shipped models, tilt included)")
+    p.add_argument("--output", type=Path,
+                   default=REPO / "bench" / "results" / "lavapipe_budget.json")
+    args = p.parse_args(argv)
     inside = {"type": "point", "position": [0.45, 0, 0], "intensity": [2, 2, 2]}
     rows = []
     for albedo in ALBEDOS:
@@ -44,13 +50,14 @@ def main(argv=None) -> None:
             row = {"albedo": list(albedo), "seed": seed}
             try:
                 r = sssphere.render_full(scene, spp=128, seed=seed, record_paths=True,
-                                         backend="vulkan", integrator="st", nee=True)
+                                         backend="vulkan", integrator="st", nee=True,
+                                         models=args.models)
                 row.update(finished=True, longest_path_events=int(r.path_events.max()))
             except sssphere.SceneError as e:
                 row.update(finished=False, error=str(e).split(". ")[0])
             print(row, flush=True)
             rows.append(row)
-    out = REPO / "bench" / "results" / "lavapipe_budget.json"
+    out = args.output
     out.write_text(json.dumps({"spp": 128, "rows": rows}, indent=1) + "\n")
     print(f"wrote {out}")
 

@@ -261,8 +261,9 @@ TRANSMISSION_ALLOWANCE = 0.02
                                                  (0.95, 1000.0, 0.1)])
 def test_st_transmission_through_dense_forward_scattering_slabs(g, sigma_t, thickness, models_dir):
     scene = sssphere.load_scene(backlit_slab(g, sigma_t, thickness))
-    # pt's sample costs 2-9 times st's here: for the same variance of the difference at
-    # the least time, st takes twice pt's samples (1/3072 + 1/6144 = 2/4096).
+    # pt's sample costs 2-9 times st's here, and both have the same variance per sample:
+    # the least time for a given variance of the difference has st take sqrt(2-9) = 1.5-3
+    # times pt's samples. Twice: 1/3072 + 1/6144 = 2/4096, as with 4096 each.
     pt = sssphere.render_full(scene, integrator="pt", spp=3072, seed=1)
     st = sssphere.render_full(scene, integrator="st", models=models_dir, spp=6144, seed=2)
     assert st.mean_sphere_steps_per_path > 2  # the steps carry the light

@@ -124,7 +124,7 @@ CpuId this_cpu_id();  // zeros on other architectures
 // Cascade Lake, Cooper Lake) and model 167 (Rocket Lake). Those cores lower their clock
 // for about a millisecond after 512-bit floating-point work, and a render samples steps
 // more often than that, so the rest of it (the path loop, libm) runs slower: `st` is
-// 7-10 % (model 85) and 1-7 % (model 167) faster with AVX2 there although AVX2's decoders
+// 7-10 % (model 85) and 1-8 % (model 167) faster with AVX2 there although AVX2's decoders
 // alone are slower (bench/README.md, "Which CPU").
 std::string default_simd_target(const CpuId& cpu,
                                 const std::vector<std::string>& available);
