@@ -9,7 +9,7 @@ namespace sss {
 
 namespace hn = hwy::HWY_NAMESPACE;  // the build's baseline target (SSE4 on x86-64-v2)
 
-bool DistanceGrid::locate(const Vec3& p, Vec3* g, int* i, int* j, int* k) const {
+inline bool DistanceGrid::locate(const Vec3& p, Vec3* g, int* i, int* j, int* k) const {
     if (dist_.empty()) return false;
     *g = (p - origin_) * inv_cell_;
     // Compared before the conversion: int() of a float past INT_MAX is undefined (a point
