@@ -499,6 +499,10 @@ RENDER_CASES = {
     # sphere steps (sigma*r ~ 20-40).
     "sphere_dielectric_chromatic": (
         lambda: sphere_scene(sigma_t=[20.0, 30.0, 40.0], albedo=(0.99, 0.98, 0.97), g=0.5), True),
+    # Channels ten times apart: st goes on in one channel where a step fits half the densest
+    # (spectral_switch_extinction), and a thin channel picked there scatters instead.
+    "sphere_dielectric_channels_far_apart": (
+        lambda: sphere_scene(sigma_t=[8.0, 30.0, 80.0], albedo=(0.99, 0.98, 0.97), g=0.5), True),
     # Index-matched, without and with light sampling (area light and environment, MIS).
     "sphere_index_matched": (lambda: sphere_scene(sigma_t=30.0, g=0.7, boundary=INDEX_MATCHED),
                              False),
@@ -682,7 +686,8 @@ def test_gpu_delta_lights_agree_with_cpu(integrator, model_dir):
 
 def test_gpu_clearance_with_chromatic_extinction_and_a_light_inside_agrees_with_cpu(model_dir):
     """The clearance of st's steps (SphereTracing::step_radius, render.glsl's step_radius):
-    chromatic extinction (measured in the smallest channel before the one carried is picked)
+    chromatic extinction (measured in spectral_switch_extinction, here the smallest channel's,
+    before the one carried is picked, then in that one's)
     and a point light inside the medium, which the balls keep clear of, beside a directional
     light and the environment."""
     inside = {"type": "point", "position": [0.45, 0, 0], "intensity": [2, 2, 2]}

@@ -143,17 +143,23 @@ def test_infinite_threshold_is_pt_bit_for_bit(boundary):
 
 
 @pytest.mark.parametrize("step_nee", STEP_NEE)
-@pytest.mark.parametrize("case", ["rgb_chromatic_albedo", "chromatic_sigma_t", "dielectric"])
+@pytest.mark.parametrize("case", ["rgb_chromatic_albedo", "chromatic_sigma_t",
+                                  "sigma_t_far_apart", "dielectric"])
 def test_exact_walks_agree_with_pt(case, step_nee):
     """st with exact sphere walks instead of the networks is unbiased: it must agree with pt
     within the noise. Area light + environment exercise the MIS rule of a step (step_nee
     "event": MIS for its first event only; "hits": the exit flight's hits weighted 1); chromatic
-    albedo with RGB throughput exercises the one-channel NEE pick."""
+    albedo with RGB throughput exercises the one-channel NEE pick. Chromatic extinction
+    exercises where a path goes on in one channel (spectral_switch_extinction): where a step
+    fits half the densest channel, so that a channel picked there may be too thin for the
+    ball and scatter instead (far apart: 2 against 40)."""
     lights = [AREA, ENV]
     if case == "rgb_chromatic_albedo":
         d = sphere_scene(sigma_t=20.0, albedo=(0.95, 0.8, 0.6), lights=lights)
     elif case == "chromatic_sigma_t":
         d = sphere_scene(sigma_t=[10, 20, 30], albedo=(0.95, 0.9, 0.8), lights=lights)
+    elif case == "sigma_t_far_apart":
+        d = sphere_scene(sigma_t=[2, 10, 40], albedo=(0.95, 0.9, 0.8), lights=lights)
     else:
         d = sphere_scene(sigma_t=20.0, albedo=(0.95, 0.9, 0.8), lights=lights, boundary="dielectric")
     scene = sssphere.load_scene(d)

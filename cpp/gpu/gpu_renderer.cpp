@@ -6,6 +6,7 @@
 
 #include "core/check.h"
 #include "render/scheduler.h"
+#include "shared/sphere_step.h"
 
 namespace sss {
 
@@ -60,8 +61,8 @@ VulkanCompute::BufferId upload_uniform_block(VulkanCompute& vk,
 }
 
 // Whether "st" can take a step anywhere in the scene. Sphere steps: some medium's grid
-// bound times its largest sigma_t reaches the threshold (the bound at a point is at most
-// the largest value of the grid's nodes).
+// bound times its spectral_switch_extinction reaches the threshold (the bound at a point
+// is at most the largest value of the grid's nodes), as SphereTracing::can_step.
 // Cut steps: some medium has plane certificates.
 bool can_take_steps(const GpuSceneData& scene) {
     const GpuSceneHeader& h = scene.header;
@@ -75,7 +76,7 @@ bool can_take_steps(const GpuSceneData& scene) {
         const float r = *std::max_element(scene.floats.begin() + first,
                                           scene.floats.begin() + first + count);
         const float* s = h.shapes[i].sigma_t;
-        if (std::max({s[0], s[1], s[2]}) * r >= h.params[1] + s[3])
+        if (spectral_switch_extinction(Vec3(s[0], s[1], s[2])) * r >= h.params[1] + s[3])
             return true;  // + clearance
     }
     return false;

@@ -636,8 +636,11 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             // past it. st takes it only where the grid's bound cannot allow a step
             // anywhere in o's cell: the shrunk ball, a step smaller still, cannot either
             // (a no-step bound shrinks), so st decides as with the grid's bound.
-            const float sigma_step = spectral ? min_component(s.medium.sigma_t)
-                                              : extinction(s.medium, channel);
+            // With spectral MIS, st goes on in one channel where a step would fit the
+            // extinction spectral_switch_extinction (below), which decides.
+            const float sigma_step = spectral
+                                         ? spectral_switch_extinction(s.medium.sigma_t)
+                                         : extinction(s.medium, channel);
             float r = r_end;
             bool shrink = r < 0.f;
             if constexpr (kSphereTracing)
@@ -654,11 +657,12 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
             if constexpr (kSphereTracing) {
                 // Sphere tracing: if the largest sphere around o inside the medium is
                 // optically thick enough, one step replaces every scattering event inside
-                // it (docs/sphere-tracing.md). With spectral MIS the test takes the
-                // smallest extinction, so that where the path stops carrying all three
-                // channels depends on where it is, not on its hero channel: there it goes
-                // on in one channel, picked afresh, weight 3 (docs/notation.md,
-                // "Colour").
+                // it (docs/sphere-tracing.md). With spectral MIS the path stops carrying
+                // all three channels where a step would fit spectral_switch_extinction,
+                // so that where it does depends on where it is, not on its hero channel:
+                // there it goes on in one channel, picked afresh, weight 3, and steps if
+                // that channel's sphere is thick enough, else scatters at o as pt does
+                // (docs/notation.md, "Colour").
                 auto to_one_channel = [&]() {
                     if (!spectral) return;
                     const Vec3 w = weight();
@@ -671,14 +675,22 @@ bool PathTracer::run(PathState& ps, const WorldSphereStep* step) const {
                 };
                 // Where the step's events would need light sampling of point or
                 // directional lights, the ball keeps clear of the boundary and of the
-                // point lights (SphereTracing::clearance), measured in the smallest
-                // extinction (the channel is picked below).
-                const float r_step = st_->step_radius(shape, o, r, sigma_step);
+                // point lights (SphereTracing::clearance), measured in the extinction of
+                // the channel the step would take.
+                float r_step = st_->step_radius(shape, o, r, sigma_step);
                 if (sigma_step * r_step >= st_->threshold()) {
-                    to_one_channel();
-                    suspend();
-                    request_step(ps, r_step);
-                    return false;
+                    bool step = true;
+                    if (spectral) {
+                        to_one_channel();
+                        const float sigma_c = extinction(s.medium, channel);
+                        r_step = st_->step_radius(shape, o, r, sigma_c);
+                        step = sigma_c * r_step >= st_->threshold();
+                    }
+                    if (step) {
+                        suspend();
+                        request_step(ps, r_step);
+                        return false;
+                    }
                 }
                 // Too close to the boundary for a sphere: a cut sphere step where a plane
                 // certifies the region between it and the boundary

@@ -104,8 +104,8 @@ void SphereTracing::load_models(const std::string& models) {
     const auto& shapes = scene_.desc().shapes;
     for (size_t i = 0; i < shapes.size(); ++i) {
         const Medium& m = shapes[i].medium;
-        // The models are never asked where no channel can step (after a path's first step
-        // it goes on in one channel, whose extinction may exceed the smallest: can_step).
+        // The models are never asked where no channel can step (a path steps in one
+        // channel, which may be the densest: can_step).
         if (shapes[i].is_surface() ||
             max_component(m.sigma_t) * scene_.grid(int(i)).max_query() <
                 threshold_ + clearance_[i])
@@ -241,12 +241,13 @@ WorldSphereStep cut_to_world(const StepRequest& r, const CutStep& c) {
 }  // namespace
 
 bool SphereTracing::can_step(int shape) const {
-    // A path's first step needs the sphere thick enough in every channel (spectral MIS
-    // before it; docs/notation.md, "Colour"), so the smallest extinction decides.
+    // A path's first step comes where it goes on in one channel (spectral MIS before it:
+    // docs/notation.md, "Colour"), so spectral_switch_extinction decides (for a grey
+    // medium, its extinction).
     const Shape& s = scene_.desc().shapes[size_t(shape)];
-    return !s.is_surface() &&
-           min_component(s.medium.sigma_t) * scene_.grid(shape).max_query() >=
-               threshold_ + clearance_[size_t(shape)];
+    return !s.is_surface() && spectral_switch_extinction(s.medium.sigma_t) *
+                                      scene_.grid(shape).max_query() >=
+                                  threshold_ + clearance_[size_t(shape)];
 }
 
 bool SphereTracing::wants_event(int shape) const {

@@ -83,7 +83,7 @@ public:
 
     float threshold() const { return threshold_; }
     // Whether any medium of the scene has a point deep enough for a step (sigma_t r >=
-    // threshold + clearance with r the grid's bound, sigma_t the smallest channel's).
+    // threshold + clearance with r the grid's bound, sigma_t spectral_switch_extinction).
     // When none has, "st" is "pt" exactly, and the renderer traces it as "pt" (no paths
     // in flight).
     bool may_step() const { return may_step_; }
@@ -106,8 +106,9 @@ public:
     // Scene::medium_samples_lights, a point or directional light), else 0.
     float clearance(int shape) const { return clearance_[size_t(shape)]; }
     // The radius of the ball a step at collision p in `shape` may take, given the grid's
-    // bound r at p and the extinction sigma that measures the clearance (the smallest of
-    // the channels the path may go on in): r, or the ball clear of the boundary and the
+    // bound r at p and the extinction sigma that measures the clearance (the stepping
+    // channel's; with spectral MIS spectral_switch_extinction, which decides where the
+    // path goes on in one channel): r, or the ball clear of the boundary and the
     // point lights (cleared_step_radius; negative where none fits). A step needs sigma
     // times it >= threshold().
     float step_radius(int shape, Vec3 p, float r, float sigma) const {

@@ -315,8 +315,10 @@ TEST(SphereTracer, WhereNoStepFitsItIsPt) {
     // A sphere of radius 1 with sigma_t 3 (the largest optical radius is 3) and tau = 6:
     // no step fits anywhere, so may_step() is false and the renderer traces st as pt
     // (the image would be pt's either way; the flag is what this test pins down). A
-    // path's first step needs the sphere thick enough in every channel: sigma_t 9 in one
-    // channel is not enough, (7, 9, 12) fits one at the centre. Under a point light
+    // path's first step comes where it goes on in one channel, where a step fits
+    // spectral_switch_extinction (the smallest channel's, or half the largest if more):
+    // (3, 3, 9) gives 4.5 and fits none, (3, 3, 20) 10 and (7, 9, 12) 7 fit one at the
+    // centre. Under a point light
     // (StepNee::Hits, NEE on) a ball also keeps kDeltaLightClearance = 10 mean free paths
     // from the boundary: (7, 9, 12) then fits none, (17, 19, 22) does.
     test::ModelDir models;
@@ -331,10 +333,12 @@ TEST(SphereTracer, WhereNoStepFitsItIsPt) {
     };
     Scene thin(sphere(Vec3(3.f), false), 2),
         one_channel(sphere(Vec3(3.f, 3.f, 9.f), false), 2),
+        one_dense_channel(sphere(Vec3(3.f, 3.f, 20.f), false), 2),
         deep(sphere(Vec3(7.f, 9.f, 12.f), false), 2),
         deep_lit(sphere(Vec3(7.f, 9.f, 12.f), true), 2),
         deeper_lit(sphere(Vec3(17.f, 19.f, 22.f), true), 2);
     EXPECT_FALSE(may_step(one_channel, true));
+    EXPECT_TRUE(may_step(one_dense_channel, true));
     EXPECT_FALSE(may_step(thin, true));
     EXPECT_TRUE(may_step(deep, true));
     EXPECT_FALSE(may_step(deep_lit, true));
@@ -347,12 +351,13 @@ TEST(SphereTracer, WhereNoStepFitsItIsPt) {
     RenderOptions pt;
     pt.spp = 4;
     pt.threads = 2;
-    for (const Scene* scene : {&thin, &deep_lit}) {
+    for (const Scene* scene : {&thin, &one_channel, &deep_lit}) {
         RenderResult a = render(*scene, pt), c = render(*scene, st);
         EXPECT_EQ(a.image, c.image);
         EXPECT_EQ(c.total_sphere_steps, 0u);
     }
     EXPECT_GT(render(deep, st).total_sphere_steps, 0u);
+    EXPECT_GT(render(one_dense_channel, st).total_sphere_steps, 0u);
 }
 
 TEST(SphereTracer, BallsKeepClearOfTheBoundaryAndPointLights) {

@@ -558,10 +558,9 @@ bool fly(inout Path p, out Hit hit) {
     }
     if (!at_boundary) {
         p.o = end;
-        // The smallest extinction with spectral MIS ("st": the path then goes on in one
-        // channel, picked afresh; PathTracer::run).
-        float sigma_step =
-            p.spectral ? min(s.sigma_t.x, min(s.sigma_t.y, s.sigma_t.z)) : sigma_t;
+        // With spectral MIS, spectral_switch_extinction ("st": where a step fits it, the
+        // path goes on in one channel, picked afresh; PathTracer::run).
+        float sigma_step = p.spectral ? spectral_switch_extinction(s.sigma_t.xyz) : sigma_t;
         // The ball of radius r_o around the flight's start, shrunk by the flight, bounds
         // the distance at its end with no query; "st" takes it only where the grid's bound
         // allows no step anywhere in o's cell (PathTracer::run).
@@ -580,10 +579,18 @@ bool fly(inout Path p, out Hit hit) {
 #if SSS_ST
         float r_step = step_radius(s, p.o, r, sigma_step);
         if (sigma_step * r_step >= params.y) {
-            to_one_channel(p);
-            p.pending = true;  // one sphere step replaces the events inside the sphere
-            p.r_step = r_step;
-            return false;
+            bool step = true;
+            if (p.spectral) {  // then in the channel picked, if its sphere is thick enough
+                to_one_channel(p);
+                float sigma_c = s.sigma_t[p.channel];
+                r_step = step_radius(s, p.o, r, sigma_c);
+                step = sigma_c * r_step >= params.y;
+            }
+            if (step) {
+                p.pending = true;  // one sphere step replaces the events inside the sphere
+                p.r_step = r_step;
+                return false;
+            }
         }
         // Too close to the boundary for a sphere: a cut sphere step where a plane
         // certifies the region between it and the boundary (PathTracer::run).
