@@ -118,6 +118,7 @@ py::dict film_sums(const Film& film) {
 void bind_render(py::module_& m) {
     m.attr("DEFAULT_SPHERE_THRESHOLD") = kDefaultSphereThreshold;
     m.attr("DELTA_LIGHT_CLEARANCE") = kDeltaLightClearance;
+    m.attr("SPECTRAL_SWITCH_RATIO") = kSpectralSwitchRatio;
     m.def(
         "render_option_specs",
         []() {

@@ -36,7 +36,10 @@ def _medium_estimates(scene: Scene, i: int, shape: dict, tau: float,
     path: the pt events times the mean of [deep] / n(r) over the volume. Where the medium's
     steps keep clear of point lights and the boundary (``clearance`` c mean free paths:
     st's default NEE in an index-matched medium under a point or directional light), a
-    step needs sigma_t r >= tau + c and covers the radius r - c / sigma_t.
+    step needs sigma_t r >= tau + c and covers the radius r - c / sigma_t. Chromatic
+    media: each channel a third of the paths, deep where both the switch extinction
+    (spectral_switch_extinction: the smallest, or the largest over SPECTRAL_SWITCH_RATIO)
+    and the channel's own reach tau + c.
     """
     sigma_t = np.asarray(shape["sigma_t"], np.float64)
     albedo = np.asarray(shape["albedo"], np.float64)
@@ -48,7 +51,8 @@ def _medium_estimates(scene: Scene, i: int, shape: dict, tau: float,
     with np.errstate(divide="ignore", invalid="ignore"):
         f = np.where(x > 1e-4, 3.0 * (x / np.tanh(np.maximum(x, 1e-4)) - 1.0) / x ** 2, 1.0)
     length = mean_length * f
-    events = float(np.mean(sigma_t * length))  # hero channels are drawn uniformly
+    events_c = sigma_t * length
+    events = float(np.mean(events_c))  # hero channels are drawn uniformly
 
     vertices, _ = scene.shape_mesh(i)
     lo, hi = vertices.min(0).astype(np.float64), vertices.max(0).astype(np.float64)
@@ -56,12 +60,18 @@ def _medium_estimates(scene: Scene, i: int, shape: dict, tau: float,
     points = lo + rng.random((_VOLUME_SAMPLES, 3)) * (hi - lo)
     inside = scene.grid_inside(i, points)
     r = scene.distance_lower_bound(i, points[inside]).astype(np.float64)
-    sigma_min = float(sigma_t.min())
-    deep = sigma_min * r >= tau + clearance
-    r_step = r[deep] - (clearance / sigma_min if sigma_min > 0 else 0.0)  # none deep at 0
-    n = 0.5 * np.outer(r_step ** 2, sigma_t * sigma_tr).mean(1)  # events per step
-    deep_fraction = float(deep.mean()) if r.size else 0.0
-    steps_per_event = float(np.sum(1.0 / np.maximum(n, 1.0)) / max(r.size, 1))
+    sigma_switch = max(float(sigma_t.min()),
+                       float(sigma_t.max()) / rendering._core.SPECTRAL_SWITCH_RATIO)
+    deep_fraction, st_events, st_steps = 0.0, 0.0, 0.0
+    for c in range(3):  # one channel per path from its first step on, each a third
+        sigma_c = float(sigma_t[c])
+        deep = (sigma_switch * r >= tau + clearance) & (sigma_c * r >= tau + clearance)
+        r_step = r[deep] - (clearance / sigma_c if sigma_c > 0 else 0.0)  # none deep at 0
+        n = 0.5 * r_step ** 2 * sigma_c * sigma_tr[c]  # events per step
+        f = float(deep.mean()) if r.size else 0.0
+        deep_fraction += f / 3.0
+        st_events += events_c[c] * (1.0 - f) / 3.0
+        st_steps += events_c[c] * float(np.sum(1.0 / np.maximum(n, 1.0)) / max(r.size, 1)) / 3.0
     return {
         "mean_free_path": _lengths(sigma_t),
         "transport_mean_free_path": _lengths(sigma_tr),
@@ -72,8 +82,8 @@ def _medium_estimates(scene: Scene, i: int, shape: dict, tau: float,
         "path_length_with_absorption": float(np.mean(length)),
         "pt_events": events,
         "deep_fraction": deep_fraction,
-        "st_events": events * (1.0 - deep_fraction),
-        "st_steps": events * steps_per_event,
+        "st_events": float(st_events),
+        "st_steps": float(st_steps),
     }
 
 
