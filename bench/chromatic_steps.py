@@ -5,12 +5,13 @@ With spectral MIS `st` goes on in one channel where a step fits spectral_switch_
 (docs/notation.md, "Colour"). This bench renders media whose channels lie close together
 (marble, whole milk: the rule is the smallest extinction there) and far apart (cream, an
 index-matched rock of sigma_t (2000, 1000, 500), a bunny of (5000, 500, 20)) with both
-integrators, same scene loaded once, and reports per channel the variance of the image mean
-times the render time (lower is better; the efficiency at equal error), besides time, events
-and steps per path and the image means' z-scores of st against pt.
+integrators, same scene loaded once, `--seeds` renders each (alternated), and reports per
+channel the variance of the pooled image mean times the total render time, `pt`'s over
+`st`'s (`st`'s efficiency at equal error), besides time, events and steps per path and the
+pooled image means' z-scores of st against pt.
 
     python -m bench.chromatic_steps            # ~1 min on 2 cores
-    python -m bench.chromatic_steps --spp 16   # quicker
+    python -m bench.chromatic_steps --seeds 1 --spp 16   # quicker
 
 Writes bench/results/chromatic_steps.json. To compare two builds (as for the change of
 2026-12-02), run it on each.
@@ -97,22 +98,38 @@ def main() -> None:
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--res", type=int, default=64)
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--seeds", type=int, default=3,
+                    help="renders per integrator and case, each with its own seed")
     ap.add_argument("--output", default=str(HERE / "results" / "chromatic_steps.json"))
     args = ap.parse_args()
     rows = []
     for name, d in cases(args.res).items():
         scene = sssphere.load_scene(d)
+        runs = {"pt": [], "st": []}
+        for k in range(args.seeds):  # pt and st alternate, so that drifts hit both alike
+            for integrator in ("pt", "st"):
+                seed = 2 * k + (integrator == "st")
+                res = sssphere.render_full(scene, integrator=integrator, spp=args.spp,
+                                           seed=seed, threads=args.threads)
+                npix = res.image.shape[0] * res.image.shape[1]
+                runs[integrator].append({
+                    "seed": seed, "seconds": res.seconds, "events": res.mean_events_per_path,
+                    "steps": res.mean_sphere_steps_per_path,
+                    "mean": res.image.reshape(-1, 3).astype(np.float64).mean(0),
+                    "var_of_mean": res.variance.reshape(-1, 3).astype(np.float64).sum(0)
+                    / npix ** 2})
         r = {}
-        for integrator, seed in (("pt", 1), ("st", 2)):
-            res = sssphere.render_full(scene, integrator=integrator, spp=args.spp, seed=seed,
-                                       threads=args.threads)
-            npix = res.image.shape[0] * res.image.shape[1]
-            var = res.variance.reshape(-1, 3).astype(np.float64).sum(0) / npix ** 2
-            r[integrator] = {"seconds": res.seconds, "events": res.mean_events_per_path,
-                             "steps": res.mean_sphere_steps_per_path,
-                             "mean": res.image.reshape(-1, 3).mean(0).tolist(),
+        for integrator, rs in runs.items():
+            # The seeds' renders pooled: their mean, and the variance of that mean.
+            n = len(rs)
+            var = sum(x["var_of_mean"] for x in rs) / n ** 2
+            seconds = sum(x["seconds"] for x in rs)
+            r[integrator] = {"seconds": seconds, "events": float(np.mean([x["events"] for x in rs])),
+                             "steps": float(np.mean([x["steps"] for x in rs])),
+                             "mean": (sum(x["mean"] for x in rs) / n).tolist(),
                              "var_of_mean": var.tolist(),
-                             "var_x_time": (var * res.seconds).tolist()}
+                             "var_x_time": (var * seconds).tolist(),
+                             "seconds_each": [x["seconds"] for x in rs]}
         z = [(a - b) / np.sqrt(va + vb) for a, b, va, vb in
              zip(r["st"]["mean"], r["pt"]["mean"], r["st"]["var_of_mean"], r["pt"]["var_of_mean"])]
         gain = [p / s for p, s in zip(r["pt"]["var_x_time"], r["st"]["var_x_time"])]
@@ -123,7 +140,8 @@ def main() -> None:
               f"{' '.join(f'{g:.2f}' for g in gain)}  z {' '.join(f'{x:+.1f}' for x in z)}",
               flush=True)
     out = {"date": datetime.date.today().isoformat(), "machine": machine(),
-           "spp": args.spp, "res": args.res, "threads": args.threads, "cases": rows}
+           "spp": args.spp, "res": args.res, "threads": args.threads, "seeds": args.seeds,
+           "cases": rows}
     Path(args.output).parent.mkdir(parents=True, exist_ok=True)
     Path(args.output).write_text(json.dumps(out, indent=1) + "\n")
     print("wrote", args.output)
