@@ -411,8 +411,12 @@ def test_a_killed_worker_process_and_a_lost_node_cost_only_their_tasks(small_sce
                 if pids:
                     os.kill(pids[0], signal.SIGKILL)
                     events.append("killed worker")
-            elif len(events) == 1 and fraction > 0 and ray.available_resources().get("CPU", 0) == 0:
-                # both nodes busy: the second has a task in flight
+            elif len(events) == 1 and fraction > 0 and (
+                    ray.available_resources().get("CPU", 0) == 0 or fraction >= 0.25):
+                # Both nodes busy: the second has a task in flight. A progress call comes as
+                # a task has just finished, when its node may be idle for a moment, so past a
+                # quarter of the render the node goes anyway (CI, 2026-12-02: the busy state
+                # was not seen before the render ended, and the node was never removed).
                 c.remove_node(c.list_all_nodes()[-1], allow_graceful=False)
                 events.append("removed node")
             return True
